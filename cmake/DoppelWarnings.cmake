@@ -1,0 +1,11 @@
+# Warnings and sanitizers for every Doppel target: one interface target that all link.
+add_library(doppel_build_options INTERFACE)
+add_library(doppel::build_options ALIAS doppel_build_options)
+target_compile_options(doppel_build_options INTERFACE -Wall -Wextra -Wpedantic -Wshadow)
+if(DOPPEL_WERROR)
+  target_compile_options(doppel_build_options INTERFACE -Werror)
+endif()
+if(DOPPEL_SANITIZE)
+  target_compile_options(doppel_build_options INTERFACE -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
+  target_link_options(doppel_build_options INTERFACE -fsanitize=address,undefined)
+endif()

@@ -1,0 +1,43 @@
+#pragma once
+// A device on a Dynamixel bus (servo, IMU, foot board) as its firmware behaves: it sees every
+// instruction packet on the wire, decides itself whether it is addressed (its ID, broadcast, its
+// block in a SYNC WRITE / BULK READ), executes it and maybe answers. Timing is not its business:
+// it reports *when in the reply order* it transmits, and the bus layer turns that into time.
+
+#include <cstdint>
+#include <string_view>
+
+#include "dynamixel/packet.h"
+
+namespace doppel::dynamixel {
+
+// When a device's status goes on the wire.
+enum class ReplyTiming : uint8_t {
+  kAfterInstruction,  // Return Delay Time after the instruction's last byte
+  kAfterPrevious,     // after the status of the device at chain_position - 1 has ended (BULK READ chain)
+};
+
+struct Response {
+  bool transmits = false;                              // false: the device stays silent
+  ReplyTiming timing = ReplyTiming::kAfterInstruction;  // see ReplyTiming
+  uint16_t chain_position = 0;                         // kAfterPrevious: index in the instruction's device list
+  StatusPacket status;                                 // the bytes it sends when transmits
+};
+
+class Device {
+ public:
+  virtual ~Device() = default;
+
+  virtual Protocol protocol() const noexcept = 0;
+  virtual uint8_t id() const noexcept = 0;                 // current ID register
+  virtual uint32_t baud_bps() const noexcept = 0;          // rate its UART listens at, from its Baud Rate register
+  virtual uint32_t return_delay_us() const noexcept = 0;   // Return Delay Time register in µs (2 µs per unit)
+  virtual std::string_view model_name() const noexcept = 0;  // e.g. "RX-64"
+  virtual uint16_t model_number() const noexcept = 0;
+
+  // Reacts to one instruction packet seen on the bus and fills `response` (response.transmits is
+  // false on entry). rt-safe: no allocation, no lock, no exception.
+  virtual void handle(const InstructionPacket& packet, Response& response) noexcept = 0;
+};
+
+}  // namespace doppel::dynamixel

@@ -1,0 +1,58 @@
+#pragma once
+// What crosses between a device's control table and the simulated world, in SI units.
+// Registers -> command (what the firmware asks of the motor), world -> feedback (what the sensors
+// measure) -> registers. Plain values, so they can cross threads through snapshots.
+// Conventions: angles in rad with 0 at the centre of the servo's range, positive = CCW seen from the
+// horn (the direction in which the position register grows).
+
+#include <array>
+#include <cstdint>
+
+namespace doppel::dynamixel {
+
+// Register values that the servo firmware's motor controller acts on.
+struct ServoCommand {
+  bool torque_enabled = false;      // Torque Enable, and no shutdown active
+  bool wheel_mode = false;          // endless turn (both angle limits 0): moving_speed is a signed output
+  double goal_position_rad = 0.0;   // target angle, already clamped to [min_position_rad, max_position_rad]
+  double moving_speed_rad_s = 0.0;  // joint: speed limit toward the goal (0 = no limit); wheel: signed target speed
+  double torque_limit_ratio = 1.0;  // Torque Limit as a fraction of the maximum torque, 0..1
+  double min_position_rad = 0.0;    // CW angle limit
+  double max_position_rad = 0.0;    // CCW angle limit
+  // Controller registers, raw as in the control table, for the motor controller of the physics issue.
+  uint8_t cw_compliance_margin_raw = 0;   // AX/RX: dead band, position units
+  uint8_t ccw_compliance_margin_raw = 0;  // AX/RX
+  uint8_t cw_compliance_slope_raw = 0;    // AX/RX
+  uint8_t ccw_compliance_slope_raw = 0;   // AX/RX
+  uint16_t punch_raw = 0;                 // AX/RX/MX: minimum drive
+  uint8_t p_gain_raw = 0;                 // MX: Kp = P / 8
+  uint8_t i_gain_raw = 0;                 // MX: Ki = I * 1000 / 2048
+  uint8_t d_gain_raw = 0;                 // MX: Kd = D * 4 / 1000
+};
+
+// What the world measures at a servo.
+struct ServoFeedback {
+  double position_rad = 0.0;     // joint angle
+  double velocity_rad_s = 0.0;   // joint speed, + = CCW
+  double torque_ratio = 0.0;     // load as a fraction of the maximum torque, + = CCW, -1..1
+  double voltage_v = 14.8;       // supply at the servo
+  double temperature_c = 25.0;   // motor temperature
+};
+
+// What an IMU measures, in the IMU's own frame S (x forward, y left, z up when mounted level).
+struct ImuFeedback {
+  double roll_rad = 0.0;                             // rotation about x
+  double pitch_rad = 0.0;                            // rotation about y, + = nose down
+  double yaw_rad = 0.0;                              // rotation about z
+  std::array<double, 3> w_WS_S_rad_s{};              // angular velocity of S in world W, expressed in S
+  std::array<double, 3> a_WS_S_m_s2{0.0, 0.0, 9.80665};  // specific force (proper acceleration) in S
+  int64_t sim_time_ns = 0;                           // simulation time of the measurement
+};
+
+// What the four load cells of one foot measure (normal force, N), in board order.
+struct FootFeedback {
+  std::array<double, 4> force_n{};  // front-left, front-right, back-left, back-right
+  int64_t sim_time_ns = 0;          // simulation time of the measurement
+};
+
+}  // namespace doppel::dynamixel
