@@ -3,6 +3,9 @@
 // every answering device's status, in transmission order. Two devices answering at the same time
 // (a Protocol 1.0 broadcast PING with several devices) collide: the wire then carries the
 // wired-AND of their bytes, which no host can decode, as on a real half-duplex line.
+// Chained replies (BULK READ) go out in chain order; a device whose predecessor in the chain
+// stayed silent never sees its cue, so it and everything after it is dropped (reference §6 leaves
+// this open; this is Doppel's documented choice, see docs/devices.md).
 // Pure logic; the bus layer adds time.
 
 #include <array>
@@ -52,7 +55,8 @@ class BusDevices {
   std::size_t count_ = 0;
   std::array<Response, kMaxDevices> responses_{};
   std::array<OutgoingStatus, kMaxDevices> outgoing_{};
-  StatusPacket collision_{};
+  std::array<uint8_t, kMaxDevices> sender_ids_{};   // ID of each device before it handled the packet
+  std::array<uint8_t, kMaxDevices> order_{};        // transmitting devices sorted by reply slot
   BusDeviceCounters counters_{};
 };
 

@@ -1,0 +1,127 @@
+#include "dynamixel/bus_devices.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+namespace doppel::dynamixel {
+
+namespace {
+
+// Position of a reply in the wire order: the direct reply is slot 0, chained replies follow their
+// predecessor. A chained reply claiming slot 0 has no predecessor to wait for (device bug): it is
+// treated as unreachable.
+constexpr uint32_t kUnreachableSlot = 0xFFFFFFFFu;
+
+uint32_t reply_slot(const Response& r) noexcept {
+  if (r.timing == ReplyTiming::kAfterInstruction) {
+    return 0;
+  }
+  return r.chain_position == 0 ? kUnreachableSlot : r.chain_position;
+}
+
+// The wire carries the AND of the bits every driver pushes (an idle line reads 1).
+void wired_and(StatusPacket& into, const StatusPacket& other) noexcept {
+  const uint16_t common = std::min(into.size, other.size);
+  for (uint16_t i = 0; i < common; ++i) {
+    into.bytes[i] = static_cast<uint8_t>(into.bytes[i] & other.bytes[i]);
+  }
+  for (uint16_t i = into.size; i < other.size; ++i) {
+    into.bytes[i] = other.bytes[i];
+  }
+  into.size = std::max(into.size, other.size);
+}
+
+}  // namespace
+
+bool baud_rates_match(uint32_t device_bps, uint32_t line_bps) noexcept {
+  if (device_bps == 0 || line_bps == 0) {
+    return false;
+  }
+  const double ratio = static_cast<double>(line_bps) / static_cast<double>(device_bps);
+  return ratio >= 1.0 - BusDevices::kBaudTolerance && ratio <= 1.0 + BusDevices::kBaudTolerance;
+}
+
+void BusDevices::add(Device& device) {
+  if (count_ == kMaxDevices) {
+    throw std::length_error("BusDevices: a bus holds at most " + std::to_string(kMaxDevices) +
+                            " devices");
+  }
+  devices_[count_++] = &device;
+}
+
+std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& packet,
+                                                     uint32_t line_baud_bps) noexcept {
+  ++counters_.instructions;
+
+  // Every device whose UART decodes the line sees the packet; note its ID before it may change.
+  std::size_t listeners = 0;
+  std::size_t transmitting = 0;
+  for (std::size_t i = 0; i < count_; ++i) {
+    Response& r = responses_[i];
+    r.transmits = false;
+    r.timing = ReplyTiming::kAfterInstruction;
+    r.chain_position = 0;
+    r.status.size = 0;
+    Device& d = *devices_[i];
+    if (!baud_rates_match(d.baud_bps(), line_baud_bps)) {
+      continue;
+    }
+    ++listeners;
+    sender_ids_[i] = d.id();
+    d.handle(packet, r);
+    if (r.transmits) {
+      order_[transmitting++] = static_cast<uint8_t>(i);
+    }
+  }
+  if (listeners == 0 && count_ > 0) {
+    ++counters_.baud_mismatches;
+  }
+
+  // Wire order: by slot, ties (collisions) in the order the devices were added.
+  for (std::size_t a = 1; a < transmitting; ++a) {
+    const uint8_t idx = order_[a];
+    const uint32_t slot = reply_slot(responses_[idx]);
+    std::size_t b = a;
+    while (b > 0 && reply_slot(responses_[order_[b - 1]]) > slot) {
+      order_[b] = order_[b - 1];
+      --b;
+    }
+    order_[b] = idx;
+  }
+
+  std::size_t out = 0;
+  uint32_t expected_slot = 0;
+  std::size_t k = 0;
+  while (k < transmitting) {
+    const uint8_t first = order_[k];
+    const uint32_t slot = reply_slot(responses_[first]);
+    if (slot != expected_slot) {
+      // The predecessor of this reply stayed silent: nobody after it gets a cue.
+      counters_.broken_chains += transmitting - k;
+      break;
+    }
+    Response& base = responses_[first];
+    OutgoingStatus& o = outgoing_[out++];
+    o.device_id = sender_ids_[first];
+    o.return_delay_us = devices_[first]->return_delay_us();
+    o.after_previous = base.timing == ReplyTiming::kAfterPrevious;
+    o.collision = false;
+    ++k;
+    while (k < transmitting && reply_slot(responses_[order_[k]]) == slot) {
+      const uint8_t other = order_[k];
+      wired_and(base.status, responses_[other].status);
+      o.return_delay_us = std::min(o.return_delay_us, devices_[other]->return_delay_us());
+      o.collision = true;
+      ++k;
+    }
+    if (o.collision) {
+      ++counters_.collisions;
+    }
+    o.packet = &base.status;
+    ++expected_slot;
+  }
+  return {outgoing_.data(), out};
+}
+
+}  // namespace doppel::dynamixel
