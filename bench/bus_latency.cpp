@@ -1,0 +1,151 @@
+// bus_latency: round-trip latency of every Protocol 1.0 instruction through the real `doppel`
+// executable, in fast and wire timing, beside the floor of a bare pty echo measured by the same
+// client in the same run. In wire mode it also reports the error against the wire model computed
+// here from the reference (10 bit times per byte, firmware time, Return Delay Time).
+//
+//   bus_latency [--samples N] [--quick]
+#include <sys/wait.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "doppel_process.h"
+#include "latency_stats.h"
+#include "pty_echo.h"
+#include "reference_client.h"
+
+namespace {
+
+using doppel::bench::Percentiles;
+using doppel::bench::percentiles;
+using doppel::testing::Bytes;
+using doppel::testing::DoppelProcess;
+using doppel::testing::p1_instruction;
+using doppel::testing::SerialClient;
+using Clock = std::chrono::steady_clock;
+
+constexpr uint32_t kBaud = 1000000;
+constexpr double kByteUs = 10.0 * 1e6 / kBaud;
+constexpr double kProcessingUs = 50.0;      // doppel's default firmware time
+constexpr double kReturnDelayUs = 500.0;    // Return Delay Time default 250 x 2 µs
+
+struct Case {
+  const char* name;
+  Bytes request;
+  std::size_t reply_bytes;
+  int replies;  // status packets in the reply (BULK READ: one per device, chained)
+};
+
+std::vector<Case> cases() {
+  return {
+      {"PING", p1_instruction(1, 0x01), 6, 1},
+      {"READ 2 B (pos)", p1_instruction(1, 0x02, {36, 2}), 8, 1},
+      {"READ 18 B (IMU)", p1_instruction(100, 0x02, {26, 18}), 24, 1},
+      {"WRITE 2 B (goal)", p1_instruction(1, 0x03, {30, 0x00, 0x08}), 6, 1},
+      {"REG_WRITE 2 B", p1_instruction(1, 0x04, {30, 0x00, 0x08}), 6, 1},
+      {"ACTION (unicast)", p1_instruction(1, 0x05), 6, 1},
+      {"BULK READ 3x2 B", p1_instruction(0xFE, 0x92, {0x00, 2, 1, 36, 2, 2, 36, 2, 3, 36}), 24, 3},
+  };
+}
+
+// Wire model from the reference: the instruction crosses the wire, each status starts after the
+// firmware time plus the Return Delay Time (after the previous status for a BULK READ chain).
+double wire_model_us(const Case& c) {
+  return static_cast<double>(c.request.size() + c.reply_bytes) * kByteUs +
+         c.replies * (kProcessingUs + kReturnDelayUs);
+}
+
+struct Measured {
+  Percentiles round_trip_us;
+  Percentiles error_us;  // |measured - model|, wire mode only
+  int failures = 0;
+};
+
+Measured measure(SerialClient& client, const Case& c, int samples, bool wire) {
+  std::vector<double> round_trips;
+  std::vector<double> errors;
+  Measured out;
+  for (int i = 0; i < samples; ++i) {
+    auto start = Clock::now();
+    Bytes reply = client.transact(c.request, c.reply_bytes, 200);
+    double us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+    auto statuses = doppel::testing::parse_p1_statuses(reply);
+    if (reply.size() != c.reply_bytes || !statuses || statuses->size() != static_cast<std::size_t>(c.replies)) {
+      ++out.failures;
+      continue;
+    }
+    round_trips.push_back(us);
+    if (wire) {
+      errors.push_back(std::fabs(us - wire_model_us(c)));
+    }
+  }
+  out.round_trip_us = percentiles(round_trips);
+  out.error_us = percentiles(errors);
+  return out;
+}
+
+Percentiles measure_echo(int samples) {
+  doppel::bench::PtyEcho echo;
+  SerialClient client(echo.path(), kBaud);
+  Bytes ping(8, 0x55);
+  std::vector<double> round_trips;
+  for (int i = 0; i < samples; ++i) {
+    auto start = Clock::now();
+    Bytes reply = client.transact(ping, ping.size(), 200);
+    if (reply.size() == ping.size()) {
+      round_trips.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+    }
+  }
+  return percentiles(round_trips);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int samples = 2000;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
+      samples = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--quick") == 0) {
+      samples = 50;
+    } else {
+      std::fprintf(stderr, "usage: bus_latency [--samples N] [--quick]\n");
+      return 2;
+    }
+  }
+  int failures = 0;
+  Percentiles echo = measure_echo(samples);
+  std::printf("bare pty echo, 8 B out / 8 B back: p50 %.1f us  p99 %.1f us  p99.9 %.1f us  (n=%zu)\n\n", echo.p50,
+              echo.p99, echo.p999, echo.count);
+  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | p50 / echo p50 | wire model us | |error| p50 us | |error| p99 us | failures |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const char* mode : {"fast", "wire"}) {
+    bool wire = std::strcmp(mode, "wire") == 0;
+    DoppelProcess doppel({"--robot", "mx-test", "--timing", mode});
+    SerialClient client(doppel.link(), kBaud);
+    for (const Case& c : cases()) {
+      Measured m = measure(client, c, wire ? std::max(samples / 2, 20) : samples, wire);
+      failures += m.failures;
+      if (wire) {
+        std::printf("| %s | wire | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", c.name, m.round_trip_us.p50,
+                    m.round_trip_us.p99, m.round_trip_us.p999, wire_model_us(c), m.error_us.p50, m.error_us.p99,
+                    m.failures);
+      } else {
+        std::printf("| %s | fast | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", c.name, m.round_trip_us.p50,
+                    m.round_trip_us.p99, m.round_trip_us.p999, m.round_trip_us.p50 / echo.p50, m.failures);
+      }
+    }
+    int status = doppel.stop();
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      std::printf("doppel did not exit cleanly (status %d)\n", status);
+      ++failures;
+    }
+  }
+  std::printf("\nfailures (timeouts, corrupt replies, unclean exit): %d\n", failures);
+  return failures == 0 ? 0 : 1;
+}

@@ -1,0 +1,14 @@
+# End-to-end bus benchmarks against the real doppel executable (figures in docs/benchmarks.md).
+foreach(tool bus_latency bus_throughput control_loop)
+  add_executable(${tool} ${CMAKE_CURRENT_SOURCE_DIR}/${tool}.cpp)
+  target_link_libraries(${tool} PRIVATE doppel::test_support Threads::Threads doppel::build_options)
+  target_include_directories(${tool} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
+  add_dependencies(${tool} doppel)
+endforeach()
+target_link_libraries(bus_latency PRIVATE util)  # openpty
+
+# Short runs under ctest so the tools cannot rot; the real figures come from full runs.
+add_test(NAME bus_latency_smoke COMMAND bus_latency --quick)
+add_test(NAME bus_throughput_smoke COMMAND bus_throughput --seconds 0.3)
+add_test(NAME control_loop_smoke COMMAND control_loop --seconds 0.5)
+set_tests_properties(bus_latency_smoke bus_throughput_smoke control_loop_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE)

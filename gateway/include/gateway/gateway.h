@@ -1,0 +1,49 @@
+#pragma once
+// The running double of one or more robots: for every bus a pseudo-terminal with its devices and
+// an I/O thread, and one simulation thread at 1 kHz that moves the joints and produces the sensor
+// readings. Lifecycle as in ros2_control: the constructor configures (loads robots, builds the
+// devices, opens the ports and links: everything that allocates or may fail), start() activates
+// the threads, stop() joins them. The bus threads never wait for the simulation: commands and
+// feedback cross between them as lock-free snapshots.
+
+#include <atomic>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "gateway/options.h"
+
+namespace doppel::gateway {
+
+class RobotRuntime;
+
+class Gateway {
+ public:
+  // Configures every robot of `options`. Throws (std::invalid_argument, std::runtime_error) with a
+  // message for the user when a robot file or a port cannot be set up.
+  explicit Gateway(const Options& options);
+  ~Gateway();
+  Gateway(const Gateway&) = delete;
+  Gateway& operator=(const Gateway&) = delete;
+
+  void start();  // starts the bus and simulation threads
+  void stop();   // stops and joins them; idempotent
+
+  std::string describe() const;  // the links and the devices behind them, for the user
+  std::string summary() const;   // per-bus counters, for the user after stop()
+
+ private:
+  void simulate() noexcept;
+
+  Options options_;
+  std::vector<std::unique_ptr<RobotRuntime>> robots_;
+  std::atomic<bool> running_{false};
+  std::thread simulation_thread_;
+  uint64_t missed_ticks_ = 0;
+};
+
+// Link path of bus `bus` of robot `robot` under `link_dir` (README: ttyDXL<b>, robot<r>/ttyDXL<b>).
+std::string link_path(const std::string& link_dir, std::size_t robot, std::size_t bus);
+
+}  // namespace doppel::gateway

@@ -1,0 +1,33 @@
+#pragma once
+// Command-line options of the `doppel` executable. Parsing is setup code: a bad option throws
+// std::invalid_argument with a message meant for the user.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace doppel::gateway {
+
+enum class TimingMode : uint8_t {
+  kWire,  // statuses arrive when a real half-duplex bus would deliver them
+  kFast,  // statuses are written as soon as they are computed
+};
+
+struct Options {
+  std::vector<std::string> robots;       // robot names (robots/NAME.textproto) or files; empty = default robot
+  std::string link_dir = "/tmp/doppel";  // where the stable ttyDXL links go
+  std::string robots_dir;                // where robot names are looked up; empty = built-in default
+  TimingMode timing = TimingMode::kWire;  // --timing wire|fast
+  double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
+  uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)
+  bool list_robots = false;              // --list-robots: print the shipped robots and exit
+  bool help = false;                     // --help: print usage and exit
+};
+
+// Parses argv (argv[0] is the program). Throws std::invalid_argument naming the bad option.
+Options parse_options(int argc, const char* const* argv);
+
+// The --help text.
+std::string usage();
+
+}  // namespace doppel::gateway

@@ -1,0 +1,52 @@
+#pragma once
+// A robot's buses and devices as the gateway builds them, read from a Robot Description File and
+// checked: every model known, IDs in range and unique per bus, a baud rate the devices' Baud Rate
+// register can hold. Setup code: errors throw std::invalid_argument naming file, line and field.
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dynamixel/packet.h"
+
+namespace doppel::gateway {
+
+struct DeviceConfig {
+  uint8_t id = 0;                               // bus ID
+  std::string model;                            // model name, e.g. "RX-64"
+  std::string name;                             // role on the robot, e.g. "HEAD_YAW"
+  std::optional<uint8_t> return_delay_raw;      // Return Delay Time register at power-on, unset = model default
+};
+
+struct BusConfig {
+  std::string name;                              // label
+  uint32_t baud_bps = 1000000;                   // rate the devices listen at
+  dynamixel::Protocol protocol = dynamixel::Protocol::kV1;
+  std::vector<DeviceConfig> devices;             // in file order
+};
+
+struct RobotConfig {
+  std::string name;                              // robot name from the file
+  std::string source;                            // file it was read from
+  std::vector<BusConfig> buses;                  // in port order
+};
+
+// The default robots directory: $DOPPEL_ROBOTS_DIR, else the robots/ folder of the source tree.
+std::string default_robots_dir();
+
+// A robot name ("fumanoid-2011") becomes robots_dir/NAME.textproto; anything with a '/' or ending
+// in ".textproto" is taken as a file path.
+std::string resolve_robot_path(const std::string& name_or_file, const std::string& robots_dir);
+
+// Names of the robots shipped in robots_dir (file names without .textproto), sorted.
+std::vector<std::string> list_robots(const std::string& robots_dir);
+
+// Loads and checks one robot. Throws std::runtime_error (unreadable, syntax) or
+// std::invalid_argument ("file:line:col: Type.field: what") for semantic errors.
+RobotConfig load_robot(const std::string& name_or_file, const std::string& robots_dir);
+
+// Parses robot text (for tests); `path` names it in error messages.
+RobotConfig parse_robot(const std::string& text, const std::string& path);
+
+}  // namespace doppel::gateway

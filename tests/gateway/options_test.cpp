@@ -1,0 +1,60 @@
+#include "gateway/options.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <vector>
+
+namespace doppel::gateway {
+namespace {
+
+Options parse(std::vector<const char*> args) {
+  args.insert(args.begin(), "doppel");
+  return parse_options(static_cast<int>(args.size()), args.data());
+}
+
+TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
+  Options sut = parse({});
+  ASSERT_EQ(sut.robots.size(), 1u);
+  EXPECT_EQ(sut.robots[0], "fumanoid-2011");
+  EXPECT_EQ(sut.link_dir, "/tmp/doppel");
+  EXPECT_EQ(sut.timing, TimingMode::kWire);
+  EXPECT_EQ(sut.latency_timer_ms, 0u);
+  EXPECT_DOUBLE_EQ(sut.processing_us, 50.0);
+}
+
+TEST(Options, EveryOptionIsParsed) {
+  Options sut = parse({"--robot", "mx-test", "--robot", "/x/r.textproto", "--link-dir", "/tmp/l", "--timing", "fast",
+                       "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r"});
+  EXPECT_EQ(sut.robots, (std::vector<std::string>{"mx-test", "/x/r.textproto"}));
+  EXPECT_EQ(sut.link_dir, "/tmp/l");
+  EXPECT_EQ(sut.timing, TimingMode::kFast);
+  EXPECT_DOUBLE_EQ(sut.processing_us, 20.0);
+  EXPECT_EQ(sut.latency_timer_ms, 16u);
+  EXPECT_EQ(sut.robots_dir, "/r");
+}
+
+TEST(Options, BadOptionsAreRejectedWithTheirName) {
+  EXPECT_THROW(parse({"--timing", "slow"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--latency-timer", "256"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--latency-timer", "1x"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--robot"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--link-dir", ""}), std::invalid_argument);
+  try {
+    parse({"--bogus"});
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--bogus"), std::string::npos);
+  }
+}
+
+TEST(Options, HelpDocumentsEveryOption) {
+  std::string text = usage();
+  for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
+                             "--robots-dir", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>"}) {
+    EXPECT_NE(text.find(option), std::string::npos) << option;
+  }
+}
+
+}  // namespace
+}  // namespace doppel::gateway

@@ -1,0 +1,91 @@
+#include "doppel_process.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace doppel::testing {
+
+std::string doppel_executable() { return DOPPEL_EXECUTABLE; }
+
+DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& link_name) {
+  char dir_template[] = "/tmp/doppel-test-XXXXXX";
+  if (mkdtemp(dir_template) == nullptr) {
+    throw std::runtime_error("mkdtemp failed");
+  }
+  link_dir_ = std::string(dir_template) + "/links";
+  output_file_ = std::string(dir_template) + "/output.txt";
+  args.insert(args.begin(), doppel_executable());
+  args.push_back("--link-dir");
+  args.push_back(link_dir_);
+  std::vector<char*> argv;
+  for (std::string& arg : args) {
+    argv.push_back(arg.data());
+  }
+  argv.push_back(nullptr);
+  pid_ = fork();
+  if (pid_ == 0) {
+    int out = ::open(output_file_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(out, 1);
+    dup2(out, 2);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!std::filesystem::exists(link(link_name))) {
+    int status = 0;
+    if (waitpid(pid_, &status, WNOHANG) == pid_) {
+      pid_ = -1;
+      throw std::runtime_error("doppel exited before creating " + link(link_name) + ": " + output());
+    }
+    if (std::chrono::steady_clock::now() > deadline) {
+      stop(SIGKILL);
+      throw std::runtime_error("doppel did not create " + link(link_name) + " within 10 s: " + output());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
+DoppelProcess::~DoppelProcess() {
+  if (pid_ > 0) {
+    stop(SIGKILL);
+  }
+  std::error_code ignored;
+  std::filesystem::remove_all(std::filesystem::path(link_dir_).parent_path(), ignored);
+}
+
+int DoppelProcess::stop(int signal) {
+  if (pid_ <= 0) {
+    return -1;
+  }
+  kill(pid_, signal);
+  int status = 0;
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (waitpid(pid_, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      kill(pid_, SIGKILL);  // a doppel that ignores SIGTERM is a failure the caller sees in `status`
+      waitpid(pid_, &status, 0);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  pid_ = -1;
+  return status;
+}
+
+std::string DoppelProcess::output() const {
+  std::ifstream in(output_file_);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace doppel::testing

@@ -1,0 +1,39 @@
+#pragma once
+// Runs the real `doppel` executable as a child process for integration tests, with its own link
+// directory, and stops it with SIGTERM as a user would.
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace doppel::testing {
+
+class DoppelProcess {
+ public:
+  // Starts doppel with `args` plus --link-dir (a fresh temporary directory) and waits until
+  // `link_name` (e.g. "ttyDXL0") exists in it. Throws std::runtime_error if it does not start.
+  DoppelProcess(std::vector<std::string> args, const std::string& link_name = "ttyDXL0");
+  // Stops the process if still running.
+  ~DoppelProcess();
+  DoppelProcess(const DoppelProcess&) = delete;
+  DoppelProcess& operator=(const DoppelProcess&) = delete;
+
+  const std::string& link_dir() const { return link_dir_; }
+  std::string link(const std::string& name = "ttyDXL0") const { return link_dir_ + "/" + name; }
+  // Sends `signal` and waits for the exit; returns the wait status.
+  int stop(int signal = 15);
+  // Everything the process wrote to stdout and stderr so far.
+  std::string output() const;
+  pid_t pid() const { return pid_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string link_dir_;
+  std::string output_file_;
+};
+
+// Path of the doppel executable under test.
+std::string doppel_executable();
+
+}  // namespace doppel::testing
