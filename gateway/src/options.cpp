@@ -75,9 +75,9 @@ Options parse_options(int argc, const char* const* argv) {
     } else if (arg == "--timing") {
       std::string_view mode = value();
       if (mode == "wire") {
-        options.timing = TimingMode::kWire;
+        options.timing = bus::TimingMode::kWire;
       } else if (mode == "fast") {
-        options.timing = TimingMode::kFast;
+        options.timing = bus::TimingMode::kFast;
       } else {
         throw std::invalid_argument("option --timing: '" + std::string(mode) + "' is neither 'wire' nor 'fast'");
       }

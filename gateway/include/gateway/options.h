@@ -6,18 +6,15 @@
 #include <string>
 #include <vector>
 
-namespace doppel::gateway {
+#include "bus/wire_timing.h"
 
-enum class TimingMode : uint8_t {
-  kWire,  // statuses arrive when a real half-duplex bus would deliver them
-  kFast,  // statuses are written as soon as they are computed
-};
+namespace doppel::gateway {
 
 struct Options {
   std::vector<std::string> robots;       // robot names (robots/NAME.textproto) or files; empty = default robot
   std::string link_dir = "/tmp/doppel";  // where the stable ttyDXL links go
   std::string robots_dir;                // where robot names are looked up; empty = built-in default
-  TimingMode timing = TimingMode::kWire;  // --timing wire|fast
+  bus::TimingMode timing = bus::TimingMode::kWire;  // --timing wire|fast
   double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
   uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)
   bool list_robots = false;              // --list-robots: print the shipped robots and exit

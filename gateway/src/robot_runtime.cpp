@@ -1,0 +1,200 @@
+#include "robot_runtime.h"
+
+#include <pthread.h>
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "gateway/gateway.h"
+
+namespace doppel::gateway {
+namespace {
+
+uint8_t default_return_delay_raw(const dynamixel::ModelSpec& spec) {
+  const dynamixel::RegisterSpec* rdt = dynamixel::find_register(spec.registers, dynamixel::p1::kReturnDelayTime);
+  return static_cast<uint8_t>(rdt != nullptr ? rdt->default_raw : 250);
+}
+
+double no_load_speed_rad_s(const dynamixel::ServoSpec& servo) {
+  // A DC motor's no-load speed grows with its supply voltage.
+  return servo.no_load_speed_rpm * 2.0 * std::numbers::pi / 60.0 * kSupplyVoltageV / servo.nominal_voltage_v;
+}
+
+const char* protocol_name(dynamixel::Protocol protocol) {
+  return protocol == dynamixel::Protocol::kV1 ? "Protocol 1.0" : "Protocol 2.0";
+}
+
+}  // namespace
+
+BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const Options& options) : config_(config) {
+  BusFeedback initial;
+  for (const DeviceConfig& device : config.devices) {
+    const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
+    uint8_t baud_raw = dynamixel::p1_baud_register(config.baud_bps, spec);
+    uint8_t rdt_raw = device.return_delay_raw.value_or(default_return_delay_raw(spec));
+    switch (spec.kind) {
+      case dynamixel::DeviceKind::kServo: {
+        auto servo = std::make_unique<dynamixel::Protocol1Servo>(spec, device.id, baud_raw, rdt_raw);
+        initial.servos[servos_.size()].voltage_v = kSupplyVoltageV;
+        servos_.push_back(servo.get());
+        joints_.emplace_back(no_load_speed_rad_s(spec.servo));
+        devices_.push_back(std::move(servo));
+        break;
+      }
+      case dynamixel::DeviceKind::kImu: {
+        auto imu = std::make_unique<dynamixel::FumanoidImu>(spec, device.id, baud_raw, rdt_raw);
+        imus_.push_back(imu.get());
+        devices_.push_back(std::move(imu));
+        break;
+      }
+      case dynamixel::DeviceKind::kFootBoard: {
+        auto foot = std::make_unique<dynamixel::FumanoidFootBoard>(spec, device.id, baud_raw, rdt_raw);
+        feet_.push_back(foot.get());
+        devices_.push_back(std::move(foot));
+        break;
+      }
+    }
+    bus_devices_.add(*devices_.back());
+  }
+  if (servos_.size() > kMaxServos || imus_.size() > kMaxBoards || feet_.size() > kMaxBoards) {
+    throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
+  }
+  feedback_.publish(initial);
+  before_dispatch();
+
+  bus::BusServerOptions server_options;
+  server_options.timing = options.timing;
+  server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
+  server_options.latency_timer_ms = options.latency_timer_ms;
+  port_ = std::make_unique<bus::PtyPort>(link);
+  server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
+}
+
+BusRuntime::~BusRuntime() { join(); }
+
+void BusRuntime::start(const std::atomic<bool>& running) {
+  thread_ = std::thread([this, &running] {
+    pthread_setname_np(pthread_self(), "doppel-bus");
+    server_->run(running);
+  });
+}
+
+void BusRuntime::join() {
+  if (thread_.joinable()) {
+    thread_.join();
+  }
+}
+
+void BusRuntime::before_dispatch() noexcept {
+  feedback_.update();
+  const BusFeedback& feedback = feedback_.latest();
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    servos_[i]->apply(feedback.servos[i]);
+  }
+  for (std::size_t i = 0; i < imus_.size(); ++i) {
+    imus_[i]->apply(feedback.imus[i]);
+  }
+  for (std::size_t i = 0; i < feet_.size(); ++i) {
+    feet_[i]->apply(feedback.feet[i]);
+  }
+}
+
+void BusRuntime::after_dispatch() noexcept {
+  BusCommands& commands = commands_.back();
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    commands.servos[i] = servos_[i]->command();
+  }
+  commands_.publish();
+}
+
+void BusRuntime::simulate(double dt_s, int64_t sim_time_ns, double foot_force_n) noexcept {
+  const BusCommands& commands = commands_.latest();
+  BusFeedback& feedback = feedback_.back();
+  for (std::size_t i = 0; i < joints_.size(); ++i) {
+    joints_[i].step(commands.servos[i], dt_s);
+    dynamixel::ServoFeedback& servo = feedback.servos[i];
+    servo.position_rad = joints_[i].position_rad();
+    servo.velocity_rad_s = joints_[i].velocity_rad_s();
+    servo.torque_ratio = 0.0;
+    servo.voltage_v = kSupplyVoltageV;
+    servo.temperature_c = 25.0;
+  }
+  for (std::size_t i = 0; i < imus_.size(); ++i) {
+    feedback.imus[i] = dynamixel::ImuFeedback{};
+    feedback.imus[i].sim_time_ns = sim_time_ns;
+  }
+  for (std::size_t i = 0; i < feet_.size(); ++i) {
+    feedback.feet[i].force_n.fill(foot_force_n);
+    feedback.feet[i].sim_time_ns = sim_time_ns;
+  }
+  feedback_.publish();
+}
+
+std::string BusRuntime::describe() const {
+  std::ostringstream out;
+  out << "  " << port_->link_path() << " -> " << port_->slave_path() << "   bus '" << config_.name << "', "
+      << protocol_name(config_.protocol) << ", " << config_.baud_bps << " bps\n";
+  for (std::size_t i = 0; i < devices_.size(); ++i) {
+    const DeviceConfig& device = config_.devices[i];
+    char line[128];
+    std::snprintf(line, sizeof(line), "     ID %3u %-14s %s\n", device.id, device.model.c_str(), device.name.c_str());
+    out << line;
+  }
+  return out.str();
+}
+
+std::string BusRuntime::summary() const {
+  const bus::BusDiagnostics& d = server_->diagnostics();
+  std::ostringstream out;
+  out << "  " << port_->link_path() << ": " << d.packets << " packets, " << d.bad_checksums << " bad checksums, "
+      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.reconnects << " client sessions\n";
+  return out.str();
+}
+
+RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, const Options& options)
+    : config_(config), index_(robot_index) {
+  for (std::size_t b = 0; b < config.buses.size(); ++b) {
+    buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], link_path(options.link_dir, robot_index, b), options));
+    foot_boards_ += buses_.back()->foot_board_count();
+  }
+}
+
+void RobotRuntime::start(const std::atomic<bool>& running) {
+  for (auto& bus : buses_) {
+    bus->start(running);
+  }
+}
+
+void RobotRuntime::join() {
+  for (auto& bus : buses_) {
+    bus->join();
+  }
+}
+
+void RobotRuntime::simulate(double dt_s, int64_t sim_time_ns) noexcept {
+  // Standing still, the weight spreads evenly over every load cell (four per foot board).
+  double cell_force_n = foot_boards_ == 0 ? 0.0 : kKinematicRobotMassKg * kGravityM_S2 / (4.0 * static_cast<double>(foot_boards_));
+  for (auto& bus : buses_) {
+    bus->simulate(dt_s, sim_time_ns, cell_force_n);
+  }
+}
+
+std::string RobotRuntime::describe() const {
+  std::ostringstream out;
+  out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << ")\n";
+  for (const auto& bus : buses_) {
+    out << bus->describe();
+  }
+  return out.str();
+}
+
+std::string RobotRuntime::summary() const {
+  std::ostringstream out;
+  for (const auto& bus : buses_) {
+    out << bus->summary();
+  }
+  return out.str();
+}
+
+}  // namespace doppel::gateway
