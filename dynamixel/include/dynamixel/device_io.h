@@ -28,6 +28,10 @@ struct ServoCommand {
   uint8_t p_gain_raw = 0;                 // MX: Kp = P / 8
   uint8_t i_gain_raw = 0;                 // MX: Ki = I * 1000 / 2048
   uint8_t d_gain_raw = 0;                 // MX: Kd = D * 4 / 1000
+  bool multi_turn = false;                // MX: both angle limits 4095; goal may span several turns
+  bool torque_control = false;            // MX-64/106 Torque Ctrl Mode Enable: follow goal_torque_ratio
+  double goal_torque_ratio = 0.0;         // MX-64/106 Goal Torque as a fraction of the stall torque, + = CCW
+  double goal_acceleration_rad_s2 = 0.0;  // MX Goal Acceleration (0 = no limit)
 };
 
 // What the world measures at a servo.
@@ -37,6 +41,7 @@ struct ServoFeedback {
   double torque_ratio = 0.0;     // load as a fraction of the maximum torque, + = CCW, -1..1
   double voltage_v = 14.8;       // supply at the servo
   double temperature_c = 25.0;   // motor temperature
+  int64_t sim_time_ns = 0;       // simulation time of the measurement (overload timing, MX Realtime Tick)
 };
 
 // What an IMU measures, in the IMU's own frame S (x forward, y left, z up when mounted level).

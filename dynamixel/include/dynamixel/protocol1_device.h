@@ -1,0 +1,94 @@
+#pragma once
+// The Protocol 1.0 firmware core shared by every Doppel device model: a control table laid out by a
+// ModelSpec, and the instruction set (PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC WRITE,
+// BULK READ) with broadcast, Status Return Level, Lock and error-bit rules (reference §1).
+// It is not a servo or a sensor: Protocol1Servo and the FUmanoid boards derive from it and add
+// their value rules and the link to the simulation. Every behaviour choice is listed in docs/devices.md.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string_view>
+
+#include "dynamixel/control_table.h"
+#include "dynamixel/device.h"
+#include "dynamixel/models.h"
+
+namespace doppel::dynamixel {
+
+// Per-device diagnostics (plain integers, written only by the bus thread).
+struct DeviceCounters {
+  uint64_t handled = 0;         // packets addressed to this device (own ID, broadcast, or listed in it)
+  uint64_t bad_checksums = 0;   // of those, with a wrong checksum (not executed)
+  uint64_t errors = 0;          // of those, answered or dropped with an instruction/range/angle error
+};
+
+class Protocol1Device : public Device {
+ public:
+  using Table = std::array<uint8_t, 256>;  // one byte per P1 address; undefined bytes stay 0
+
+  Protocol protocol() const noexcept override { return Protocol::kV1; }
+  uint8_t id() const noexcept override { return table_[p1::kId]; }
+  // From the Baud Rate register (reference §3.2).
+  uint32_t baud_bps() const noexcept override;
+  // Return Delay Time register x 2 µs.
+  uint32_t return_delay_us() const noexcept override { return 2u * table_[p1::kReturnDelayTime]; }
+  std::string_view model_name() const noexcept override { return spec_.name; }
+  uint16_t model_number() const noexcept override { return spec_.model_number; }
+  // Executes `packet` as the firmware does and fills `response`. rt-safe.
+  void handle(const InstructionPacket& packet, Response& response) noexcept override;
+
+  const ModelSpec& spec() const noexcept { return spec_; }
+  // Unsigned value of the register that starts at `address` (1 or 2 bytes, little-endian);
+  // 0 when no register starts there. rt-safe.
+  uint16_t register_raw(uint8_t address) const noexcept;
+  // The control table bytes 0..spec().table_bytes-1 (reserved bytes read 0).
+  std::span<const uint8_t> table() const noexcept { return {table_.data(), spec_.table_bytes}; }
+  // Lock (47) is 1: only addresses 24..35 accept writes until the device is rebuilt (power cycle).
+  bool locked() const noexcept { return table_[p1::kLock] != 0; }
+  const DeviceCounters& counters() const noexcept { return counters_; }
+
+ protected:
+  // Loads the factory defaults of `spec`, then the given ID, Baud Rate and Return Delay Time
+  // registers. Throws std::invalid_argument when a value is outside its register's range.
+  Protocol1Device(const ModelSpec& spec, uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw);
+
+  // Condition bits (overload, overheating, input voltage) every status reports besides the
+  // instruction's own errors.
+  virtual uint8_t condition_bits() const noexcept { return 0; }
+  // Model-specific checks of a write, run on `candidate` (the table as it would be after writing
+  // [start, start + n)). Returns error bits; non-zero rejects the whole write.
+  virtual uint8_t check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept;
+  // Called after RESET has restored the factory defaults (the device reboots).
+  virtual void after_factory_reset() noexcept {}
+
+  // Sets a register without any check (the device's own updates of read-only values).
+  void set_register(uint8_t address, uint16_t value) noexcept;
+  static uint16_t read_le(const Table& table, uint8_t address, uint8_t size) noexcept;
+  static bool touches(uint8_t start, std::size_t n, uint8_t address, uint8_t size) noexcept {
+    return start < address + size && address < start + n;
+  }
+  // Restores every register (or only the RAM area) to its factory default and forgets a pending
+  // REG_WRITE.
+  void load_defaults(bool ram_only = false) noexcept;
+
+ private:
+  // Validates and (if `commit`) applies a write of n bytes at start. Returns error bits.
+  uint8_t write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept;
+  bool answers(uint8_t instruction) const noexcept;
+  void reply(uint8_t reply_id, uint8_t error, const uint8_t* data, std::size_t n, Response& response) noexcept;
+  void handle_bulk_read(const InstructionPacket& packet, Response& response) noexcept;
+  void handle_sync_write(const InstructionPacket& packet) noexcept;
+
+  const ModelSpec& spec_;
+  Table table_{};
+  Table owner_{};  // index + 1 into spec_.registers of the register covering each byte; 0 = none
+  bool has_pending_ = false;             // a REG_WRITE waits for ACTION
+  uint8_t pending_address_ = 0;
+  uint8_t pending_size_ = 0;
+  std::array<uint8_t, 253> pending_data_{};
+  DeviceCounters counters_{};
+};
+
+}  // namespace doppel::dynamixel
