@@ -18,7 +18,7 @@ TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
   ASSERT_EQ(sut.robots.size(), 1u);
   EXPECT_EQ(sut.robots[0], "fumanoid-2011");
   EXPECT_EQ(sut.link_dir, "/tmp/doppel");
-  EXPECT_EQ(sut.timing, TimingMode::kWire);
+  EXPECT_EQ(sut.timing, bus::TimingMode::kWire);
   EXPECT_EQ(sut.latency_timer_ms, 0u);
   EXPECT_DOUBLE_EQ(sut.processing_us, 50.0);
 }
@@ -28,7 +28,7 @@ TEST(Options, EveryOptionIsParsed) {
                        "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r"});
   EXPECT_EQ(sut.robots, (std::vector<std::string>{"mx-test", "/x/r.textproto"}));
   EXPECT_EQ(sut.link_dir, "/tmp/l");
-  EXPECT_EQ(sut.timing, TimingMode::kFast);
+  EXPECT_EQ(sut.timing, bus::TimingMode::kFast);
   EXPECT_DOUBLE_EQ(sut.processing_us, 20.0);
   EXPECT_EQ(sut.latency_timer_ms, 16u);
   EXPECT_EQ(sut.robots_dir, "/r");
