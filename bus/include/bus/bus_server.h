@@ -1,0 +1,129 @@
+#pragma once
+// Serves one Dynamixel bus on one PtyPort: reads the driver's bytes, frames Protocol 1.0
+// instruction packets, lets the bus's devices answer (dynamixel::BusDevices), and writes their
+// status bytes back at the times the wire and adapter models give. One thread runs it; it never
+// allocates, locks or logs per packet, and it never waits for the simulation (DeviceSync hooks
+// must not wait either). It does not own the devices or decide what they answer.
+//
+// Connection handling: when the client closes the port (or is killed, even mid-packet) the bytes
+// it wrote are still served, a trailing partial packet is dropped, undelivered replies are
+// discarded, and the next client starts on a clean line (see PtyPort).
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+
+#include "bus/adapter_latency.h"
+#include "bus/pty_port.h"
+#include "bus/reply_schedule.h"
+#include "bus/spsc_queue.h"
+#include "bus/wire_timing.h"
+#include "dynamixel/bus_devices.h"
+#include "dynamixel/protocol1.h"
+
+namespace doppel::bus {
+
+struct BusServerOptions {
+  TimingMode timing_mode = TimingMode::kWire;                // kFast: answer at once
+  int64_t processing_ns = WireTiming::kDefaultProcessingNs;  // device firmware time before RDT, ns
+  uint32_t adapter_latency_ms = 0;   // USB adapter latency timer, ms (0 = none, FTDI default 16); wire mode only
+  int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
+  int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
+  int64_t idle_wait_ns = 10'000'000;    // longest single wait: bounds how soon run() notices stop
+  bool record_traces = false;           // push one ReplyTrace per reply into traces()
+};
+
+// Counters of one bus (monotonic since construction unless noted). Read from any thread.
+struct BusDiagnostics {
+  uint64_t packets = 0;          // instruction packets framed (good or bad checksum)
+  uint64_t bad_checksums = 0;    // of those, with a wrong checksum
+  uint64_t bytes_in = 0;         // bytes read from the client
+  uint64_t bytes_out = 0;        // status bytes written to the client
+  uint64_t dropped_bytes = 0;    // bytes skipped while hunting for a packet header
+  uint64_t timeouts = 0;         // partial packets dropped by the 100 ms inter-byte timeout
+  uint64_t connects = 0;         // client sessions started
+  uint64_t reconnects = 0;       // client sessions ended (port closed or client killed), line cleaned
+  uint64_t replies = 0;          // instructions that got at least one status scheduled
+  uint64_t dropped_replies = 0;  // replies dropped because the schedule was full (client not reading)
+  uint64_t merged_segments = 0;  // deliveries merged into a later one because the schedule was full
+  uint64_t discarded_bytes = 0;  // reply bytes dropped because their client had gone
+  uint64_t late_deliveries = 0;  // deliveries written more than late_threshold_ns after due
+  int64_t max_lateness_ns = 0;   // worst (written - due) seen, ns
+  uint32_t line_baud_bps = 0;    // line rate at the last read, bit/s
+  bool connected = false;        // a client has the port open
+};
+
+// Called by the bus thread around every dispatched packet, e.g. to copy the latest simulation
+// snapshot into the control tables and to publish the commands written by the packet. Both run on
+// the bus thread and must not block, allocate or wait for another thread.
+class DeviceSync {
+ public:
+  virtual ~DeviceSync() = default;
+  virtual void before_dispatch() noexcept = 0;
+  virtual void after_dispatch() noexcept = 0;
+};
+
+class BusServer {
+ public:
+  static constexpr int64_t kInterByteTimeoutNs = 100'000'000;  // Protocol 1.0 (reference §1.1)
+  static constexpr std::size_t kTraceCapacity = 1024;
+  using TraceQueue = SpscQueue<ReplyTrace, kTraceCapacity>;
+
+  // `port`, `devices` and `sync` (optional) must outlive the server; devices are added before run().
+  // Throws std::invalid_argument for negative times or an adapter latency above 255 ms. Setup only.
+  BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusServerOptions& options = {},
+            DeviceSync* sync = nullptr);
+
+  BusServer(const BusServer&) = delete;
+  BusServer& operator=(const BusServer&) = delete;
+
+  // Serves until `stop` becomes true (checked at least every idle_wait_ns). Sets the calling
+  // thread's timer slack to 1 ns while it runs. Call from one thread only. rt-safe after setup.
+  void run(const std::atomic<bool>& stop) noexcept;
+
+  // One iteration: waits at most `max_wait_ns` for input, a client or a due delivery, then reads,
+  // dispatches and writes what is due. For callers with their own loop. rt-safe.
+  void run_once(int64_t max_wait_ns) noexcept;
+
+  // Snapshot of the counters. Any thread, lock-free.
+  BusDiagnostics diagnostics() const noexcept;
+
+  // Model predictions and actual write times, one per reply when options.record_traces is set.
+  // Exactly one consumer thread may pop; when nobody does, new traces are dropped (and counted).
+  TraceQueue& traces() noexcept { return traces_; }
+
+  const BusServerOptions& options() const noexcept { return options_; }
+
+ private:
+  struct Counters {
+    std::atomic<uint64_t> packets{0}, bad_checksums{0}, bytes_in{0}, bytes_out{0}, dropped_bytes{0},
+        timeouts{0}, connects{0}, reconnects{0}, replies{0}, dropped_replies{0}, merged_segments{0},
+        discarded_bytes{0}, late_deliveries{0};
+    std::atomic<int64_t> max_lateness_ns{0};
+    std::atomic<uint32_t> line_baud_bps{0};
+    std::atomic<bool> connected{false};
+  };
+
+  void read_input() noexcept;
+  void process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept;
+  void dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
+                uint32_t baud_bps) noexcept;
+  void write_due() noexcept;
+  void on_connect() noexcept;
+  void on_hang_up() noexcept;
+
+  PtyPort& port_;
+  dynamixel::BusDevices& devices_;
+  DeviceSync* sync_;
+  BusServerOptions options_;
+  WireTiming timing_;
+  AdapterLatency adapter_;
+  dynamixel::Protocol1Parser parser_;
+  ReplySchedule schedule_;
+  TraceQueue traces_;
+  Counters counters_;
+  int64_t last_input_ns_ = 0;   // when the previous input chunk was read
+  bool write_blocked_ = false;  // the client's queue was full at the last write
+};
+
+}  // namespace doppel::bus

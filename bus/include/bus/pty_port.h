@@ -1,0 +1,101 @@
+#pragma once
+// The serial port a servo-bus driver opens: the master side of a pseudo-terminal, published under a
+// stable symlink (e.g. /tmp/doppel/ttyDXL0 -> /dev/pts/N). Doppel never keeps the slave side open,
+// so the kernel tells it when the last client has gone (the master reads EIO / polls POLLHUP).
+// It is not a timing model and does not parse packets: BusServer does that on top of it.
+//
+// Client lifecycle (verified on Linux 6.x, see tests/bus/pty_port_test.cpp):
+// - A pty keeps bytes across client sessions: what Doppel wrote and the client did not read is
+//   handed to the *next* client that opens the slave, and writes to the master succeed while no
+//   client is open. A master-side tcflush(TCOFLUSH) does not remove them (it only empties the
+//   flip buffer). So on hang-up disconnect() opens the slave itself (TIOCGPTPEER), flushes its
+//   input queue, restores raw mode and closes it again: the next open starts clean.
+// - Bytes a client wrote before closing are still readable before the EIO; the caller should read
+//   them (complete packets did cross the wire) and drop only a trailing partial packet.
+// - While nobody is connected the master polls POLLHUP permanently, so waiting for a client cannot
+//   use poll on the master. wait_for_client() blocks on an inotify IN_OPEN watch on the slave
+//   device instead: no CPU while idle and no added latency for the first packet. If inotify is
+//   unavailable it falls back to sleeping ~1 ms between checks.
+// - Known limit: a new client that opens the port within microseconds of the previous client's
+//   last close, before the server thread has handled the hang-up, may receive bytes meant for its
+//   predecessor (DynamixelSDK flushes its input before every transmission, which removes them).
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "bus/transport.h"
+
+namespace doppel::bus {
+
+struct PortWait {
+  bool readable = false;  // bytes (or a hang-up) are waiting on the master
+  bool writable = false;  // the client's input queue has room again
+  bool hung_up = false;   // the last client closed the slave
+};
+
+class PtyPort final : public Transport {
+ public:
+  // Opens a pty master (non-blocking, close-on-exec), puts the slave in raw mode and points
+  // `link_path` at the slave, creating missing parent directories and replacing an existing
+  // symlink (a stale link from an earlier run). Setup only. Throws std::runtime_error with the
+  // failing step and path when a system call fails or when `link_path` exists and is not a
+  // symbolic link (it is never replaced then).
+  explicit PtyPort(std::string link_path);
+  // Removes the symlink if it still points at this port's slave, and closes the master.
+  ~PtyPort() override;
+
+  PtyPort(const PtyPort&) = delete;
+  PtyPort& operator=(const PtyPort&) = delete;
+
+  // Transport. read() returns 0 when nothing is waiting; on EIO (the client went away) it returns 0
+  // and sets hung_up(). write() returns the bytes accepted: 0 when the client's queue is full or no
+  // client is connected. Never block. rt-safe.
+  std::size_t read(uint8_t* dst, std::size_t capacity) noexcept override;
+  std::size_t write(const uint8_t* src, std::size_t n) noexcept override;
+
+  // Connected: waits up to `timeout_ns` (ns, >= 0) for input, a hang-up, or (want_write) room for
+  // output. Not connected: the same as wait_for_client(). EINTR counts as a wake-up. rt-safe (no
+  // allocation; it is a blocking system call, bounded by the timeout).
+  PortWait wait(int64_t timeout_ns, bool want_write) noexcept;
+
+  // Not connected: waits up to `timeout_ns` for a client to open the slave, then checks the line.
+  // True when a client is connected (also returns at once if one already is). rt-safe.
+  bool wait_for_client(int64_t timeout_ns) noexcept;
+
+  // Checks without waiting whether a client holds the slave open or left bytes behind; switches to
+  // connected if so. Returns connected(). rt-safe.
+  bool poll_client() noexcept;
+
+  // True between a client's open (as seen by poll_client / wait_for_client) and disconnect().
+  bool connected() const noexcept { return connected_; }
+  // True once read() or wait() has seen the last client close; cleared by disconnect().
+  bool hung_up() const noexcept { return hung_up_; }
+
+  // Ends the client session: discards every byte written for the old client that it did not read,
+  // puts the slave back into raw mode and waits for the next open. Call after reading the
+  // remaining input. rt-safe (system calls only).
+  void disconnect() noexcept;
+
+  // Line rate (bit/s) the client set on its end (Bxxxx or BOTHER, up to 4.5 Mbaud and beyond),
+  // read with TCGETS2; 0 on error or B0. rt-safe.
+  uint32_t line_baud_bps() const noexcept;
+
+  int master_fd() const noexcept { return master_fd_; }
+  const std::string& link_path() const noexcept { return link_path_; }    // the stable name
+  const std::string& slave_path() const noexcept { return slave_path_; }  // /dev/pts/N
+
+ private:
+  void make_slave_raw_and_flush() noexcept;
+  void drain_inotify() noexcept;
+  void close_all() noexcept;
+
+  std::string link_path_;
+  std::string slave_path_;
+  int master_fd_ = -1;
+  int inotify_fd_ = -1;  // IN_OPEN watch on slave_path_, -1 when inotify is unavailable
+  bool connected_ = false;
+  bool hung_up_ = false;
+};
+
+}  // namespace doppel::bus

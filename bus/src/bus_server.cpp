@@ -1,0 +1,239 @@
+#include "bus/bus_server.h"
+
+#include <sys/prctl.h>
+#include <time.h>
+
+#include <algorithm>
+#include <array>
+#include <stdexcept>
+
+namespace doppel::bus {
+namespace {
+
+int64_t now_ns() noexcept {
+  timespec ts{};
+  ::clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+void add(std::atomic<uint64_t>& counter, uint64_t n = 1) noexcept {
+  // Single writer (the bus thread): a plain load/store pair is enough and avoids a locked RMW.
+  counter.store(counter.load(std::memory_order_relaxed) + n, std::memory_order_relaxed);
+}
+
+void set_if_changed(std::atomic<uint64_t>& counter, uint64_t value) noexcept {
+  if (counter.load(std::memory_order_relaxed) != value) counter.store(value, std::memory_order_relaxed);
+}
+
+const BusServerOptions& validated(const BusServerOptions& options) {
+  if (options.spin_ns < 0 || options.late_threshold_ns < 0 || options.idle_wait_ns <= 0) {
+    throw std::invalid_argument("BusServer: spin_ns and late_threshold_ns must be >= 0, idle_wait_ns > 0");
+  }
+  return options;
+}
+
+}  // namespace
+
+BusServer::BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusServerOptions& options,
+                     DeviceSync* sync)
+    : port_(port),
+      devices_(devices),
+      sync_(sync),
+      options_(validated(options)),
+      timing_(options.timing_mode, options.processing_ns),
+      adapter_(options.timing_mode == TimingMode::kFast ? 0 : options.adapter_latency_ms) {
+  if (options.adapter_latency_ms > AdapterLatency::kMaxLatencyMs) {
+    throw std::invalid_argument("BusServer: adapter_latency_ms must be 0..255");
+  }
+}
+
+void BusServer::run(const std::atomic<bool>& stop) noexcept {
+  // Timer slack (default 50 µs) would otherwise delay every timed wake-up by up to that much.
+  const int old_slack = ::prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
+  ::prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  while (!stop.load(std::memory_order_acquire)) run_once(options_.idle_wait_ns);
+  if (old_slack > 0) ::prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(old_slack), 0, 0, 0);
+}
+
+void BusServer::run_once(int64_t max_wait_ns) noexcept {
+  if (!port_.connected()) {
+    if (port_.wait_for_client(max_wait_ns)) on_connect();
+    return;
+  }
+  write_due();
+
+  // Sleep until input arrives or shortly before the next delivery is due.
+  int64_t wait_ns = std::max<int64_t>(max_wait_ns, 0);
+  if (!schedule_.empty() && !write_blocked_) {
+    wait_ns = std::clamp(schedule_.front_due_ns() - now_ns() - options_.spin_ns, int64_t{0}, wait_ns);
+  }
+  const PortWait woke = port_.wait(wait_ns, write_blocked_);
+  if (woke.writable) write_blocked_ = false;
+  if (woke.readable) read_input();
+  if (port_.hung_up()) {
+    on_hang_up();
+    return;
+  }
+
+  // Close to the due time: spin the rest for accuracy, then write.
+  if (!schedule_.empty() && !write_blocked_) {
+    const int64_t due_ns = schedule_.front_due_ns();
+    if (due_ns - now_ns() <= options_.spin_ns) {
+      while (now_ns() < due_ns) {
+      }
+    }
+    write_due();
+  }
+}
+
+void BusServer::read_input() noexcept {
+  std::array<uint8_t, 4096> buffer;
+  for (;;) {
+    const std::size_t n = port_.read(buffer.data(), buffer.size());
+    if (n == 0) break;
+    const int64_t seen_ns = now_ns();
+    const uint32_t baud_bps = port_.line_baud_bps();
+    counters_.line_baud_bps.store(baud_bps, std::memory_order_relaxed);
+    add(counters_.bytes_in, n);
+    process(buffer.data(), n, seen_ns, baud_bps);
+  }
+}
+
+void BusServer::process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept {
+  // The servo firmware drops a packet whose bytes stop for more than 100 ms. Checking when the next
+  // bytes come is equivalent: a dropped partial packet has no effect until then.
+  if (!parser_.idle() && seen_ns - last_input_ns_ > kInterByteTimeoutNs) {
+    parser_.reset();
+    add(counters_.timeouts);
+  }
+  last_input_ns_ = seen_ns;
+  const WireSpan span = timing_.host_bytes(seen_ns, n, baud_bps);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (parser_.push(bytes[i]) == dynamixel::Protocol1Parser::Result::kPacket) {
+      dispatch(parser_.packet(), span.byte_end_ns(i), seen_ns, baud_bps);
+    }
+  }
+  const dynamixel::ParserCounters& parsed = parser_.counters();
+  set_if_changed(counters_.packets, parsed.packets);
+  set_if_changed(counters_.bad_checksums, parsed.bad_checksums);
+  set_if_changed(counters_.dropped_bytes, parsed.dropped_bytes);
+}
+
+void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
+                         uint32_t baud_bps) noexcept {
+  if (sync_ != nullptr) sync_->before_dispatch();
+  const auto statuses = devices_.dispatch(packet, baud_bps);
+  if (sync_ != nullptr) sync_->after_dispatch();
+  if (statuses.empty()) return;
+
+  std::size_t total = 0;
+  for (const auto& status : statuses) total += status.packet != nullptr ? status.packet->size : 0;
+  if (total == 0) return;
+  if (!schedule_.can_accept(total)) {
+    add(counters_.dropped_replies);
+    return;
+  }
+
+  timing_.begin_reply(instruction_end_ns);
+  adapter_.begin_reply();
+  uint64_t merged = 0;
+  auto emit = [&](const Delivery& delivery) noexcept {
+    if (!schedule_.push_segment(delivery.due_ns, delivery.count)) ++merged;
+  };
+  ReplyTrace trace;
+  trace.seen_ns = seen_ns;
+  trace.instruction_end_ns = instruction_end_ns;
+  trace.bytes = static_cast<uint32_t>(total);
+  trace.line_baud_bps = baud_bps;
+  trace.id = packet.id;
+  trace.instruction = packet.instruction;
+  for (const auto& status : statuses) {
+    if (status.packet == nullptr || status.packet->size == 0) continue;
+    const std::size_t size = status.packet->size;
+    schedule_.push_bytes(status.packet->bytes.data(), size);
+    const WireSpan span = timing_.status(size, status.return_delay_us, status.after_previous, baud_bps);
+    trace.status_end_ns = span.end_ns;
+    adapter_.add_status(span, size, emit);
+  }
+  adapter_.end_reply(emit);
+  schedule_.mark_reply_end(trace);
+  add(counters_.replies);
+  if (merged != 0) add(counters_.merged_segments, merged);
+}
+
+void BusServer::write_due() noexcept {
+  while (!schedule_.empty() && !write_blocked_) {
+    const int64_t now = now_ns();
+    if (schedule_.front_due_ns() > now) return;
+    const auto pending = schedule_.front_bytes();
+    const std::size_t written = port_.write(pending.data(), pending.size());
+    if (written == 0) {
+      // Full client queue (or the client just left: the next read reports the hang-up).
+      write_blocked_ = true;
+      return;
+    }
+    add(counters_.bytes_out, written);
+    const ReplySchedule::Progress progress = schedule_.consume(written);
+    if (written < pending.size()) write_blocked_ = true;
+    if (!progress.segment_done) continue;
+    const int64_t written_ns = now_ns();
+    const int64_t lateness_ns = written_ns - progress.due_ns;
+    if (lateness_ns > options_.late_threshold_ns) add(counters_.late_deliveries);
+    if (lateness_ns > counters_.max_lateness_ns.load(std::memory_order_relaxed)) {
+      counters_.max_lateness_ns.store(lateness_ns, std::memory_order_relaxed);
+    }
+    if (progress.reply_done && options_.record_traces) {
+      ReplyTrace trace = progress.trace;
+      trace.due_ns = progress.due_ns;
+      trace.written_ns = written_ns;
+      traces_.try_push(trace);
+    }
+  }
+}
+
+void BusServer::on_connect() noexcept {
+  timing_.reset();
+  adapter_.reset();
+  if (!parser_.idle()) parser_.reset();
+  write_blocked_ = false;
+  add(counters_.connects);
+  counters_.connected.store(true, std::memory_order_relaxed);
+}
+
+void BusServer::on_hang_up() noexcept {
+  // Complete packets of the departed client were served by read_input; what is left is a partial
+  // packet (dropped, as a servo would after its timeout) and replies nobody will read.
+  if (!parser_.idle()) parser_.reset();
+  add(counters_.discarded_bytes, schedule_.pending_bytes());
+  schedule_.clear();
+  adapter_.reset();
+  timing_.reset();
+  write_blocked_ = false;
+  port_.disconnect();
+  add(counters_.reconnects);
+  counters_.connected.store(false, std::memory_order_relaxed);
+}
+
+BusDiagnostics BusServer::diagnostics() const noexcept {
+  const auto load = [](const auto& counter) { return counter.load(std::memory_order_relaxed); };
+  BusDiagnostics d;
+  d.packets = load(counters_.packets);
+  d.bad_checksums = load(counters_.bad_checksums);
+  d.bytes_in = load(counters_.bytes_in);
+  d.bytes_out = load(counters_.bytes_out);
+  d.dropped_bytes = load(counters_.dropped_bytes);
+  d.timeouts = load(counters_.timeouts);
+  d.connects = load(counters_.connects);
+  d.reconnects = load(counters_.reconnects);
+  d.replies = load(counters_.replies);
+  d.dropped_replies = load(counters_.dropped_replies);
+  d.merged_segments = load(counters_.merged_segments);
+  d.discarded_bytes = load(counters_.discarded_bytes);
+  d.late_deliveries = load(counters_.late_deliveries);
+  d.max_lateness_ns = load(counters_.max_lateness_ns);
+  d.line_baud_bps = load(counters_.line_baud_bps);
+  d.connected = load(counters_.connected);
+  return d;
+}
+
+}  // namespace doppel::bus

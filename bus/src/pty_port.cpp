@@ -1,0 +1,228 @@
+#include "bus/pty_port.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/inotify.h>
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <stdexcept>
+#include <system_error>
+
+#include "line_speed.h"
+#include "posix_call.h"
+
+namespace doppel::bus {
+namespace {
+
+using detail::posix_call;
+using detail::SysResult;
+
+constexpr int64_t kFallbackPollNs = 1'000'000;  // client check period when inotify is unavailable
+
+[[noreturn]] void fail(const std::string& what, int error) {
+  throw std::runtime_error("PtyPort: " + what + ": " + std::strerror(error));
+}
+
+timespec to_timespec(int64_t ns) noexcept {
+  ns = std::max<int64_t>(ns, 0);
+  return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+}
+
+// Points `link_path` at `target`: creates parent directories, refuses to touch anything that is
+// not a symlink, and swaps an existing link atomically (symlink to a temporary name + rename).
+void install_symlink(const std::string& link_path, const std::string& target) {
+  namespace fs = std::filesystem;
+  const fs::path link(link_path);
+  if (link.has_parent_path()) {
+    std::error_code ec;
+    fs::create_directories(link.parent_path(), ec);
+    if (ec) {
+      throw std::runtime_error("PtyPort: cannot create directory '" + link.parent_path().string() +
+                               "' for the port link: " + ec.message());
+    }
+  }
+  struct stat st {};
+  if (::lstat(link_path.c_str(), &st) == 0) {
+    if (!S_ISLNK(st.st_mode)) {
+      throw std::runtime_error("PtyPort: '" + link_path +
+                               "' exists and is not a symbolic link; refusing to replace it");
+    }
+  } else if (errno != ENOENT) {
+    fail("cannot inspect '" + link_path + "'", errno);
+  }
+  const std::string temporary = link_path + ".tmp." + std::to_string(::getpid());
+  ::unlink(temporary.c_str());
+  if (::symlink(target.c_str(), temporary.c_str()) != 0) {
+    fail("cannot create symlink '" + temporary + "' -> '" + target + "'", errno);
+  }
+  if (::rename(temporary.c_str(), link_path.c_str()) != 0) {
+    const int error = errno;
+    ::unlink(temporary.c_str());
+    fail("cannot move symlink into place at '" + link_path + "'", error);
+  }
+}
+
+}  // namespace
+
+PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
+  if (link_path_.empty()) throw std::invalid_argument("PtyPort: empty link path");
+  master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (master_fd_ < 0) fail("posix_openpt", errno);
+  try {
+    // Belt and braces: posix_openpt is only specified for O_RDWR | O_NOCTTY.
+    if (::fcntl(master_fd_, F_SETFD, FD_CLOEXEC) != 0) fail("fcntl(FD_CLOEXEC)", errno);
+    const int flags = ::fcntl(master_fd_, F_GETFL);
+    if (flags < 0 || ::fcntl(master_fd_, F_SETFL, flags | O_NONBLOCK) != 0) fail("fcntl(O_NONBLOCK)", errno);
+    if (::grantpt(master_fd_) != 0) fail("grantpt", errno);
+    if (::unlockpt(master_fd_) != 0) fail("unlockpt", errno);
+    std::array<char, 128> name{};
+    if (const int error = ::ptsname_r(master_fd_, name.data(), name.size()); error != 0) fail("ptsname_r", error);
+    slave_path_ = name.data();
+
+    // Opening and closing the slave once puts the master in its "no client" state (POLLHUP/EIO),
+    // the same state every later hang-up leaves it in, and sets raw mode for clients that do not.
+    make_slave_raw_and_flush();
+
+    inotify_fd_ = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
+    if (inotify_fd_ >= 0 && ::inotify_add_watch(inotify_fd_, slave_path_.c_str(), IN_OPEN) < 0) {
+      ::close(inotify_fd_);
+      inotify_fd_ = -1;
+    }
+    install_symlink(link_path_, slave_path_);
+  } catch (...) {
+    close_all();
+    throw;
+  }
+}
+
+PtyPort::~PtyPort() {
+  std::array<char, 256> target{};
+  const ssize_t n = ::readlink(link_path_.c_str(), target.data(), target.size() - 1);
+  if (n > 0 && slave_path_ == std::string(target.data(), static_cast<std::size_t>(n))) {
+    ::unlink(link_path_.c_str());
+  }
+  close_all();
+}
+
+void PtyPort::close_all() noexcept {
+  if (inotify_fd_ >= 0) ::close(inotify_fd_);
+  if (master_fd_ >= 0) ::close(master_fd_);
+  inotify_fd_ = -1;
+  master_fd_ = -1;
+}
+
+std::size_t PtyPort::read(uint8_t* dst, std::size_t capacity) noexcept {
+  if (capacity == 0) return 0;
+  const SysResult r = posix_call([&] { return ::read(master_fd_, dst, capacity); });
+  if (r.ok()) return static_cast<std::size_t>(r.value);
+  if (!r.would_block()) hung_up_ = true;  // EIO: the last client closed the slave
+  return 0;
+}
+
+std::size_t PtyPort::write(const uint8_t* src, std::size_t n) noexcept {
+  if (!connected_ || n == 0) return 0;
+  const SysResult r = posix_call([&] { return ::write(master_fd_, src, n); });
+  if (r.ok()) return static_cast<std::size_t>(r.value);
+  if (!r.would_block()) hung_up_ = true;
+  return 0;
+}
+
+PortWait PtyPort::wait(int64_t timeout_ns, bool want_write) noexcept {
+  PortWait result;
+  if (!connected_) {
+    result.readable = wait_for_client(timeout_ns);
+    return result;
+  }
+  pollfd pfd{master_fd_, static_cast<short>(POLLIN | (want_write ? POLLOUT : 0)), 0};
+  const timespec timeout = to_timespec(timeout_ns);
+  const SysResult r = posix_call([&] { return ::ppoll(&pfd, 1, &timeout, nullptr); });
+  if (!r.ok() || r.value == 0) return result;
+  result.hung_up = (pfd.revents & POLLHUP) != 0;
+  // Bytes a departing client wrote are still readable before the EIO, so a hang-up means "read".
+  result.readable = (pfd.revents & (POLLIN | POLLHUP | POLLERR)) != 0;
+  result.writable = (pfd.revents & POLLOUT) != 0;
+  return result;
+}
+
+bool PtyPort::poll_client() noexcept {
+  if (connected_) return true;
+  pollfd pfd{master_fd_, POLLIN, 0};
+  const timespec zero{0, 0};
+  const SysResult r = posix_call([&] { return ::ppoll(&pfd, 1, &zero, nullptr); });
+  if (!r.ok()) return false;
+  // No POLLHUP: someone holds the slave open. POLLIN with POLLHUP: a client came, wrote and left
+  // before we looked; its bytes still crossed the wire, so serve them as a short session.
+  if (r.value == 0 || (pfd.revents & POLLHUP) == 0 || (pfd.revents & POLLIN) != 0) {
+    connected_ = true;
+    hung_up_ = false;
+  }
+  return connected_;
+}
+
+bool PtyPort::wait_for_client(int64_t timeout_ns) noexcept {
+  if (poll_client()) return true;
+  if (inotify_fd_ >= 0) {
+    pollfd pfd{inotify_fd_, POLLIN, 0};
+    const timespec timeout = to_timespec(timeout_ns);
+    posix_call([&] { return ::ppoll(&pfd, 1, &timeout, nullptr); });
+    // Drain before checking the line: an open after the check leaves a fresh event, so the next
+    // wait wakes at once instead of missing it.
+    drain_inotify();
+  } else {
+    const timespec pause = to_timespec(std::min(timeout_ns, kFallbackPollNs));
+    ::nanosleep(&pause, nullptr);
+  }
+  return poll_client();
+}
+
+void PtyPort::drain_inotify() noexcept {
+  if (inotify_fd_ < 0) return;
+  alignas(inotify_event) std::array<char, 4096> events;
+  while (posix_call([&] { return ::read(inotify_fd_, events.data(), events.size()); }).value > 0) {
+  }
+}
+
+void PtyPort::disconnect() noexcept {
+  make_slave_raw_and_flush();
+  // Our own open of the slave raised an IN_OPEN event; it must not look like a new client.
+  drain_inotify();
+  connected_ = false;
+  hung_up_ = false;
+}
+
+void PtyPort::make_slave_raw_and_flush() noexcept {
+  // TIOCGPTPEER opens exactly our slave without a path lookup; the path is the fallback for
+  // kernels before 4.13.
+  SysResult r = posix_call(
+      [&] { return ::ioctl(master_fd_, TIOCGPTPEER, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC); });
+  if (!r.ok()) {
+    r = posix_call([&] { return ::open(slave_path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC); });
+  }
+  if (!r.ok()) return;
+  const int slave = static_cast<int>(r.value);
+  termios tio{};
+  if (::tcgetattr(slave, &tio) == 0) {
+    ::cfmakeraw(&tio);  // keeps the line speed the last client set
+    tio.c_cflag |= CLOCAL | CREAD;
+    tio.c_cc[VMIN] = 0;
+    tio.c_cc[VTIME] = 0;
+    ::tcsetattr(slave, TCSANOW, &tio);
+  }
+  // The slave's input queue holds what the old client never read.
+  ::tcflush(slave, TCIFLUSH);
+  ::close(slave);
+}
+
+uint32_t PtyPort::line_baud_bps() const noexcept { return detail::line_speed_bps(master_fd_); }
+
+}  // namespace doppel::bus

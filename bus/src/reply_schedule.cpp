@@ -1,0 +1,80 @@
+#include "bus/reply_schedule.h"
+
+#include <algorithm>
+#include <cstring>
+
+namespace doppel::bus {
+
+void ReplySchedule::push_bytes(const uint8_t* src, std::size_t n) noexcept {
+  std::size_t tail = (byte_head_ + byte_count_) % kByteCapacity;
+  while (n > 0) {
+    const std::size_t chunk = std::min(n, kByteCapacity - tail);
+    std::memcpy(bytes_.data() + tail, src, chunk);
+    src += chunk;
+    n -= chunk;
+    byte_count_ += chunk;
+    tail = (tail + chunk) % kByteCapacity;
+  }
+}
+
+bool ReplySchedule::push_segment(int64_t due_ns, std::size_t count) noexcept {
+  if (count == 0) return true;
+  due_ns = std::max(due_ns, last_due_ns_);
+  last_due_ns_ = due_ns;
+  assigned_bytes_ += count;
+  if (segment_count_ == kSegmentCapacity) {
+    Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
+    last.count += count;
+    last.due_ns = due_ns;
+    return false;
+  }
+  Segment& segment = segments_[(segment_head_ + segment_count_) % kSegmentCapacity];
+  segment = Segment{due_ns, count, false, {}};
+  ++segment_count_;
+  return true;
+}
+
+void ReplySchedule::mark_reply_end(const ReplyTrace& trace) noexcept {
+  if (segment_count_ == 0) return;
+  Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
+  last.reply_end = true;
+  last.trace = trace;
+}
+
+std::span<const uint8_t> ReplySchedule::front_bytes() const noexcept {
+  if (segment_count_ == 0) return {};
+  const Segment& front = segments_[segment_head_];
+  const std::size_t contiguous = std::min(front.count, kByteCapacity - byte_head_);
+  return {bytes_.data() + byte_head_, contiguous};
+}
+
+ReplySchedule::Progress ReplySchedule::consume(std::size_t n) noexcept {
+  Progress progress;
+  if (segment_count_ == 0) return progress;
+  Segment& front = segments_[segment_head_];
+  n = std::min(n, front.count);
+  front.count -= n;
+  byte_head_ = (byte_head_ + n) % kByteCapacity;
+  byte_count_ -= n;
+  assigned_bytes_ -= n;
+  if (front.count == 0) {
+    progress.segment_done = true;
+    progress.reply_done = front.reply_end;
+    progress.due_ns = front.due_ns;
+    progress.trace = front.trace;
+    segment_head_ = (segment_head_ + 1) % kSegmentCapacity;
+    --segment_count_;
+  }
+  return progress;
+}
+
+void ReplySchedule::clear() noexcept {
+  byte_head_ = 0;
+  byte_count_ = 0;
+  assigned_bytes_ = 0;
+  segment_head_ = 0;
+  segment_count_ = 0;
+  last_due_ns_ = INT64_MIN;
+}
+
+}  // namespace doppel::bus

@@ -1,0 +1,136 @@
+#include "bus/reply_schedule.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace doppel::bus {
+namespace {
+
+// Hands over everything due by `now_ns`, in pieces of at most `max_write` bytes.
+std::vector<uint8_t> drain(ReplySchedule& sut, int64_t now_ns, std::size_t max_write = SIZE_MAX) {
+  std::vector<uint8_t> out;
+  while (!sut.empty() && sut.front_due_ns() <= now_ns) {
+    const auto bytes = sut.front_bytes();
+    const std::size_t n = std::min(bytes.size(), max_write);
+    out.insert(out.end(), bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(n));
+    sut.consume(n);
+  }
+  return out;
+}
+
+TEST(ReplySchedule, ReleasesBytesOnlyWhenDue) {
+  ReplySchedule sut;
+  const uint8_t status[] = {0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC};
+  sut.push_bytes(status, 6);
+  sut.push_segment(100, 4);
+  sut.push_segment(200, 2);
+
+  const auto at_50 = drain(sut, 50);
+  const auto at_150 = drain(sut, 150);
+  const auto at_250 = drain(sut, 250);
+
+  EXPECT_TRUE(at_50.empty());
+  EXPECT_EQ(at_150, (std::vector<uint8_t>{0xFF, 0xFF, 0x01, 0x02}));
+  EXPECT_EQ(at_250, (std::vector<uint8_t>{0x00, 0xFC}));
+  EXPECT_TRUE(sut.empty());
+}
+
+TEST(ReplySchedule, DueTimesNeverGoBackwards) {
+  ReplySchedule sut;
+  const uint8_t bytes[] = {1, 2};
+  sut.push_bytes(bytes, 2);
+  sut.push_segment(300, 1);
+  sut.push_segment(100, 1);  // earlier than its predecessor: must not overtake it
+
+  sut.consume(1);
+
+  EXPECT_EQ(sut.front_due_ns(), 300);
+}
+
+TEST(ReplySchedule, PartialWritesKeepTheRestAndReportCompletion) {
+  ReplySchedule sut;
+  const uint8_t bytes[] = {1, 2, 3, 4, 5};
+  sut.push_bytes(bytes, 5);
+  sut.push_segment(10, 5);
+  ReplyTrace trace;
+  trace.id = 7;
+  sut.mark_reply_end(trace);
+
+  const auto first = sut.consume(2);
+  const auto rest = sut.front_bytes();
+  const auto second = sut.consume(3);
+
+  EXPECT_FALSE(first.segment_done);
+  EXPECT_EQ(std::vector<uint8_t>(rest.begin(), rest.end()), (std::vector<uint8_t>{3, 4, 5}));
+  EXPECT_TRUE(second.segment_done);
+  EXPECT_TRUE(second.reply_done);
+  EXPECT_EQ(second.due_ns, 10);
+  EXPECT_EQ(second.trace.id, 7);
+}
+
+TEST(ReplySchedule, BytesSurviveRingWrapAround) {
+  ReplySchedule sut;
+  std::vector<uint8_t> expected;
+  std::vector<uint8_t> received;
+  uint8_t next = 0;
+  // Replies of 1000 bytes, always ~40 in flight: the 64 KiB ring wraps many times.
+  for (int reply = 0; reply < 300; ++reply) {
+    std::vector<uint8_t> bytes(1000);
+    for (auto& b : bytes) b = next++;
+    ASSERT_TRUE(sut.can_accept(bytes.size()));
+    sut.push_bytes(bytes.data(), bytes.size());
+    sut.push_segment(reply, 600);
+    sut.push_segment(reply, 400);
+    expected.insert(expected.end(), bytes.begin(), bytes.end());
+    const auto out = drain(sut, reply - 40, 777);
+    received.insert(received.end(), out.begin(), out.end());
+  }
+  const auto out = drain(sut, INT64_MAX, 777);
+  received.insert(received.end(), out.begin(), out.end());
+
+  EXPECT_EQ(received, expected);
+}
+
+TEST(ReplySchedule, RefusesWhatDoesNotFit) {
+  ReplySchedule sut;
+  std::vector<uint8_t> big(ReplySchedule::kByteCapacity - 10, 0xAA);
+  sut.push_bytes(big.data(), big.size());
+  sut.push_segment(0, big.size());
+
+  EXPECT_TRUE(sut.can_accept(10));
+  EXPECT_FALSE(sut.can_accept(11));
+}
+
+TEST(ReplySchedule, FullSegmentRingMergesIntoTheLastSegmentLateNotLost) {
+  ReplySchedule sut;
+  std::vector<uint8_t> bytes(ReplySchedule::kSegmentCapacity + 1, 0x55);
+  sut.push_bytes(bytes.data(), bytes.size());
+  for (std::size_t i = 0; i < ReplySchedule::kSegmentCapacity; ++i) {
+    ASSERT_TRUE(sut.push_segment(static_cast<int64_t>(i), 1));
+  }
+
+  const bool separate = sut.push_segment(5'000, 1);
+
+  EXPECT_FALSE(separate);
+  EXPECT_EQ(sut.pending_bytes(), bytes.size());
+  EXPECT_EQ(drain(sut, 4'999).size(), ReplySchedule::kSegmentCapacity - 1);
+  EXPECT_EQ(drain(sut, 5'000).size(), 2u);
+}
+
+TEST(ReplySchedule, ClearDropsEverything) {
+  ReplySchedule sut;
+  const uint8_t bytes[] = {1, 2, 3};
+  sut.push_bytes(bytes, 3);
+  sut.push_segment(0, 3);
+
+  sut.clear();
+
+  EXPECT_TRUE(sut.empty());
+  EXPECT_EQ(sut.pending_bytes(), 0u);
+  EXPECT_TRUE(sut.front_bytes().empty());
+}
+
+}  // namespace
+}  // namespace doppel::bus
