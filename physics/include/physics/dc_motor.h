@@ -1,0 +1,76 @@
+#pragma once
+// The electrical and thermal model of a servo's geared DC motor, referred to the output shaft:
+// torque = kt * (V - ke * w) / R (thesis section 4.2.1.2), limited by the Torque Limit register,
+// and a first-order thermal model of the winding. It is not the servo's firmware (that turns a goal
+// into a voltage: dynamixel/servo_controller.h) and knows no engine: a backend applies the torque
+// as an implicit drive (see DriveCommand in backend.h), which keeps the stiff back-EMF damping
+// stable at a 1 ms step.
+
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+namespace doppel::physics {
+
+struct DcMotorParams {
+  double back_emf_v_s_rad = 0.0;        // ke, V per rad/s at the output shaft
+  double resistance_ohm = 0.0;          // R, armature resistance
+  double torque_constant_nm_a = 0.0;    // kt, N·m per A at the output shaft
+  double stall_torque_nm = 0.0;         // datasheet stall torque at rated_voltage_v: Torque Limit 100 %
+  double rated_voltage_v = 0.0;         // voltage of the datasheet figures
+  double friction_nm = 0.0;             // gear friction felt when the motor is unpowered (torque off)
+  double thermal_resistance_k_w = 0.0;  // winding to ambient, K/W
+  double thermal_time_constant_s = 0.0; // of the winding + case, s
+};
+
+// Constants for a servo model name as in the bus part ("RX-64", "MX-28", ...), nullopt if unknown.
+// RX-64 and RX-28 take ke, R, kt from the thesis' Table 7; the others are derived from their
+// datasheets (ke = V / no-load speed, kt = stall torque / stall current, R = V / stall current).
+std::optional<DcMotorParams> dc_motor_params(std::string_view model) noexcept;
+
+// What the firmware applies to the motor during one step.
+struct MotorCommand {
+  bool enabled = false;             // Torque Enable (and no shutdown): false = H-bridge off, joint limp
+  double pwm_ratio = 0.0;           // -1..1, applied voltage = pwm_ratio * supply; + = servo CCW
+  double torque_limit_ratio = 1.0;  // 0..1, Torque Limit register as a fraction of full torque
+};
+
+// A torque-speed law tau = clamp(damping * (target_velocity - w), +-max_torque), which a backend
+// solves implicitly with the joint's new velocity w. A DC motor is exactly this law with
+// target_velocity = V / ke and damping = kt * ke / R; a rigid lock is damping = infinity.
+struct DriveLaw {
+  double target_velocity = 0.0;  // rad/s (or m/s for a prismatic link)
+  double damping = 0.0;          // N·m·s/rad; infinity = rigid velocity constraint
+  double max_torque = 0.0;       // N·m (or N), >= 0; 0 = no drive
+};
+
+// Maximum output torque at `supply_v` with a 100 % Torque Limit: the datasheet stall torque scaled
+// by supply / rated voltage.
+double max_torque_nm(const DcMotorParams& params, double supply_v) noexcept;
+
+// The drive law for `command` at `supply_v`: powered (DC-motor line capped by the Torque Limit) or
+// limp (Coulomb gear friction). rt-safe.
+DriveLaw motor_drive(const DcMotorParams& params, const MotorCommand& command, double supply_v) noexcept;
+
+// The torque the law delivers at joint speed `velocity` (the speed after the step). rt-safe.
+double drive_torque(const DriveLaw& law, double velocity) noexcept;
+
+// Winding temperature: C dT/dt = I^2 R - (T - T_ambient) / R_th, integrated exactly over a step.
+class ThermalModel {
+ public:
+  ThermalModel(const DcMotorParams& params, double ambient_c, double step_s) noexcept;
+  // Advances one step with the motor carrying `torque_nm` (current = torque / kt). rt-safe.
+  void step(double torque_nm) noexcept;
+  double temperature_c() const noexcept { return temperature_c_; }
+  void set_temperature_c(double temperature_c) noexcept { temperature_c_ = temperature_c; }
+
+ private:
+  double ambient_c_;
+  double resistance_ohm_;
+  double torque_constant_nm_a_;
+  double thermal_resistance_k_w_;
+  double decay_;  // exp(-step / time constant)
+  double temperature_c_;
+};
+
+}  // namespace doppel::physics

@@ -1,0 +1,498 @@
+#include "physics/robot_model.h"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <set>
+#include <stdexcept>
+
+namespace doppel::physics {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+Eigen::Vector3d vec(const proto::Vector3& v) { return {v.x(), v.y(), v.z()}; }
+
+Eigen::Isometry3d pose(const proto::Pose& p) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() = rotation_from_rpy_deg(p.rpy_deg().x(), p.rpy_deg().y(), p.rpy_deg().z());
+  X.translation() = vec(p.position_m());
+  return X;
+}
+
+// Volume, and the inertia about the shape's own centre per unit mass, in the shape frame.
+struct UnitMass {
+  double volume_m3 = 0.0;
+  Eigen::Matrix3d inertia_per_kg = Eigen::Matrix3d::Zero();
+};
+
+UnitMass unit_mass(const ShapeSpec& shape) {
+  const Eigen::Vector3d& s = shape.size_m;
+  UnitMass u;
+  switch (shape.type) {
+    case ShapeType::kBox:
+      u.volume_m3 = s.x() * s.y() * s.z();
+      u.inertia_per_kg.diagonal() << (s.y() * s.y() + s.z() * s.z()) / 12.0, (s.x() * s.x() + s.z() * s.z()) / 12.0,
+          (s.x() * s.x() + s.y() * s.y()) / 12.0;
+      break;
+    case ShapeType::kSphere:
+      u.volume_m3 = 4.0 / 3.0 * std::numbers::pi * std::pow(s.x(), 3);
+      u.inertia_per_kg.diagonal().setConstant(0.4 * s.x() * s.x());
+      break;
+    case ShapeType::kCylinder: {
+      const double r = s.x(), l = s.y();
+      u.volume_m3 = std::numbers::pi * r * r * l;
+      const double lateral = (3.0 * r * r + l * l) / 12.0;
+      u.inertia_per_kg.diagonal() << lateral, lateral, 0.5 * r * r;
+      break;
+    }
+    case ShapeType::kCapsule: {
+      const double r = s.x(), l = s.y();
+      const double v_cyl = std::numbers::pi * r * r * l;
+      const double v_caps = 4.0 / 3.0 * std::numbers::pi * r * r * r;
+      u.volume_m3 = v_cyl + v_caps;
+      const double f_cyl = v_cyl / u.volume_m3, f_caps = v_caps / u.volume_m3;
+      const double axial = f_cyl * 0.5 * r * r + f_caps * 0.4 * r * r;
+      const double lateral = f_cyl * (l * l / 12.0 + r * r / 4.0) + f_caps * (0.4 * r * r + l * l / 4.0 + 3.0 * l * r / 8.0);
+      u.inertia_per_kg.diagonal() << lateral, lateral, axial;
+      break;
+    }
+    case ShapeType::kRing:
+      break;
+  }
+  return u;
+}
+
+class Compiler {
+ public:
+  explicit Compiler(const proto::RobotFile& file) : file_(file), description_(file.description()), figure_(description_.figure()) {}
+
+  RobotModel run() {
+    model_.name = description_.name();
+    model_.source = file_.path();
+    if (!description_.has_figure() || figure_.body_size() == 0) {
+      file_.fail(description_, "figure", -1, "the robot has no body: add a figure with at least one body");
+    }
+    read_materials();
+    read_bodies();
+    read_links();
+    read_sensors();
+    return std::move(model_);
+  }
+
+ private:
+  [[noreturn]] void fail(const google::protobuf::Message& m, std::string_view field, int index, const std::string& what) const {
+    file_.fail(m, field, index, what);
+  }
+
+  void read_materials() {
+    materials_["default"] = MaterialSpec{};
+    for (int i = 0; i < figure_.material_size(); ++i) {
+      const proto::Material& m = figure_.material(i);
+      if (m.name().empty()) {
+        fail(m, "name", -1, "a material needs a name");
+      }
+      if (materials_.count(m.name()) != 0U && m.name() != "default") {
+        fail(m, "name", -1, "material '" + m.name() + "' is defined twice");
+      }
+      if (!(m.friction() >= 0.0)) {
+        fail(m, "friction", -1, "friction must be >= 0");
+      }
+      if (!(m.restitution() >= 0.0 && m.restitution() <= 1.0)) {
+        fail(m, "restitution", -1, "restitution must be within 0..1");
+      }
+      materials_[m.name()] = MaterialSpec{m.friction(), m.restitution()};
+    }
+  }
+
+  ShapeSpec read_shape(const proto::Shape& s) {
+    ShapeSpec shape;
+    shape.X_BS = pose(s.pose());
+    auto positive = [&](const google::protobuf::Message& m, std::string_view field, double value) {
+      if (!(value > 0.0) || !std::isfinite(value)) {
+        fail(m, field, -1, "must be > 0 (got " + std::to_string(value) + ")");
+      }
+    };
+    switch (s.geometry_case()) {
+      case proto::Shape::kBox:
+        shape.type = ShapeType::kBox;
+        shape.size_m = vec(s.box().size_m());
+        positive(s.box(), "size_m", shape.size_m.minCoeff());
+        break;
+      case proto::Shape::kSphere:
+        shape.type = ShapeType::kSphere;
+        positive(s.sphere(), "radius_m", s.sphere().radius_m());
+        shape.size_m = {s.sphere().radius_m(), 0.0, 0.0};
+        break;
+      case proto::Shape::kCylinder:
+        shape.type = ShapeType::kCylinder;
+        positive(s.cylinder(), "radius_m", s.cylinder().radius_m());
+        positive(s.cylinder(), "length_m", s.cylinder().length_m());
+        shape.size_m = {s.cylinder().radius_m(), s.cylinder().length_m(), 0.0};
+        break;
+      case proto::Shape::kCapsule:
+        shape.type = ShapeType::kCapsule;
+        positive(s.capsule(), "radius_m", s.capsule().radius_m());
+        positive(s.capsule(), "length_m", s.capsule().length_m());
+        shape.size_m = {s.capsule().radius_m(), s.capsule().length_m(), 0.0};
+        break;
+      case proto::Shape::GEOMETRY_NOT_SET:
+        fail(s, "box", -1, "a shape needs a geometry: box, sphere, cylinder or capsule");
+    }
+    return shape;
+  }
+
+  void read_bodies() {
+    for (int i = 0; i < figure_.body_size(); ++i) {
+      const proto::Body& b = figure_.body(i);
+      if (b.name().empty()) {
+        fail(figure_, "body", i, "a body needs a name");
+      }
+      if (!body_index_.emplace(b.name(), i).second) {
+        fail(b, "name", -1, "body '" + b.name() + "' is defined twice");
+      }
+      if (b.shape_size() == 0) {
+        fail(b, "name", -1, "body '" + b.name() + "' has no shape");
+      }
+      if (b.has_mass_kg() == b.has_density_kg_m3()) {
+        fail(b, b.has_mass_kg() ? "density_kg_m3" : "mass_kg", -1,
+             b.has_mass_kg() ? "give mass_kg or density_kg_m3, not both"
+                             : "missing mass: body '" + b.name() + "' needs mass_kg or density_kg_m3");
+      }
+      if (b.has_mass_kg() && !(b.mass_kg() > 0.0)) {
+        fail(b, "mass_kg", -1, "mass must be > 0");
+      }
+      if (b.has_density_kg_m3() && !(b.density_kg_m3() > 0.0)) {
+        fail(b, "density_kg_m3", -1, "density must be > 0");
+      }
+      const std::string material = b.material().empty() ? "default" : b.material();
+      auto found = materials_.find(material);
+      if (found == materials_.end()) {
+        fail(b, "material", -1, "unknown material '" + material + "'");
+      }
+      if (b.color().r() > 255 || b.color().g() > 255 || b.color().b() > 255) {
+        fail(b, "color", -1, "colour components are 0..255");
+      }
+
+      BodyModel body;
+      body.name = b.name();
+      body.material = found->second;
+      body.colour = Rgb{static_cast<uint8_t>(b.color().r()), static_cast<uint8_t>(b.color().g()),
+                        static_cast<uint8_t>(b.color().b())};
+      std::vector<ShapeSpec> shapes_D;
+      double volume = 0.0;
+      for (int s = 0; s < b.shape_size(); ++s) {
+        shapes_D.push_back(read_shape(b.shape(s)));
+        volume += unit_mass(shapes_D.back()).volume_m3;
+      }
+      body.mass_kg = b.has_mass_kg() ? b.mass_kg() : b.density_kg_m3() * volume;
+      const double density = body.mass_kg / volume;
+
+      // Centre of mass and inertia in D, then the principal frame B.
+      Eigen::Vector3d com = Eigen::Vector3d::Zero();
+      for (const ShapeSpec& s : shapes_D) {
+        com += density * unit_mass(s).volume_m3 * s.X_BS.translation();
+      }
+      com /= body.mass_kg;
+      Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
+      for (const ShapeSpec& s : shapes_D) {
+        const UnitMass u = unit_mass(s);
+        const double m = density * u.volume_m3;
+        const Eigen::Matrix3d R = s.X_BS.linear();
+        const Eigen::Vector3d d = s.X_BS.translation() - com;
+        inertia += m * (R * u.inertia_per_kg * R.transpose());
+        inertia += m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+      }
+      Eigen::Matrix3d R_DB = Eigen::Matrix3d::Identity();
+      const double off_diagonal = std::abs(inertia(0, 1)) + std::abs(inertia(0, 2)) + std::abs(inertia(1, 2));
+      if (off_diagonal > 1e-12 * inertia.trace()) {
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia);
+        R_DB = solver.eigenvectors();
+        if (R_DB.determinant() < 0.0) {
+          R_DB.col(2) = -R_DB.col(2);
+        }
+      }
+      body.inertia_kg_m2 = (R_DB.transpose() * inertia * R_DB).diagonal();
+      Eigen::Isometry3d X_DB = Eigen::Isometry3d::Identity();
+      X_DB.linear() = R_DB;
+      X_DB.translation() = com;
+      body.X_BD = X_DB.inverse();
+      body.X_RB = pose(b.pose()) * X_DB;
+      for (ShapeSpec& s : shapes_D) {
+        s.X_BS = body.X_BD * s.X_BS;
+        body.shapes.push_back(s);
+      }
+      model_.mass_kg += body.mass_kg;
+      model_.bodies.push_back(std::move(body));
+    }
+  }
+
+  int body_ref(const google::protobuf::Message& m, std::string_view field, const std::string& name) const {
+    auto found = body_index_.find(name);
+    if (found == body_index_.end()) {
+      fail(m, field, -1, name.empty() ? std::string("no body given") : "unknown body '" + name + "'");
+    }
+    return found->second;
+  }
+
+  // The bus device (bus index, id) of the description, or a failure naming `m`.
+  const proto::Device& device_ref(const google::protobuf::Message& m, uint32_t bus, uint32_t id) const {
+    if (bus >= static_cast<uint32_t>(description_.bus_size())) {
+      fail(m, "bus", -1, "bus " + std::to_string(bus) + " does not exist (the robot has " +
+                              std::to_string(description_.bus_size()) + " bus(es))");
+    }
+    for (const proto::Device& d : description_.bus(static_cast<int>(bus)).device()) {
+      if (d.id() == id) {
+        return d;
+      }
+    }
+    fail(m, "id", -1, "no device with ID " + std::to_string(id) + " on bus " + std::to_string(bus));
+  }
+
+  void read_links() {
+    const int n = figure_.body_size();
+    std::vector<int> parent_link(static_cast<size_t>(n), -1);
+    std::map<std::string, int> link_names;
+    std::map<std::pair<uint32_t, uint32_t>, int> motor_owner;
+    std::vector<LinkModel> links;
+    for (int i = 0; i < figure_.link_size(); ++i) {
+      const proto::Link& l = figure_.link(i);
+      if (l.name().empty()) {
+        fail(figure_, "link", i, "a link needs a name");
+      }
+      if (!link_names.emplace(l.name(), i).second) {
+        fail(l, "name", -1, "link '" + l.name() + "' is defined twice");
+      }
+      LinkModel link;
+      link.name = l.name();
+      switch (l.type()) {
+        case proto::LINK_REVOLUTE: link.type = JointType::kRevolute; break;
+        case proto::LINK_PRISMATIC: link.type = JointType::kPrismatic; break;
+        case proto::LINK_SPHERICAL: link.type = JointType::kSpherical; break;
+        case proto::LINK_FIXED: link.type = JointType::kFixed; break;
+        default: fail(l, "type", -1, "link type missing: LINK_REVOLUTE, LINK_PRISMATIC, LINK_SPHERICAL or LINK_FIXED");
+      }
+      link.parent = body_ref(l, "parent", l.parent());
+      link.child = body_ref(l, "child", l.child());
+      if (link.parent == link.child) {
+        fail(l, "child", -1, "a link cannot join body '" + l.child() + "' to itself");
+      }
+      const int previous = parent_link[static_cast<size_t>(link.child)];
+      if (previous >= 0) {
+        fail(l, "child", -1,
+             "link would close a loop: body '" + l.child() + "' is already the child of link '" +
+                 figure_.link(previous).name() + "' (a tree of " + std::to_string(n) + " bodies has " +
+                 std::to_string(n - 1) + " links, each body the child of at most one)");
+      }
+      parent_link[static_cast<size_t>(link.child)] = i;
+      link.anchor_R = vec(l.anchor_m());
+      link.axis_R = vec(l.axis());
+      const bool needs_axis = link.type == JointType::kRevolute || link.type == JointType::kPrismatic;
+      if (needs_axis) {
+        if (!(link.axis_R.norm() > 1e-9)) {
+          fail(l, "axis", -1, "a revolute or prismatic link needs a non-zero axis");
+        }
+        link.axis_R.normalize();
+      }
+      const bool revolute = link.type == JointType::kRevolute;
+      const bool has_deg = l.has_lower_deg() || l.has_upper_deg();
+      const bool has_m = l.has_lower_m() || l.has_upper_m();
+      if (has_deg && !revolute) {
+        fail(l, l.has_lower_deg() ? "lower_deg" : "upper_deg", -1, "angle limits apply to revolute links only");
+      }
+      if (has_m && link.type != JointType::kPrismatic) {
+        fail(l, l.has_lower_m() ? "lower_m" : "upper_m", -1, "length limits apply to prismatic links only");
+      }
+      if (has_deg || has_m) {
+        const bool both = revolute ? (l.has_lower_deg() && l.has_upper_deg()) : (l.has_lower_m() && l.has_upper_m());
+        if (!both) {
+          fail(l, revolute ? "upper_deg" : "upper_m", -1, "give both limits or neither");
+        }
+        link.limited = true;
+        link.lower = revolute ? l.lower_deg() * kDeg : l.lower_m();
+        link.upper = revolute ? l.upper_deg() * kDeg : l.upper_m();
+        if (!(link.lower <= link.upper)) {
+          fail(l, revolute ? "upper_deg" : "upper_m", -1, "upper limit below lower limit");
+        }
+        if (revolute && (link.lower < -std::numbers::pi || link.upper > std::numbers::pi)) {
+          fail(l, "lower_deg", -1, "revolute limits must lie within -180..180 deg");
+        }
+      }
+      link.initial = revolute ? l.initial_deg() * kDeg : l.initial_m();
+      if ((l.initial_deg() != 0.0 && !revolute) || (l.initial_m() != 0.0 && link.type != JointType::kPrismatic)) {
+        fail(l, revolute ? "initial_m" : "initial_deg", -1, "initial position of the wrong unit for this link type");
+      }
+      if (link.limited && (link.initial < link.lower - 1e-12 || link.initial > link.upper + 1e-12)) {
+        fail(l, revolute ? "initial_deg" : "initial_m", -1, "initial position outside the link's limits");
+      }
+      if (l.has_motor()) {
+        const proto::Motor& m = l.motor();
+        if (!revolute) {
+          fail(l, "motor", -1, "only revolute links can carry a servo motor");
+        }
+        const proto::Device& device = device_ref(m, m.bus(), m.id());
+        const auto key = std::make_pair(m.bus(), m.id());
+        auto [owner, fresh] = motor_owner.emplace(key, i);
+        if (!fresh) {
+          fail(m, "id", -1, "motor ID " + std::to_string(m.id()) + " on bus " + std::to_string(m.bus()) +
+                                " is used twice (already driven by link '" + figure_.link(owner->second).name() + "')");
+        }
+        if (!m.model().empty() && m.model() != device.model()) {
+          fail(m, "model", -1, "model '" + m.model() + "' does not match the bus device ID " + std::to_string(m.id()) +
+                                   " ('" + device.model() + "')");
+        }
+        auto params = dc_motor_params(device.model());
+        if (!params) {
+          fail(m, "id", -1, "bus device ID " + std::to_string(m.id()) + " is a '" + device.model() +
+                                "', not a servo with known motor constants");
+        }
+        if (m.has_back_emf_v_s_rad()) params->back_emf_v_s_rad = m.back_emf_v_s_rad();
+        if (m.has_resistance_ohm()) params->resistance_ohm = m.resistance_ohm();
+        if (m.has_torque_constant_nm_a()) params->torque_constant_nm_a = m.torque_constant_nm_a();
+        if (!(params->back_emf_v_s_rad > 0.0 && params->resistance_ohm > 0.0 && params->torque_constant_nm_a > 0.0)) {
+          fail(m, "resistance_ohm", -1, "motor constants must be > 0");
+        }
+        MotorModel motor;
+        motor.bus = m.bus();
+        motor.id = static_cast<uint8_t>(m.id());
+        motor.model = device.model();
+        motor.params = *params;
+        motor.direction = m.reversed() ? -1.0 : 1.0;
+        motor.offset_rad = m.offset_deg() * kDeg;
+        link.motor = static_cast<int>(model_.motors.size());
+        model_.motors.push_back(std::move(motor));
+      }
+      links.push_back(std::move(link));
+    }
+
+    // One root, every body reachable from it.
+    int root = -1;
+    for (int b = 0; b < n; ++b) {
+      if (parent_link[static_cast<size_t>(b)] < 0) {
+        if (root >= 0) {
+          fail(figure_.body(b), "name", -1,
+               "body '" + figure_.body(b).name() + "' is not connected: it is no link's child, and neither is '" +
+                   figure_.body(root).name() + "' (a tree of " + std::to_string(n) + " bodies has one root and " +
+                   std::to_string(n - 1) + " links)");
+        }
+        root = b;
+      }
+    }
+    if (root < 0) {
+      fail(figure_, "link", figure_.link_size() - 1,
+           "the links form a loop: every body is some link's child, so there is no root body");
+    }
+    model_.root = root;
+    std::vector<int> order;
+    std::vector<int> frontier{root};
+    std::vector<bool> reached(static_cast<size_t>(n), false);
+    reached[static_cast<size_t>(root)] = true;
+    while (!frontier.empty()) {
+      std::vector<int> next;
+      for (int parent : frontier) {
+        for (int i = 0; i < static_cast<int>(links.size()); ++i) {
+          if (links[static_cast<size_t>(i)].parent == parent) {
+            order.push_back(i);
+            reached[static_cast<size_t>(links[static_cast<size_t>(i)].child)] = true;
+            next.push_back(links[static_cast<size_t>(i)].child);
+          }
+        }
+      }
+      frontier = std::move(next);
+    }
+    for (int b = 0; b < n; ++b) {
+      if (!reached[static_cast<size_t>(b)]) {
+        const int l = parent_link[static_cast<size_t>(b)];
+        fail(figure_.link(l), "parent", -1,
+             "link would close a loop: body '" + figure_.body(b).name() + "' is part of a cycle that is not connected to the root '" +
+                 figure_.body(root).name() + "'");
+      }
+    }
+    for (int i : order) {
+      LinkModel& link = links[static_cast<size_t>(i)];
+      if (link.motor >= 0) {
+        model_.motors[static_cast<size_t>(link.motor)].link = static_cast<int>(model_.links.size());
+      }
+      model_.links.push_back(std::move(link));
+    }
+  }
+
+  void check_sensor_device(const google::protobuf::Message& m, uint32_t bus, uint32_t id) {
+    device_ref(m, bus, id);
+    if (!sensor_ids_.emplace(bus, id).second) {
+      fail(m, "id", -1, "bus " + std::to_string(bus) + " ID " + std::to_string(id) + " is used by two sensors");
+    }
+  }
+
+  void read_sensors() {
+    for (const proto::Imu& s : figure_.imu()) {
+      check_sensor_device(s, s.bus(), s.id());
+      model_.imus.push_back(ImuModel{s.name(), body_ref(s, "body", s.body()), pose(s.mount()), s.bus(), static_cast<uint8_t>(s.id())});
+    }
+    for (const proto::FootSensor& s : figure_.foot()) {
+      check_sensor_device(s, s.bus(), s.id());
+      FootModel foot;
+      foot.name = s.name();
+      foot.body = body_ref(s, "body", s.body());
+      if (s.cell_m_size() != 4) {
+        fail(s, s.cell_m_size() > 0 ? "cell_m" : "body", s.cell_m_size() > 0 ? s.cell_m_size() - 1 : -1,
+             "a foot has exactly four load cells (FL, FR, BL, BR), got " + std::to_string(s.cell_m_size()));
+      }
+      for (int c = 0; c < 4; ++c) {
+        foot.cell_D[static_cast<size_t>(c)] = vec(s.cell_m(c));
+      }
+      foot.bus = s.bus();
+      foot.id = static_cast<uint8_t>(s.id());
+      model_.feet.push_back(std::move(foot));
+    }
+    for (const proto::CameraMount& s : figure_.camera()) {
+      model_.cameras.push_back(CameraModel{s.name(), body_ref(s, "body", s.body()), pose(s.mount())});
+    }
+  }
+
+  const proto::RobotFile& file_;
+  const proto::RobotDescription& description_;
+  const proto::Figure& figure_;
+  RobotModel model_;
+  std::map<std::string, MaterialSpec> materials_;
+  std::map<std::string, int> body_index_;
+  std::set<std::pair<uint32_t, uint32_t>> sensor_ids_;
+};
+
+}  // namespace
+
+Eigen::Matrix3d rotation_from_rpy_deg(double roll_deg, double pitch_deg, double yaw_deg) {
+  return (Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+RobotModel compile_robot(const proto::RobotFile& file) { return Compiler(file).run(); }
+
+void validate_body(const proto::RobotFile& file) { (void)compile_robot(file); }
+
+std::vector<Eigen::Isometry3d> body_poses(const RobotModel& model, const std::vector<double>& q) {
+  if (q.size() != model.links.size()) {
+    throw std::invalid_argument("body_poses: " + std::to_string(q.size()) + " positions for " +
+                                std::to_string(model.links.size()) + " links");
+  }
+  std::vector<Eigen::Isometry3d> X(model.bodies.size());
+  X[static_cast<size_t>(model.root)] = model.bodies[static_cast<size_t>(model.root)].X_RB;
+  for (size_t i = 0; i < model.links.size(); ++i) {
+    const LinkModel& link = model.links[i];
+    Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+    if (link.type == JointType::kRevolute) {
+      motion = Eigen::Translation3d(link.anchor_R) * Eigen::AngleAxisd(q[i], link.axis_R) * Eigen::Translation3d(-link.anchor_R);
+    } else if (link.type == JointType::kPrismatic) {
+      motion = Eigen::Translation3d(q[i] * link.axis_R);
+    }
+    const BodyModel& parent = model.bodies[static_cast<size_t>(link.parent)];
+    const BodyModel& child = model.bodies[static_cast<size_t>(link.child)];
+    X[static_cast<size_t>(link.child)] = X[static_cast<size_t>(link.parent)] * parent.X_RB.inverse() * motion * child.X_RB;
+  }
+  return X;
+}
+
+}  // namespace doppel::physics
