@@ -10,6 +10,8 @@
 namespace doppel::bus {
 namespace {
 
+constexpr int64_t kWriteRetryNs = 1'000'000;  // retry period while the client's queue is full
+
 int64_t now_ns() noexcept {
   timespec ts{};
   ::clock_gettime(CLOCK_MONOTONIC, &ts);
@@ -67,8 +69,11 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
   if (!schedule_.empty() && !write_blocked_) {
     wait_ns = std::clamp(schedule_.front_due_ns() - now_ns() - options_.spin_ns, int64_t{0}, wait_ns);
   }
+  if (write_blocked_) wait_ns = std::min(wait_ns, kWriteRetryNs);
   const PortWait woke = port_.wait(wait_ns, write_blocked_);
-  if (woke.writable) write_blocked_ = false;
+  // A pty master does not reliably report POLLOUT once the client drains its queue, so a blocked
+  // write is simply retried after every wake-up (at least every kWriteRetryNs).
+  write_blocked_ = false;
   if (woke.readable) read_input();
   if (port_.hung_up()) {
     on_hang_up();

@@ -114,6 +114,7 @@ TEST(ReplySchedule, FullSegmentRingMergesIntoTheLastSegmentLateNotLost) {
   const bool separate = sut.push_segment(5'000, 1);
 
   EXPECT_FALSE(separate);
+  EXPECT_TRUE(sut.can_accept(1));
   EXPECT_EQ(sut.pending_bytes(), bytes.size());
   EXPECT_EQ(drain(sut, 4'999).size(), ReplySchedule::kSegmentCapacity - 1);
   EXPECT_EQ(drain(sut, 5'000).size(), 2u);

@@ -1,0 +1,331 @@
+#include "bus/pty_port.h"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "pty_test_support.h"
+
+namespace doppel::bus {
+namespace {
+
+using namespace std::chrono_literals;
+using testing::open_client;
+using testing::read_available;
+using testing::read_bytes;
+using testing::TempDir;
+using testing::write_all;
+
+constexpr int64_t kSecondNs = 1'000'000'000;
+
+std::string link_target(const std::string& link) {
+  std::error_code ec;
+  return std::filesystem::read_symlink(link, ec).string();
+}
+
+// Reads from the port until `n` bytes came or one second passed.
+std::vector<uint8_t> port_read(PtyPort& port, std::size_t n) {
+  std::vector<uint8_t> out;
+  const auto deadline = std::chrono::steady_clock::now() + 1s;
+  while (out.size() < n && std::chrono::steady_clock::now() < deadline && !port.hung_up()) {
+    port.wait(10'000'000, false);
+    uint8_t buffer[64];
+    const std::size_t got = port.read(buffer, sizeof(buffer));
+    out.insert(out.end(), buffer, buffer + got);
+  }
+  return out;
+}
+
+// Reads until the port reports the hang-up (or one second passed); returns the bytes seen.
+std::vector<uint8_t> port_read_until_hang_up(PtyPort& port) {
+  std::vector<uint8_t> out;
+  const auto deadline = std::chrono::steady_clock::now() + 1s;
+  while (!port.hung_up() && std::chrono::steady_clock::now() < deadline) {
+    port.wait(10'000'000, false);
+    uint8_t buffer[64];
+    const std::size_t got = port.read(buffer, sizeof(buffer));
+    out.insert(out.end(), buffer, buffer + got);
+  }
+  return out;
+}
+
+TEST(PtyPort, CreatesLinkDirectoryAndPointsLinkAtSlave) {
+  TempDir dir;
+  const std::string link = dir.file("nested/dir/ttyDXL0");
+
+  PtyPort sut(link);
+
+  EXPECT_EQ(link_target(link), sut.slave_path());
+  EXPECT_EQ(sut.slave_path().rfind("/dev/pts/", 0), 0u);
+  EXPECT_EQ(sut.link_path(), link);
+}
+
+TEST(PtyPort, ReplacesStaleLink) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string link = dir.file("ttyDXL0");
+  std::filesystem::create_symlink("/dev/pts/does-not-exist", link);
+
+  PtyPort sut(link);
+
+  EXPECT_EQ(link_target(link), sut.slave_path());
+}
+
+TEST(PtyPort, RefusesToReplaceARegularFile) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string path = dir.file("ttyDXL0");
+  std::ofstream(path) << "precious";
+
+  try {
+    PtyPort sut(path);
+    FAIL() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a symbolic link"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  std::ifstream in(path);
+  std::string content;
+  in >> content;
+  EXPECT_EQ(content, "precious");
+}
+
+TEST(PtyPort, RemovesItsLinkOnDestruction) {
+  TempDir dir;
+  const std::string link = dir.file("ttyDXL0");
+
+  { PtyPort sut(link); }
+
+  EXPECT_FALSE(std::filesystem::is_symlink(link));
+}
+
+TEST(PtyPort, LeavesALinkTakenOverByAnotherPort) {
+  TempDir dir;
+  const std::string link = dir.file("ttyDXL0");
+  auto first = std::make_unique<PtyPort>(link);
+  PtyPort second(link);
+
+  first.reset();
+
+  EXPECT_EQ(link_target(link), second.slave_path());
+}
+
+TEST(PtyPort, SlaveIsInRawMode) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+
+  termios tio{};
+  ASSERT_EQ(::tcgetattr(client, &tio), 0);
+
+  EXPECT_EQ(tio.c_lflag & (ECHO | ICANON | ISIG | IEXTEN), 0u);
+  EXPECT_EQ(tio.c_iflag & (ICRNL | IXON | ISTRIP | INLCR | IGNCR), 0u);
+  EXPECT_EQ(tio.c_oflag & OPOST, 0u);
+  EXPECT_EQ(tio.c_cflag & CSIZE, static_cast<tcflag_t>(CS8));
+  ::close(client);
+}
+
+TEST(PtyPort, BytesPassUnchangedBothWays) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  // CR, LF, ^C, XON/XOFF, ^D, DEL and 0xFF: all special to a cooked terminal.
+  const std::vector<uint8_t> awkward{0x0D, 0x0A, 0x03, 0x11, 0x13, 0x04, 0x7F, 0xFF, 0x00};
+
+  ASSERT_TRUE(write_all(client, awkward));
+  const auto at_doppel = port_read(sut, awkward.size());
+  ASSERT_EQ(sut.write(awkward.data(), awkward.size()), awkward.size());
+  const auto at_client = read_bytes(client, awkward.size(), 1s);
+
+  EXPECT_EQ(at_doppel, awkward);
+  EXPECT_EQ(at_client, awkward);
+  ::close(client);
+}
+
+TEST(PtyPort, ReadsBackStandardBaudRateSetByClient) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  termios tio{};
+  ASSERT_EQ(::tcgetattr(client, &tio), 0);
+
+  ASSERT_EQ(::cfsetspeed(&tio, B1000000), 0);
+  ASSERT_EQ(::tcsetattr(client, TCSANOW, &tio), 0);
+  const uint32_t at_1m = sut.line_baud_bps();
+  ASSERT_EQ(::cfsetspeed(&tio, B57600), 0);
+  ASSERT_EQ(::tcsetattr(client, TCSANOW, &tio), 0);
+  const uint32_t at_57k = sut.line_baud_bps();
+
+  EXPECT_EQ(at_1m, 1'000'000u);
+  EXPECT_EQ(at_57k, 57'600u);
+  ::close(client);
+}
+
+TEST(PtyPort, NotConnectedUntilAClientOpens) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+
+  const bool before = sut.poll_client();
+  const bool timed_out = sut.wait_for_client(10'000'000);
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  const bool after = sut.wait_for_client(kSecondNs);
+
+  EXPECT_FALSE(before);
+  EXPECT_FALSE(timed_out);
+  EXPECT_TRUE(after);
+  EXPECT_TRUE(sut.connected());
+  ::close(client);
+}
+
+TEST(PtyPort, WritesNothingWhileNoClientIsConnected) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const uint8_t bytes[] = {1, 2, 3};
+
+  EXPECT_EQ(sut.write(bytes, 3), 0u);
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  EXPECT_TRUE(read_available(client).empty());
+  ::close(client);
+}
+
+TEST(PtyPort, BytesWrittenBeforeCloseAreReadBeforeTheHangUp) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  const std::vector<uint8_t> ping{0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};
+
+  ASSERT_TRUE(write_all(client, ping));
+  ::close(client);
+  const auto seen = port_read_until_hang_up(sut);
+
+  EXPECT_EQ(seen, ping);
+  EXPECT_TRUE(sut.hung_up());
+}
+
+TEST(PtyPort, ClientThatCameAndWentBeforeWeLookedIsStillServed) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const std::vector<uint8_t> broadcast_write{0xFF, 0xFF, 0xFE, 0x04, 0x03, 0x03, 0x01, 0xF6};
+  const int client = open_client(sut.link_path());
+  ASSERT_GE(client, 0);
+  ASSERT_TRUE(write_all(client, broadcast_write));
+  ::close(client);
+
+  const bool connected = sut.wait_for_client(kSecondNs);
+  const auto seen = port_read_until_hang_up(sut);
+
+  EXPECT_TRUE(connected);
+  EXPECT_EQ(seen, broadcast_write);
+}
+
+// The next open starts clean: nothing written for the previous client, read or not, reaches it,
+// and nothing the previous client wrote is read again.
+TEST(PtyPort, NextClientSeesNoStaleBytesAfterReconnect) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int first = open_client(sut.link_path());
+  ASSERT_GE(first, 0);
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  const std::vector<uint8_t> unread_reply{0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC};
+  ASSERT_EQ(sut.write(unread_reply.data(), unread_reply.size()), unread_reply.size());
+  ASSERT_TRUE(write_all(first, {0xFF, 0xFF, 0x01, 0x04}));  // half a READ
+  ::close(first);
+  port_read_until_hang_up(sut);
+  ASSERT_TRUE(sut.hung_up());
+
+  sut.disconnect();
+  const int second = open_client(sut.link_path());
+  ASSERT_GE(second, 0);
+  const bool connected = sut.wait_for_client(kSecondNs);
+  const auto stale_at_client = read_available(second);
+  uint8_t buffer[16];
+  const std::size_t stale_at_doppel = sut.read(buffer, sizeof(buffer));
+  const std::vector<uint8_t> fresh{0xAA, 0x55};
+  ASSERT_EQ(sut.write(fresh.data(), fresh.size()), fresh.size());
+  const auto fresh_at_client = read_bytes(second, 2, 1s);
+
+  EXPECT_TRUE(connected);
+  EXPECT_FALSE(sut.hung_up());
+  EXPECT_TRUE(stale_at_client.empty());
+  EXPECT_EQ(stale_at_doppel, 0u);
+  EXPECT_EQ(fresh_at_client, fresh);
+  ::close(second);
+}
+
+TEST(PtyPort, ClientKilledMidPacketLeavesNoStaleBytes) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const std::vector<uint8_t> partial{0xFF, 0xFF, 0x01, 0x04, 0x02};
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const int fd = open_client(sut.link_path());
+    if (fd < 0 || !write_all(fd, partial)) ::_exit(1);
+    ::pause();  // killed here, port still open, packet unfinished
+    ::_exit(0);
+  }
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  const auto seen = port_read(sut, partial.size());
+  const std::vector<uint8_t> reply_nobody_reads{0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC};
+  ASSERT_EQ(sut.write(reply_nobody_reads.data(), reply_nobody_reads.size()), reply_nobody_reads.size());
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  port_read_until_hang_up(sut);
+  const bool hung_up = sut.hung_up();
+
+  sut.disconnect();
+  const int next = open_client(sut.link_path());
+  ASSERT_GE(next, 0);
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  const auto stale = read_available(next);
+
+  EXPECT_EQ(seen, partial);
+  EXPECT_TRUE(WIFSIGNALED(status));
+  EXPECT_TRUE(hung_up);
+  EXPECT_TRUE(stale.empty());
+  ::close(next);
+}
+
+TEST(PtyPort, RestoresRawModeForTheNextClient) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const int first = open_client(sut.link_path());
+  ASSERT_GE(first, 0);
+  termios cooked{};
+  ASSERT_EQ(::tcgetattr(first, &cooked), 0);
+  cooked.c_lflag |= ECHO | ICANON;
+  ASSERT_EQ(::tcsetattr(first, TCSANOW, &cooked), 0);
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  ::close(first);
+  port_read_until_hang_up(sut);
+
+  sut.disconnect();
+  const int next = open_client(sut.link_path());
+  ASSERT_GE(next, 0);
+  termios tio{};
+  ASSERT_EQ(::tcgetattr(next, &tio), 0);
+
+  EXPECT_EQ(tio.c_lflag & (ECHO | ICANON), 0u);
+  ::close(next);
+}
+
+}  // namespace
+}  // namespace doppel::bus
