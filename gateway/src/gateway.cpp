@@ -30,8 +30,9 @@ void Gateway::start() {
   if (running_.exchange(true)) {
     return;
   }
+  stop_ = false;
   for (auto& robot : robots_) {
-    robot->start(running_);
+    robot->start(stop_);
   }
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");
@@ -41,6 +42,7 @@ void Gateway::start() {
 
 void Gateway::stop() {
   running_ = false;
+  stop_ = true;
   if (simulation_thread_.joinable()) {
     simulation_thread_.join();
   }

@@ -39,6 +39,12 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     file.fail(bus, "baud_bps", -1, "missing baud rate (e.g. 1000000)");
   }
   config.baud_bps = bus.baud_bps();
+  if (bus.has_supply_voltage_v()) {
+    if (!(bus.supply_voltage_v() > 0.0 && bus.supply_voltage_v() <= 30.0)) {
+      file.fail(bus, "supply_voltage_v", -1, "must be in (0, 30] V");
+    }
+    config.supply_voltage_v = bus.supply_voltage_v();
+  }
   if (bus.device_size() == 0) {
     file.fail(bus, "device", -1, "a bus needs at least one device");
   }

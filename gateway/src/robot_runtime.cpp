@@ -6,6 +6,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "dynamixel/device_factory.h"
 #include "gateway/gateway.h"
 
 namespace doppel::gateway {
@@ -16,9 +17,9 @@ uint8_t default_return_delay_raw(const dynamixel::ModelSpec& spec) {
   return static_cast<uint8_t>(rdt != nullptr ? rdt->default_raw : 250);
 }
 
-double no_load_speed_rad_s(const dynamixel::ServoSpec& servo) {
+double no_load_speed_rad_s(const dynamixel::ServoSpec& servo, double supply_voltage_v) {
   // A DC motor's no-load speed grows with its supply voltage.
-  return servo.no_load_speed_rpm * 2.0 * std::numbers::pi / 60.0 * kSupplyVoltageV / servo.nominal_voltage_v;
+  return servo.no_load_speed_rpm * 2.0 * std::numbers::pi / 60.0 * supply_voltage_v / servo.nominal_voltage_v;
 }
 
 const char* protocol_name(dynamixel::Protocol protocol) {
@@ -28,55 +29,39 @@ const char* protocol_name(dynamixel::Protocol protocol) {
 }  // namespace
 
 BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const Options& options) : config_(config) {
-  BusFeedback initial;
   for (const DeviceConfig& device : config.devices) {
     const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
-    uint8_t baud_raw = dynamixel::p1_baud_register(config.baud_bps, spec);
-    uint8_t rdt_raw = device.return_delay_raw.value_or(default_return_delay_raw(spec));
-    switch (spec.kind) {
-      case dynamixel::DeviceKind::kServo: {
-        auto servo = std::make_unique<dynamixel::Protocol1Servo>(spec, device.id, baud_raw, rdt_raw);
-        initial.servos[servos_.size()].voltage_v = kSupplyVoltageV;
-        servos_.push_back(servo.get());
-        joints_.emplace_back(no_load_speed_rad_s(spec.servo));
-        devices_.push_back(std::move(servo));
-        break;
-      }
-      case dynamixel::DeviceKind::kImu: {
-        auto imu = std::make_unique<dynamixel::FumanoidImu>(spec, device.id, baud_raw, rdt_raw);
-        imus_.push_back(imu.get());
-        devices_.push_back(std::move(imu));
-        break;
-      }
-      case dynamixel::DeviceKind::kFootBoard: {
-        auto foot = std::make_unique<dynamixel::FumanoidFootBoard>(spec, device.id, baud_raw, rdt_raw);
-        feet_.push_back(foot.get());
-        devices_.push_back(std::move(foot));
-        break;
-      }
+    devices_.push_back(dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
+                                                        device.return_delay_raw.value_or(default_return_delay_raw(spec))));
+    dynamixel::Device* created = devices_.back().get();
+    if (auto* servo = dynamic_cast<dynamixel::Protocol1Servo*>(created)) {
+      servos_.push_back(servo);
+      joints_.emplace_back(no_load_speed_rad_s(spec.servo, config.supply_voltage_v));
+    } else if (auto* imu = dynamic_cast<dynamixel::FumanoidImu*>(created)) {
+      imus_.push_back(imu);
+    } else if (auto* foot = dynamic_cast<dynamixel::FumanoidFootBoard*>(created)) {
+      feet_.push_back(foot);
     }
-    bus_devices_.add(*devices_.back());
+    bus_devices_.add(*created);
   }
   if (servos_.size() > kMaxServos || imus_.size() > kMaxBoards || feet_.size() > kMaxBoards) {
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
   }
-  feedback_.publish(initial);
-  before_dispatch();
 
   bus::BusServerOptions server_options;
-  server_options.timing = options.timing;
+  server_options.timing_mode = options.timing;
   server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
-  server_options.latency_timer_ms = options.latency_timer_ms;
+  server_options.adapter_latency_ms = options.latency_timer_ms;
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
 }
 
 BusRuntime::~BusRuntime() { join(); }
 
-void BusRuntime::start(const std::atomic<bool>& running) {
-  thread_ = std::thread([this, &running] {
+void BusRuntime::start(const std::atomic<bool>& stop) {
+  thread_ = std::thread([this, &stop] {
     pthread_setname_np(pthread_self(), "doppel-bus");
-    server_->run(running);
+    server_->run(stop);
   });
 }
 
@@ -117,7 +102,7 @@ void BusRuntime::simulate(double dt_s, int64_t sim_time_ns, double foot_force_n)
     servo.position_rad = joints_[i].position_rad();
     servo.velocity_rad_s = joints_[i].velocity_rad_s();
     servo.torque_ratio = 0.0;
-    servo.voltage_v = kSupplyVoltageV;
+    servo.voltage_v = config_.supply_voltage_v;
     servo.temperature_c = 25.0;
   }
   for (std::size_t i = 0; i < imus_.size(); ++i) {
@@ -145,10 +130,10 @@ std::string BusRuntime::describe() const {
 }
 
 std::string BusRuntime::summary() const {
-  const bus::BusDiagnostics& d = server_->diagnostics();
+  const bus::BusDiagnostics d = server_->diagnostics();
   std::ostringstream out;
   out << "  " << port_->link_path() << ": " << d.packets << " packets, " << d.bad_checksums << " bad checksums, "
-      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.reconnects << " client sessions\n";
+      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.connects << " client sessions, " << d.timeouts << " inter-byte timeouts\n";
   return out.str();
 }
 
@@ -158,11 +143,16 @@ RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, c
     buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], link_path(options.link_dir, robot_index, b), options));
     foot_boards_ += buses_.back()->foot_board_count();
   }
+  // Power-on: the sensors' first sample and the servos' Present registers exist before any packet.
+  simulate(0.0, 0);
+  for (auto& bus : buses_) {
+    bus->before_dispatch();
+  }
 }
 
-void RobotRuntime::start(const std::atomic<bool>& running) {
+void RobotRuntime::start(const std::atomic<bool>& stop) {
   for (auto& bus : buses_) {
-    bus->start(running);
+    bus->start(stop);
   }
 }
 

@@ -26,8 +26,6 @@
 
 namespace doppel::gateway {
 
-// Supply voltage of the servos (the thesis robot ran at 14.8-16 V).
-inline constexpr double kSupplyVoltageV = 15.0;
 // Mass the foot boards carry until the physics issue gives the robot a body (the 2011 KidSize
 // robot: 21 servos of 72-125 g plus frame, electronics and battery).
 inline constexpr double kKinematicRobotMassKg = 4.0;
@@ -52,7 +50,7 @@ class BusRuntime final : public bus::DeviceSync {
   BusRuntime(const BusConfig& config, const std::string& link, const Options& options);
   ~BusRuntime() override;
 
-  void start(const std::atomic<bool>& running);
+  void start(const std::atomic<bool>& stop);  // serves until stop is true
   void join();
 
   // bus::DeviceSync, called on the bus thread around every dispatched packet. rt-safe.
@@ -68,7 +66,7 @@ class BusRuntime final : public bus::DeviceSync {
 
  private:
   BusConfig config_;
-  std::vector<std::unique_ptr<dynamixel::Device>> devices_;  // owns every device on the bus
+  std::vector<std::unique_ptr<dynamixel::Protocol1Device>> devices_;  // owns every device on the bus
   std::vector<dynamixel::Protocol1Servo*> servos_;
   std::vector<dynamixel::FumanoidImu*> imus_;
   std::vector<dynamixel::FumanoidFootBoard*> feet_;
@@ -85,7 +83,7 @@ class RobotRuntime {
  public:
   RobotRuntime(const RobotConfig& config, std::size_t robot_index, const Options& options);
 
-  void start(const std::atomic<bool>& running);
+  void start(const std::atomic<bool>& stop);  // serves until stop is true
   void join();
   // Simulation thread: one step. rt-safe.
   void simulate(double dt_s, int64_t sim_time_ns) noexcept;

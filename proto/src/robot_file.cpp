@@ -90,7 +90,11 @@ std::string RobotFile::location(const Message& message, std::string_view field, 
     return path_;
   }
   const FieldDescriptor* descriptor = message.GetDescriptor()->FindFieldByName(std::string(field));
-  if (descriptor != nullptr && node->second.tree != nullptr) {
+  bool present = descriptor != nullptr &&
+                 (descriptor->is_repeated()
+                      ? index >= 0 && index < message.GetReflection()->FieldSize(message, descriptor)
+                      : index < 0);
+  if (present && node->second.tree != nullptr) {
     TextFormat::ParseLocation where = node->second.tree->GetLocation(descriptor, index);
     if (where.line >= 0) {
       return path_ + ":" + position_text(where);

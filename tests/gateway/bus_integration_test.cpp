@@ -78,6 +78,7 @@ TEST_F(MxBus, WrittenGoalIsReachedAndReadBack) {
     position = word(read(1, 36, 2), 5);
   }
   EXPECT_EQ(position, 2560);
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
   EXPECT_EQ(read(1, 46, 1), status(1, 0, {0}));                    // Moving = 0 once there
 }
 
@@ -118,7 +119,8 @@ TEST_F(MxBus, SyncWriteSetsEveryListedServoAndIsNotAnswered) {
 }
 
 TEST_F(MxBus, BulkReadAnswersInListOrder) {
-  Bytes request = p1_instruction(kBroadcast, kBulkRead, {0x00, 2, 3, 0, 2, 1, 0, 1, 2, 0});
+  // Blocks are [length, ID, address] (§1.2): 2 bytes of ID 3, 1 byte of ID 1, 2 bytes of ID 2.
+  Bytes request = p1_instruction(kBroadcast, kBulkRead, {0x00, 2, 3, 0, 1, 1, 0, 2, 2, 0});
   Bytes reply = client_.transact(request, 8 + 7 + 8);
   Bytes expected = status(3, 0, {0x40, 0x01});                     // MX-106: 320
   Bytes second = status(1, 0, {29});                               // MX-28, 1 byte
@@ -223,33 +225,39 @@ TEST_F(MxBus, ImuAndFootBoardReportARobotAtRest) {
   EXPECT_GT(total, 0);
 }
 
-TEST_F(MxBus, ReconnectStartsClean) {
+// The reconnect tests hold no other client open: a port opened twice is one line for both.
+TEST(Reconnect, NextOpenStartsClean) {
+  DoppelProcess doppel({"--robot", "mx-test", "--timing", "fast"});
   {
-    SerialClient first(doppel_.link(), kBaud);
+    SerialClient first(doppel.link(), kBaud);
+    first.send(p1_instruction(2, kPing));                          // a reply this client never reads
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
     first.send({0xFF, 0xFF, 0x01, 0x04});                          // half a READ, then close
-    first.send(p1_instruction(2, kPing));                          // a reply the client never reads
   }
-  client_.drain(20);
-  SerialClient second(doppel_.link(), kBaud);
-  ::write(second.fd(), p1_instruction(1, kPing).data(), 6);        // no flush: stale bytes would show
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  SerialClient second(doppel.link(), kBaud);
+  Bytes ping = p1_instruction(1, kPing);
+  ASSERT_EQ(::write(second.fd(), ping.data(), ping.size()), 6);    // no flush: stale bytes would show
   EXPECT_EQ(second.receive(6, 200), status(1, 0));
   EXPECT_TRUE(second.drain(50).empty());
 }
 
-TEST_F(MxBus, ClientKilledMidPacketLeavesTheBusWorking) {
-  std::string port = doppel_.link();
-  pid_t child = fork();
-  if (child == 0) {
-    SerialClient dying(port, kBaud);
-    dying.send({0xFF, 0xFF, 0x03, 0x04, 0x02});
-    kill(getpid(), SIGKILL);
-  }
-  int wait_status = 0;
-  waitpid(child, &wait_status, 0);
-  ASSERT_TRUE(WIFSIGNALED(wait_status));
-  for (int i = 0; i < 3; ++i) {
+TEST(Reconnect, ClientKilledMidPacketLeavesTheBusWorking) {
+  DoppelProcess doppel({"--robot", "mx-test", "--timing", "fast"});
+  std::string port = doppel.link();
+  for (int session = 0; session < 3; ++session) {
+    pid_t child = fork();
+    if (child == 0) {
+      SerialClient dying(port, kBaud);
+      dying.send({0xFF, 0xFF, 0x03, 0x04, 0x02});
+      kill(getpid(), SIGKILL);
+    }
+    int wait_status = 0;
+    waitpid(child, &wait_status, 0);
+    ASSERT_TRUE(WIFSIGNALED(wait_status));
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
     SerialClient next(port, kBaud);
-    EXPECT_EQ(next.transact(p1_instruction(3, kPing), 6), status(3, 0)) << "session " << i;
+    EXPECT_EQ(next.transact(p1_instruction(3, kPing), 6), status(3, 0)) << "session " << session;
   }
 }
 

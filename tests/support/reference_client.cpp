@@ -36,8 +36,14 @@ void set_raw_speed(int fd, uint32_t baud_bps) {
 }  // namespace
 
 Bytes p1_instruction(uint8_t id, uint8_t instruction, const Bytes& params) {
-  Bytes packet{0xFF, 0xFF, id, static_cast<uint8_t>(params.size() + 2), instruction};
-  packet.insert(packet.end(), params.begin(), params.end());
+  Bytes packet;
+  packet.reserve(params.size() + 6);
+  for (uint8_t byte : {uint8_t{0xFF}, uint8_t{0xFF}, id, static_cast<uint8_t>(params.size() + 2), instruction}) {
+    packet.push_back(byte);
+  }
+  for (uint8_t byte : params) {
+    packet.push_back(byte);
+  }
   unsigned sum = 0;
   for (std::size_t i = 2; i < packet.size(); ++i) {
     sum += packet[i];

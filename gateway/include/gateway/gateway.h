@@ -38,7 +38,8 @@ class Gateway {
 
   Options options_;
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
-  std::atomic<bool> running_{false};
+  std::atomic<bool> running_{false};  // the simulation thread runs
+  std::atomic<bool> stop_{false};     // tells the bus threads to stop
   std::thread simulation_thread_;
   uint64_t missed_ticks_ = 0;
 };

@@ -23,6 +23,7 @@ struct BusConfig {
   std::string name;                              // label
   uint32_t baud_bps = 1000000;                   // rate the devices listen at
   dynamixel::Protocol protocol = dynamixel::Protocol::kV1;
+  double supply_voltage_v = 15.0;                // servo supply, V
   std::vector<DeviceConfig> devices;             // in file order
 };
 
