@@ -133,7 +133,8 @@ std::string BusRuntime::summary() const {
   const bus::BusDiagnostics d = server_->diagnostics();
   std::ostringstream out;
   out << "  " << port_->link_path() << ": " << d.packets << " packets, " << d.bad_checksums << " bad checksums, "
-      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.connects << " client sessions, " << d.timeouts << " inter-byte timeouts\n";
+      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.connects << " client sessions, " << d.timeouts << " inter-byte timeouts, " << d.late_deliveries
+      << " late deliveries (worst " << static_cast<double>(d.max_lateness_ns) / 1000.0 << " us)\n";
   return out.str();
 }
 
