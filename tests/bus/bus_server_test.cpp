@@ -287,19 +287,21 @@ TEST(BusServer, SyncHooksSurroundEveryDispatch) {
   servo.log = &log;
   RecordingSync sync;
   sync.log = &log;
-  ServedBus sut(fast(), {&servo}, &sync);
-  const int client = open_sdk_client(sut.path());
-  ASSERT_GE(client, 0);
-
-  Bytes two_pings = kPing1;
-  two_pings.insert(two_pings.end(), kPing1.begin(), kPing1.end());
-  ASSERT_TRUE(write_all(client, two_pings));
-  const Bytes replies = read_bytes(client, 12, 1s);
-  ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.packets == 2; }));
+  Bytes replies;
+  {
+    ServedBus sut(fast(), {&servo}, &sync);
+    const int client = open_sdk_client(sut.path());
+    ASSERT_GE(client, 0);
+    Bytes two_pings = kPing1;
+    two_pings.insert(two_pings.end(), kPing1.begin(), kPing1.end());
+    ASSERT_TRUE(write_all(client, two_pings));
+    replies = read_bytes(client, 12, 1s);
+    ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.packets == 2; }));
+    ::close(client);
+  }  // joins the bus thread, so its writes to `log` are visible here
 
   EXPECT_EQ(replies.size(), 12u);
   EXPECT_EQ(log, "bhabha");
-  ::close(client);
 }
 
 TEST(BusServer, NextClientStartsCleanAfterPreviousLeftWithoutReading) {
