@@ -294,7 +294,8 @@ uint32_t p1_baud_bps(uint8_t raw, bool mx_codes) noexcept {
 uint8_t p1_baud_register(uint32_t bps, const ModelSpec& model) {
   int best = -1;
   double best_error = 0.0;
-  for (int raw = 0; raw <= 254; ++raw) {
+  // Value 0 (2 Mbps) is listed for the MX series only (reference §3.2); AX/RX top out at 1 Mbps.
+  for (int raw = model.mx_baud_codes ? 0 : 1; raw <= 254; ++raw) {
     const double rate = p1_baud_bps(static_cast<uint8_t>(raw), model.mx_baud_codes);
     const double error = std::abs(rate - bps) / static_cast<double>(bps == 0 ? 1 : bps);
     if (best < 0 || error < best_error) {
