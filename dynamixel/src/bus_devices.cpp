@@ -69,6 +69,7 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     }
     ++listeners;
     sender_ids_[i] = d.id();
+    sender_delays_us_[i] = d.return_delay_us();
     d.handle(packet, r);
     if (r.transmits) {
       order_[transmitting++] = static_cast<uint8_t>(i);
@@ -104,14 +105,14 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     Response& base = responses_[first];
     OutgoingStatus& o = outgoing_[out++];
     o.device_id = sender_ids_[first];
-    o.return_delay_us = devices_[first]->return_delay_us();
+    o.return_delay_us = sender_delays_us_[first];
     o.after_previous = base.timing == ReplyTiming::kAfterPrevious;
     o.collision = false;
     ++k;
     while (k < transmitting && reply_slot(responses_[order_[k]]) == slot) {
       const uint8_t other = order_[k];
       wired_and(base.status, responses_[other].status);
-      o.return_delay_us = std::min(o.return_delay_us, devices_[other]->return_delay_us());
+      o.return_delay_us = std::min(o.return_delay_us, sender_delays_us_[other]);
       o.collision = true;
       ++k;
     }

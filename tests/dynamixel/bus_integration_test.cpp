@@ -136,6 +136,16 @@ TEST_F(BusIntegration, BaudChangeAnswersAtTheOldRate) {
   EXPECT_EQ(sut.dispatch(make_packet(5, instruction::kPing), k1Mbps).size(), 1u);
 }
 
+TEST_F(BusIntegration, ReturnDelayChangeAppliesFromTheNextPacket) {
+  sut.add(mx2);  // Return Delay Time 10 = 20 us
+
+  const auto out = sut.dispatch(make_packet(2, instruction::kWrite, {p1::kReturnDelayTime, 100}), k1Mbps);
+
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].return_delay_us, 20u);
+  EXPECT_EQ(sut.dispatch(make_packet(2, instruction::kPing), k1Mbps)[0].return_delay_us, 200u);
+}
+
 TEST_F(BusIntegration, BroadcastResetIsSilentAndResetsAll) {
   sut.add(mx2);
   sut.add(mx3);

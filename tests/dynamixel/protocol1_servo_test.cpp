@@ -531,6 +531,20 @@ TEST(Protocol1ServoConditions, SustainedSaturationIsOverload) {
   EXPECT_EQ(sut.register_raw(p1::kTorqueEnable), 0);  // Alarm Shutdown default 36 includes overload
 }
 
+TEST(Protocol1ServoConditions, OverloadAndOverheatingTogetherAsInReference) {
+  auto sut = make_servo("RX-64");
+  ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kTorqueEnable, 1}))[4], 0);
+  ServoFeedback f = at(0.0);
+  f.torque_ratio = -1.0;
+  sut.apply(f);
+  f.sim_time_ns = Protocol1Servo::kOverloadHoldNs;
+  f.temperature_c = 85.0;
+  sut.apply(f);
+
+  // Reference §1.4 example: FF FF 01 02 24 D8 = ID 1, overload + overheating.
+  EXPECT_EQ(transact(sut, make_packet(1, instruction::kPing)), (Bytes{0xFF, 0xFF, 0x01, 0x02, 0x24, 0xD8}));
+}
+
 TEST(Protocol1ServoConditions, ShutdownMaskZeroKeepsTorque) {
   auto sut = make_servo("RX-28");
   ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kAlarmShutdown, 0}))[4], 0);

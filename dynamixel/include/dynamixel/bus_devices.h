@@ -56,6 +56,7 @@ class BusDevices {
   std::array<Response, kMaxDevices> responses_{};
   std::array<OutgoingStatus, kMaxDevices> outgoing_{};
   std::array<uint8_t, kMaxDevices> sender_ids_{};   // ID of each device before it handled the packet
+  std::array<uint32_t, kMaxDevices> sender_delays_us_{};  // its Return Delay Time before the packet
   std::array<uint8_t, kMaxDevices> order_{};        // transmitting devices sorted by reply slot
   BusDeviceCounters counters_{};
 };
