@@ -104,6 +104,7 @@ void BusRuntime::simulate(double dt_s, int64_t sim_time_ns, double foot_force_n)
     servo.torque_ratio = 0.0;
     servo.voltage_v = config_.supply_voltage_v;
     servo.temperature_c = 25.0;
+    servo.sim_time_ns = sim_time_ns;
   }
   for (std::size_t i = 0; i < imus_.size(); ++i) {
     feedback.imus[i] = dynamixel::ImuFeedback{};
