@@ -1,0 +1,131 @@
+// The real-time path allocates nothing: after setup, BusServer serving a bus of real servo models
+// (reads, writes, REG_WRITE/ACTION, SYNC WRITE, BULK READ, bad checksums, garbage) calls no
+// operator new on its thread. Its own executable, because it replaces the global operator new.
+#include <termios.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <memory>
+#include <new>
+#include <vector>
+
+#include "bus/bus_server.h"
+#include "dynamixel/bus_devices.h"
+#include "dynamixel/device_factory.h"
+#include "pty_test_support.h"
+
+namespace {
+
+thread_local bool counting = false;
+std::atomic<uint64_t> allocations{0};
+
+}  // namespace
+
+void* operator new(std::size_t size) {
+  if (counting) {
+    allocations.fetch_add(1, std::memory_order_relaxed);
+  }
+  if (void* p = std::malloc(size == 0 ? 1 : size)) {
+    return p;
+  }
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace doppel::bus {
+namespace {
+
+using testing::open_client;
+using testing::read_bytes;
+using testing::TempDir;
+using testing::write_all;
+
+// Reference §1.1 framing, built here rather than with Doppel's encoder.
+std::vector<uint8_t> packet(uint8_t id, uint8_t instruction, const std::vector<uint8_t>& params) {
+  std::vector<uint8_t> bytes(5 + params.size());
+  bytes[0] = 0xFF;
+  bytes[1] = 0xFF;
+  bytes[2] = id;
+  bytes[3] = static_cast<uint8_t>(params.size() + 2);
+  bytes[4] = instruction;
+  std::copy(params.begin(), params.end(), bytes.begin() + 5);
+  unsigned sum = 0;
+  for (std::size_t i = 2; i < bytes.size(); ++i) sum += bytes[i];
+  bytes.push_back(static_cast<uint8_t>(~sum));
+  return bytes;
+}
+
+class CountingSync final : public DeviceSync {
+ public:
+  explicit CountingSync(std::vector<dynamixel::Protocol1Device*> devices) : devices_(std::move(devices)) {}
+  void before_dispatch() noexcept override { ++calls_; }
+  void after_dispatch() noexcept override {
+    for (dynamixel::Protocol1Device* device : devices_) checksum_ += device->register_raw(36);
+  }
+
+ private:
+  std::vector<dynamixel::Protocol1Device*> devices_;
+  uint64_t calls_ = 0;
+  uint64_t checksum_ = 0;
+};
+
+TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
+  TempDir dir;
+  PtyPort port(dir.file("ttyDXL0"));
+  dynamixel::BusDevices devices;
+  std::vector<std::unique_ptr<dynamixel::Protocol1Device>> owned;
+  for (uint8_t id : {1, 2, 3}) {
+    owned.push_back(dynamixel::make_protocol1_device("MX-28", id, 1000000));
+    devices.add(*owned.back());
+  }
+  CountingSync sync({owned[0].get(), owned[1].get(), owned[2].get()});
+  BusServerOptions options;
+  options.timing_mode = TimingMode::kFast;
+  BusServer sut(port, devices, options, &sync);
+
+  int client = open_client(port.link_path());
+  ASSERT_GE(client, 0);
+  termios tio{};
+  ASSERT_EQ(tcgetattr(client, &tio), 0);
+  cfmakeraw(&tio);
+  cfsetspeed(&tio, B1000000);  // the servos listen at 1 Mbps
+  ASSERT_EQ(tcsetattr(client, TCSANOW, &tio), 0);
+  const std::vector<std::vector<uint8_t>> traffic = {
+      packet(1, 0x01, {}),                                         // PING
+      packet(2, 0x02, {36, 2}),                                    // READ
+      packet(3, 0x03, {30, 0x00, 0x08}),                           // WRITE
+      packet(1, 0x04, {30, 0x10, 0x08}),                           // REG_WRITE
+      packet(0xFE, 0x05, {}),                                      // ACTION
+      packet(0xFE, 0x83, {30, 2, 1, 0x00, 0x08, 2, 0x00, 0x08}),   // SYNC WRITE
+      packet(0xFE, 0x92, {0x00, 2, 1, 36, 2, 2, 36, 2, 3, 36}),    // BULK READ
+      {0xFF, 0xFF, 0x01, 0x04, 0x02, 0x24, 0x02, 0x00},            // bad checksum
+      {0x00, 0x13, 0xFF, 0x42},                                    // garbage
+  };
+  // Warm up: the first session's set-up may allocate (it is not per packet).
+  ASSERT_TRUE(write_all(client, traffic[0]));
+  for (int i = 0; i < 50; ++i) sut.run_once(1'000'000);
+  read_bytes(client, 6, std::chrono::milliseconds(100));
+
+  uint64_t served = 0;
+  for (int round = 0; round < 200; ++round) {
+    for (const auto& bytes : traffic) {
+      ASSERT_TRUE(write_all(client, bytes));
+      counting = true;
+      for (int i = 0; i < 4; ++i) sut.run_once(200'000);
+      counting = false;
+      served += testing::read_available(client).size();
+    }
+  }
+  ::close(client);
+  // PING 6 + READ 8 + WRITE 6 + REG_WRITE 6 + BULK READ 3 x 8 + bad-checksum status 6 per round.
+  EXPECT_EQ(served, 200u * (6 + 8 + 6 + 6 + 24 + 6));
+  EXPECT_GT(sut.diagnostics().packets, 1000u);
+  EXPECT_EQ(allocations.load(), 0u) << "operator new called on the bus thread while serving packets";
+}
+
+}  // namespace
+}  // namespace doppel::bus
