@@ -1,0 +1,114 @@
+#pragma once
+// Zero-copy frame publishing through iceoryx: each frame is rendered straight into a loaned
+// shared-memory chunk and published; subscribers read the same memory. StreamingHost brings up
+// iceoryx for this process: it starts RouDi inside the process (sized from the cameras) or, when a
+// RouDi already runs on the machine (an iox-roudi or another doppel), attaches to that one and says
+// so. CameraStream is one camera's publisher. iceoryx types stay out of this header.
+//
+// Services: ("DoppelCamera", <camera name>, "frames") carries frames, ("DoppelCamera", <name>,
+// "info") a CameraInfo with history 1 for discovery.
+
+#include <Eigen/Geometry>
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "camera/camera_config.h"
+#include "camera/noise.h"
+#include "physics/scene_view.h"
+
+namespace doppel::camera {
+
+enum class RouDiMode : uint8_t {
+  kAuto,       // use a RouDi already running on this machine, else start one in this process
+  kInProcess,  // start RouDi in this process; fail if one already runs
+  kExternal,   // use a running RouDi; fail if there is none
+};
+
+struct StreamingOptions {
+  RouDiMode roudi = RouDiMode::kAuto;  // see RouDiMode
+  std::string runtime_name;            // iceoryx application name; empty = "doppel-<pid>"
+  uint32_t chunks_per_camera = 32;     // frame chunks per camera in the in-process RouDi's pools
+  double introspection_timeout_s = 3.0;  // external RouDi: how long to wait for its mempool report
+};
+
+// Published once per camera on ("DoppelCamera", name, "info"), for `doppel-camera list`.
+struct CameraInfo {
+  char name[64] = {};           // camera name, NUL-terminated
+  char body[64] = {};           // body it is mounted on ("" for a world mount)
+  uint32_t format = 0;          // PixelFormat
+  int32_t width_px = 0;         // resolution
+  int32_t height_px = 0;
+  double fps = 0.0;             // frame rate, 1/s of simulation time
+  LensConfig lens;              // intrinsics
+  uint32_t payload_bytes = 0;   // chunk payload per frame
+  int32_t pid = 0;              // publishing process
+};
+
+class StreamingHost {
+ public:
+  // Brings up iceoryx for `cameras` (pools sized from them). Throws std::runtime_error with the
+  // reason (RouDi already running in kInProcess, none in kExternal, an external RouDi's pools too
+  // small for a camera, /dev/shm too small) and std::logic_error when a host already exists in this
+  // process. Setup code.
+  explicit StreamingHost(const std::vector<CameraConfig>& cameras, const StreamingOptions& options = {});
+  ~StreamingHost();
+  StreamingHost(const StreamingHost&) = delete;
+  StreamingHost& operator=(const StreamingHost&) = delete;
+
+  bool roudi_in_process() const noexcept;
+  // One line for the log: which RouDi is used and, in-process, the pool sizes.
+  const std::string& description() const noexcept;
+  // Largest frame payload a camera may loan from the pools in use.
+  uint64_t max_payload_bytes() const noexcept;
+  // True while a StreamingHost exists in this process.
+  static bool exists() noexcept;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+struct StreamStats {
+  uint64_t published = 0;        // frames handed to iceoryx
+  uint64_t dropped = 0;          // frames due but not delivered: no free chunk
+  uint64_t skipped_idle = 0;     // frames not rendered because nobody subscribed
+  double last_render_ms = 0.0;   // wall time of the last render
+};
+
+class CameraStream {
+ public:
+  // Creates the camera's publisher and renderer. Throws std::invalid_argument for a bad config and
+  // std::runtime_error when its frame does not fit the pools or another process publishes the same
+  // camera name. The host must outlive the stream.
+  CameraStream(StreamingHost& host, const CameraConfig& config);
+  ~CameraStream();
+  CameraStream(const CameraStream&) = delete;
+  CameraStream& operator=(const CameraStream&) = delete;
+
+  // Loans a chunk, renders `scene` seen from X_WC into it and publishes it, stamped with
+  // `sim_time_s`. Returns true when a frame was published; false when nobody subscribes (nothing is
+  // rendered) or no chunk was free (the frame is dropped for everyone and counted). Never blocks on
+  // subscribers. Called by the camera thread at the camera's rate; allocates nothing after the
+  // first frame.
+  bool render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC, double sim_time_s);
+
+  // Changes the noise filters from any thread; the next frame uses them. Throws
+  // std::invalid_argument for out-of-range values.
+  void set_noise(const NoiseConfig& noise);
+
+  bool has_subscribers() const noexcept;
+  StreamStats stats() const noexcept;
+  const CameraConfig& config() const noexcept;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace doppel::camera

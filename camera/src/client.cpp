@@ -1,0 +1,181 @@
+#include "camera/client.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+#include <thread>
+
+#include "iceoryx_hoofs/log/logmanager.hpp"
+#include "iceoryx_posh/mepoo/chunk_header.hpp"
+#include "iceoryx_posh/popo/untyped_subscriber.hpp"
+#include "iceoryx_posh/popo/wait_set.hpp"
+#include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "iceoryx_posh/runtime/service_discovery.hpp"
+#include "iox_support.h"
+
+namespace doppel::camera {
+
+bool roudi_running() { return detail::roudi_lock_held(); }
+
+void connect_client(const std::string& app_name) {
+  if (detail::g_host_alive.load() || detail::g_client_runtime.load()) return;
+  if (!detail::roudi_lock_held()) {
+    throw std::runtime_error("no RouDi runs on this machine: start doppel (or iox-roudi) first");
+  }
+  iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn);
+  const std::string name = app_name + "-" + std::to_string(::getpid());
+  iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+  detail::g_client_runtime = true;
+}
+
+std::vector<CameraInfo> list_cameras(double timeout_s) {
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(timeout_s));
+  std::vector<std::string> names;
+  {
+    iox::runtime::ServiceDiscovery discovery;
+    do {
+      names.clear();
+      discovery.findService(
+          detail::id(detail::kServiceId), iox::capro::Wildcard, detail::id(detail::kInfoEvent),
+          [&names](const iox::capro::ServiceDescription& s) { names.emplace_back(s.getInstanceIDString().c_str()); },
+          iox::popo::MessagingPattern::PUB_SUB);
+      if (!names.empty()) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    } while (std::chrono::steady_clock::now() < deadline);
+  }
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  std::vector<CameraInfo> out;
+  for (const std::string& name : names) {
+    iox::popo::SubscriberOptions options;
+    options.queueCapacity = 1;
+    options.historyRequest = 1;
+    iox::popo::UntypedSubscriber sub(detail::service(name, detail::kInfoEvent), options);
+    const auto until = std::max(deadline, std::chrono::steady_clock::now() + std::chrono::milliseconds(300));
+    bool got = false;
+    while (!got && std::chrono::steady_clock::now() < until) {
+      sub.take().and_then([&](const void* payload) {
+        const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
+        if (chunk->userPayloadSize() >= sizeof(CameraInfo)) {
+          CameraInfo info;
+          std::memcpy(&info, payload, sizeof(CameraInfo));
+          info.name[sizeof(info.name) - 1] = '\0';
+          info.body[sizeof(info.body) - 1] = '\0';
+          out.push_back(info);
+          got = true;
+        }
+        sub.release(payload);
+      });
+      if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  }
+  return out;
+}
+
+Frame::Frame(std::shared_ptr<void> port, const FrameHeader* header) noexcept
+    : port_(std::move(port)), header_(header) {}
+
+Frame::Frame(Frame&& other) noexcept : port_(std::move(other.port_)), header_(other.header_) {
+  other.header_ = nullptr;
+}
+
+Frame& Frame::operator=(Frame&& other) noexcept {
+  if (this != &other) {
+    release();
+    port_ = std::move(other.port_);
+    header_ = other.header_;
+    other.header_ = nullptr;
+  }
+  return *this;
+}
+
+Frame::~Frame() { release(); }
+
+void Frame::release() noexcept {
+  if (port_ && header_ != nullptr) static_cast<iox::popo::UntypedSubscriber*>(port_.get())->release(header_);
+  header_ = nullptr;
+  port_.reset();
+}
+
+struct FrameSubscriber::Impl {
+  std::shared_ptr<iox::popo::UntypedSubscriber> sub;
+  std::unique_ptr<iox::popo::WaitSet<>> waitset;
+  SubscriberStats stats;
+  bool have_last = false;
+  uint64_t last_sequence = 0;
+};
+
+FrameSubscriber::FrameSubscriber(const std::string& camera, const SubscriberOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (!detail::g_host_alive.load() && !detail::g_client_runtime.load()) {
+    throw std::logic_error("FrameSubscriber: call connect_client() first");
+  }
+  if (options.queue_capacity < 1 || options.queue_capacity > 64) {
+    throw std::invalid_argument("SubscriberOptions.queue_capacity must lie in 1..64");
+  }
+  iox::popo::SubscriberOptions o;
+  o.queueCapacity = options.queue_capacity;
+  o.historyRequest = options.latest_on_connect ? 1 : 0;
+  o.queueFullPolicy = iox::popo::QueueFullPolicy::DISCARD_OLDEST_DATA;
+  impl_->sub = std::make_shared<iox::popo::UntypedSubscriber>(detail::service(camera, detail::kFramesEvent), o);
+}
+
+FrameSubscriber::~FrameSubscriber() {
+  if (impl_->waitset) impl_->waitset->detachState(*impl_->sub, iox::popo::SubscriberState::HAS_DATA);
+  impl_->waitset.reset();
+}
+
+std::optional<Frame> FrameSubscriber::try_take() noexcept {
+  Impl& s = *impl_;
+  for (;;) {
+    auto taken = s.sub->take();
+    if (taken.has_error()) return std::nullopt;
+    const void* payload = taken.value();
+    const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
+    const auto* header = static_cast<const FrameHeader*>(payload);
+    if (!frame_valid(header, chunk->userPayloadSize())) {
+      ++s.stats.invalid;
+      s.sub->release(payload);
+      continue;
+    }
+    if (s.have_last && header->sequence > s.last_sequence + 1) s.stats.missed += header->sequence - s.last_sequence - 1;
+    s.have_last = true;
+    s.last_sequence = header->sequence;
+    ++s.stats.received;
+    return Frame(std::static_pointer_cast<void>(s.sub), header);
+  }
+}
+
+std::optional<Frame> FrameSubscriber::wait_take(double timeout_s) noexcept {
+  Impl& s = *impl_;
+  if (auto frame = try_take()) return frame;
+  if (!s.waitset) {
+    s.waitset = std::make_unique<iox::popo::WaitSet<>>();
+    if (s.waitset->attachState(*s.sub, iox::popo::SubscriberState::HAS_DATA).has_error()) {
+      s.waitset.reset();
+      return std::nullopt;
+    }
+  }
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(timeout_s));
+  for (;;) {
+    const auto left = std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0.0) return try_take();
+    s.waitset->timedWait(iox::units::Duration::fromNanoseconds(static_cast<uint64_t>(left * 1e9)));
+    if (auto frame = try_take()) return frame;
+  }
+}
+
+bool FrameSubscriber::connected() const noexcept {
+  return impl_->sub->getSubscriptionState() == iox::SubscribeState::SUBSCRIBED;
+}
+
+SubscriberStats FrameSubscriber::stats() const noexcept { return impl_->stats; }
+
+}  // namespace doppel::camera

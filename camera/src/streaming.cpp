@@ -1,0 +1,376 @@
+#include "camera/streaming.h"
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <new>
+#include <stdexcept>
+#include <thread>
+
+#include "camera/frame.h"
+#include "camera/renderer.h"
+#include "iceoryx_hoofs/log/logmanager.hpp"
+#include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
+#include "iceoryx_posh/iceoryx_posh_config.hpp"
+#include "iceoryx_posh/iceoryx_posh_types.hpp"
+#include "iceoryx_posh/internal/roudi/roudi.hpp"
+#include "iceoryx_posh/mepoo/chunk_settings.hpp"
+#include "iceoryx_posh/popo/subscriber.hpp"
+#include "iceoryx_posh/popo/untyped_publisher.hpp"
+#include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
+#include "iceoryx_posh/roudi/introspection_types.hpp"
+#include "iceoryx_posh/runtime/posh_runtime.hpp"
+#include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
+#include "iceoryx_posh/runtime/service_discovery.hpp"
+#include "iox_support.h"
+
+namespace doppel::camera {
+namespace detail {
+
+std::atomic<bool> g_host_alive{false};
+std::atomic<bool> g_client_runtime{false};
+
+iox::capro::IdString_t id(const std::string& text) { return iox::capro::IdString_t(iox::cxx::TruncateToCapacity, text); }
+
+iox::capro::ServiceDescription service(const std::string& camera, const char* event) {
+  return iox::capro::ServiceDescription(id(kServiceId), id(camera), id(event));
+}
+
+bool roudi_lock_held() {
+  const std::string path =
+      std::string(iox::platform::IOX_LOCK_FILE_PATH_PREFIX) + iox::roudi::ROUDI_LOCK_NAME + ".lock";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;  // never created: no RouDi has run since boot
+  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // also drops the lock if we just took it
+  return held;
+}
+
+bool service_offered(const std::string& camera, const char* event) {
+  iox::runtime::ServiceDiscovery discovery;
+  bool found = false;
+  discovery.findService(
+      id(kServiceId), id(camera), id(event),
+      [&found](const iox::capro::ServiceDescription&) { found = true; }, iox::popo::MessagingPattern::PUB_SUB);
+  return found;
+}
+
+}  // namespace detail
+
+namespace {
+
+constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
+
+int64_t now_ns(clockid_t clock) noexcept {
+  timespec ts{};
+  clock_gettime(clock, &ts);
+  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
+uint32_t align64(uint64_t n) { return static_cast<uint32_t>((n + 63) / 64 * 64); }
+
+// Largest chunk payload of the running RouDi's pools that this process may write to, from RouDi's
+// mempool introspection topic; 0 when nothing arrives in time.
+uint64_t external_max_payload(double timeout_s) {
+  iox::popo::SubscriberOptions options;
+  options.queueCapacity = 1;
+  options.historyRequest = 1;
+  iox::popo::Subscriber<iox::roudi::MemPoolIntrospectionInfoContainer> sub(iox::roudi::IntrospectionMempoolService,
+                                                                          options);
+  const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < deadline) {
+    uint64_t best_mine = 0;
+    uint64_t best_any = 0;
+    bool got = false;
+    sub.take().and_then([&](auto& sample) {
+      got = true;
+      for (const auto& segment : *sample) {
+        uint64_t seg_max = 0;
+        for (const auto& pool : segment.m_mempoolInfo) seg_max = std::max<uint64_t>(seg_max, pool.m_chunkPayloadSize);
+        best_any = std::max(best_any, seg_max);
+        if (segment.m_writerGroupName == group) best_mine = std::max(best_mine, seg_max);
+      }
+    });
+    if (got) return best_mine > 0 ? best_mine : best_any;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return 0;
+}
+
+}  // namespace
+
+struct StreamingHost::Impl {
+  bool in_process = false;
+  std::string description;
+  uint64_t max_payload = 0;
+  std::unique_ptr<iox::roudi::IceOryxRouDiComponents> components;
+  std::unique_ptr<iox::roudi::RouDi> roudi;
+  std::unique_ptr<iox::runtime::PoshRuntimeSingleProcess> runtime;
+
+  ~Impl() {
+    runtime.reset();
+    roudi.reset();
+    components.reset();
+  }
+};
+
+StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const StreamingOptions& options) {
+  if (detail::g_host_alive.exchange(true)) {
+    throw std::logic_error("StreamingHost: only one may exist per process");
+  }
+  try {
+    for (const CameraConfig& c : cameras) validate(c);
+    if (options.chunks_per_camera < 4 || options.chunks_per_camera > 1024) {
+      throw std::invalid_argument("StreamingOptions.chunks_per_camera must lie in 4..1024");
+    }
+    if (detail::g_client_runtime.load()) {
+      throw std::logic_error("StreamingHost: this process already registered with RouDi as a client");
+    }
+    iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn);
+    impl_ = std::make_unique<Impl>();
+    const std::string name =
+        options.runtime_name.empty() ? "doppel-" + std::to_string(::getpid()) : options.runtime_name;
+    const bool running = detail::roudi_lock_held();
+    if (running && options.roudi == RouDiMode::kInProcess) {
+      throw std::runtime_error("a RouDi already runs on this machine (an iox-roudi or another doppel); "
+                               "use the external RouDi or stop it first");
+    }
+    if (!running && options.roudi == RouDiMode::kExternal) {
+      throw std::runtime_error("no RouDi runs on this machine: start iox-roudi first or let doppel start its own");
+    }
+    uint64_t largest_frame = 0;
+    for (const CameraConfig& c : cameras) largest_frame = std::max<uint64_t>(largest_frame, frame_payload_bytes(c));
+
+    if (!running) {
+      // Pools: small ones for info topics and other users, then one pool per distinct frame size.
+      std::map<uint32_t, uint32_t> pools = {{128, 1024}, {1024, 512}, {16384, 128}, {131072, 16}};
+      for (const CameraConfig& c : cameras) pools[align64(frame_payload_bytes(c))] += options.chunks_per_camera;
+      iox::mepoo::MePooConfig mepoo;
+      uint64_t data_bytes = 0;
+      std::string sizes;
+      for (const auto& [size, count] : pools) {
+        mepoo.addMemPool({size, count});
+        data_bytes += (uint64_t{size} + 128) * count;
+        impl_->max_payload = std::max<uint64_t>(impl_->max_payload, size);
+        if (size >= 131072) sizes += " " + std::to_string(count) + "x" + std::to_string(size / 1024) + "KiB";
+      }
+      struct statvfs shm {};
+      if (::statvfs("/dev/shm", &shm) == 0) {
+        const uint64_t free_bytes = static_cast<uint64_t>(shm.f_bavail) * shm.f_frsize;
+        if (free_bytes < data_bytes + kMgmtSegmentEstimateBytes) {
+          throw std::runtime_error("/dev/shm has " + std::to_string(free_bytes >> 20) + " MiB free, RouDi needs about " +
+                                   std::to_string((data_bytes + kMgmtSegmentEstimateBytes) >> 20) +
+                                   " MiB (mount a larger tmpfs or use fewer/smaller cameras)");
+        }
+      }
+      iox::RouDiConfig_t config;
+      const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
+      config.m_sharedMemorySegments.push_back({group, group, mepoo});
+      impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
+      impl_->roudi = std::make_unique<iox::roudi::RouDi>(
+          impl_->components->rouDiMemoryManager, impl_->components->portManager,
+          iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON, false});
+      impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(
+          iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+      impl_->in_process = true;
+      impl_->description = "camera: started RouDi inside this process (" + std::to_string(data_bytes >> 20) +
+                           " MiB of frame pools:" + sizes + ")";
+    } else {
+      iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+      detail::g_client_runtime = true;
+      impl_->max_payload = external_max_payload(options.introspection_timeout_s);
+      if (impl_->max_payload == 0) {
+        throw std::runtime_error("a RouDi runs on this machine but did not report its memory pools within " +
+                                 std::to_string(options.introspection_timeout_s) + " s");
+      }
+      impl_->description = "camera: RouDi already running on this machine (iox-roudi or another doppel): using it "
+                           "(largest chunk payload " + std::to_string(impl_->max_payload) + " bytes)";
+      if (largest_frame > impl_->max_payload) {
+        throw std::runtime_error("the running RouDi's largest chunk holds " + std::to_string(impl_->max_payload) +
+                                 " bytes but a frame needs " + std::to_string(largest_frame) +
+                                 ": add a mempool to its config or stop it and let doppel start its own");
+      }
+    }
+  } catch (...) {
+    impl_.reset();
+    detail::g_host_alive = false;
+    throw;
+  }
+}
+
+StreamingHost::~StreamingHost() {
+  impl_.reset();
+  detail::g_host_alive = false;
+}
+
+bool StreamingHost::roudi_in_process() const noexcept { return impl_->in_process; }
+const std::string& StreamingHost::description() const noexcept { return impl_->description; }
+uint64_t StreamingHost::max_payload_bytes() const noexcept { return impl_->max_payload; }
+bool StreamingHost::exists() noexcept { return detail::g_host_alive.load(); }
+
+struct CameraStream::Impl {
+  CameraConfig config;
+  uint32_t payload_bytes;
+  Renderer renderer;
+  iox::popo::UntypedPublisher frames;
+  iox::popo::UntypedPublisher info;
+  uint64_t sequence = 0;
+  std::atomic<uint64_t> published{0};
+  std::atomic<uint64_t> dropped{0};
+  std::atomic<uint64_t> skipped{0};
+  std::atomic<double> last_render_ms{0.0};
+  std::mutex noise_mutex;
+  NoiseConfig pending_noise;
+  std::atomic<bool> noise_pending{false};
+
+  static iox::popo::PublisherOptions frame_options() {
+    iox::popo::PublisherOptions o;
+    o.historyCapacity = 1;
+    o.subscriberTooSlowPolicy = iox::popo::ConsumerTooSlowPolicy::DISCARD_OLDEST_DATA;
+    return o;
+  }
+  static iox::popo::PublisherOptions info_options() {
+    iox::popo::PublisherOptions o;
+    o.historyCapacity = 1;
+    return o;
+  }
+
+  explicit Impl(const CameraConfig& c)
+      : config(c),
+        payload_bytes(static_cast<uint32_t>(frame_payload_bytes(c))),
+        renderer(c.lens, c.width_px, c.height_px, c.format, c.render_threads),
+        frames(detail::service(c.name, detail::kFramesEvent), frame_options()),
+        info(detail::service(c.name, detail::kInfoEvent), info_options()) {
+    renderer.set_noise(c.noise);
+  }
+};
+
+CameraStream::CameraStream(StreamingHost& host, const CameraConfig& config) {
+  validate(config);
+  const uint64_t payload = frame_payload_bytes(config);
+  if (payload > host.max_payload_bytes()) {
+    throw std::runtime_error("camera '" + config.name + "': a frame needs " + std::to_string(payload) +
+                             " bytes but the largest chunk holds " + std::to_string(host.max_payload_bytes()) +
+                             " (give the camera to StreamingHost so the pools are sized for it)");
+  }
+  if (detail::service_offered(config.name, detail::kFramesEvent)) {
+    throw std::runtime_error("camera '" + config.name + "' is already published on this machine (another doppel?)");
+  }
+  impl_ = std::make_unique<Impl>(config);
+  // Discovery record, kept by the publisher's history for late subscribers.
+  impl_->info.loan(sizeof(CameraInfo), alignof(CameraInfo)).and_then([&](void* chunk) {
+    auto* info = new (chunk) CameraInfo();
+    std::strncpy(info->name, config.name.c_str(), sizeof(info->name) - 1);
+    if (config.mount.kind == CameraMount::Kind::kBody) {
+      std::strncpy(info->body, config.mount.body.c_str(), sizeof(info->body) - 1);
+    }
+    info->format = static_cast<uint32_t>(config.format);
+    info->width_px = config.width_px;
+    info->height_px = config.height_px;
+    info->fps = config.fps;
+    info->lens = config.lens;
+    info->payload_bytes = impl_->payload_bytes;
+    info->pid = static_cast<int32_t>(::getpid());
+    impl_->info.publish(chunk);
+  });
+}
+
+CameraStream::~CameraStream() = default;
+
+bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC,
+                                      double sim_time_s) {
+  Impl& s = *impl_;
+  if (s.noise_pending.load(std::memory_order_acquire)) {
+    std::unique_lock<std::mutex> lock(s.noise_mutex, std::try_to_lock);
+    if (lock.owns_lock()) {
+      s.renderer.set_noise(s.pending_noise);
+      s.noise_pending.store(false, std::memory_order_release);
+    }
+  }
+  const uint64_t sequence = s.sequence++;
+  if (!s.frames.hasSubscribers()) {
+    s.skipped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  auto loaned = s.frames.loan(s.payload_bytes, kFrameAlignment);
+  if (loaned.has_error()) {
+    s.dropped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  void* chunk = loaned.value();
+  // Only the header is constructed: the pixels are written by the renderer, never zeroed first.
+  auto* h = new (chunk) FrameHeader();
+  const CameraConfig& c = s.config;
+  h->header_bytes = sizeof(FrameHeader);
+  h->sequence = sequence;
+  h->sim_time_ns = static_cast<int64_t>(std::llround(sim_time_s * 1e9));
+  const double stamp_offset_s = c.stamp == ExposureStamp::kStart ? -0.5 * c.exposure_s
+                                : c.stamp == ExposureStamp::kEnd ? 0.5 * c.exposure_s
+                                                                 : 0.0;
+  h->exposure_time_ns = h->sim_time_ns + static_cast<int64_t>(std::llround(stamp_offset_s * 1e9));
+  h->wall_time_ns = now_ns(CLOCK_REALTIME);
+  h->render_start_mono_ns = now_ns(CLOCK_MONOTONIC);
+  h->format = static_cast<uint32_t>(c.format);
+  h->width_px = c.width_px;
+  h->height_px = c.height_px;
+  h->stride_bytes = static_cast<uint32_t>(row_bytes(c.format, c.width_px));
+  h->pixel_offset = align64(sizeof(FrameHeader));
+  h->pixel_bytes = h->stride_bytes * static_cast<uint32_t>(c.height_px);
+  FrameAnnotations* annotations = nullptr;
+  if (c.annotations) {
+    h->annotation_offset = align64(uint64_t{h->pixel_offset} + h->pixel_bytes);
+    h->annotation_bytes = sizeof(FrameAnnotations);
+    annotations = new (static_cast<uint8_t*>(chunk) + h->annotation_offset) FrameAnnotations;
+  }
+  const Eigen::Quaterniond q(X_WC.linear());
+  h->position_w_m[0] = X_WC.translation().x();
+  h->position_w_m[1] = X_WC.translation().y();
+  h->position_w_m[2] = X_WC.translation().z();
+  h->orientation_w[0] = q.w();
+  h->orientation_w[1] = q.x();
+  h->orientation_w[2] = q.y();
+  h->orientation_w[3] = q.z();
+  h->lens = c.lens;
+  h->fps = c.fps;
+  h->frames_dropped = s.dropped.load(std::memory_order_relaxed);
+  std::strncpy(h->camera_name, c.name.c_str(), sizeof(h->camera_name) - 1);
+
+  s.renderer.render(scene, X_WC, sequence, static_cast<uint8_t*>(chunk) + h->pixel_offset, annotations);
+
+  h->publish_mono_ns = now_ns(CLOCK_MONOTONIC);
+  s.last_render_ms.store(1e-6 * static_cast<double>(h->publish_mono_ns - h->render_start_mono_ns),
+                         std::memory_order_relaxed);
+  s.frames.publish(chunk);
+  s.published.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+void CameraStream::set_noise(const NoiseConfig& noise) {
+  validate(noise);
+  std::lock_guard<std::mutex> lock(impl_->noise_mutex);
+  impl_->pending_noise = noise;
+  impl_->noise_pending.store(true, std::memory_order_release);
+}
+
+bool CameraStream::has_subscribers() const noexcept { return impl_->frames.hasSubscribers(); }
+
+StreamStats CameraStream::stats() const noexcept {
+  StreamStats s;
+  s.published = impl_->published.load(std::memory_order_relaxed);
+  s.dropped = impl_->dropped.load(std::memory_order_relaxed);
+  s.skipped_idle = impl_->skipped.load(std::memory_order_relaxed);
+  s.last_render_ms = impl_->last_render_ms.load(std::memory_order_relaxed);
+  return s;
+}
+
+const CameraConfig& CameraStream::config() const noexcept { return impl_->config; }
+
+}  // namespace doppel::camera
