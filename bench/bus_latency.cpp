@@ -62,48 +62,47 @@ double wire_model_us(const Case& c) {
 
 struct Measured {
   Percentiles round_trip_us;
-  Percentiles error_us;  // |measured - pty floor - model|, wire mode only
+  Percentiles echo_us;   // bare pty echo, sampled alternately with round_trip_us
+  Percentiles error_us;  // |measured - echo p50 - model|, wire mode only
   int failures = 0;
 };
 
-// The pty itself adds its own round trip (the echo floor) on top of any wire model: the error
-// attributed to Doppel's timing is what remains after subtracting it.
-Measured measure(SerialClient& client, const Case& c, int samples, bool wire, double floor_us) {
+double elapsed_us(Clock::time_point start) {
+  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+}
+
+// Alternates one bare-echo round trip with one Doppel transaction, so both see the same machine
+// load; the pty's own round trip (the echo) is the floor under any wire model.
+Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int samples, bool wire) {
+  const Bytes echo_bytes(8, 0x55);
   std::vector<double> round_trips;
-  std::vector<double> errors;
+  std::vector<double> echoes;
   Measured out;
   for (int i = 0; i < samples; ++i) {
+    auto echo_start = Clock::now();
+    if (echo.transact(echo_bytes, echo_bytes.size(), 200).size() == echo_bytes.size()) {
+      echoes.push_back(elapsed_us(echo_start));
+    }
     auto start = Clock::now();
     Bytes reply = client.transact(c.request, c.reply_bytes, 200);
-    double us = std::chrono::duration<double, std::micro>(Clock::now() - start).count();
+    double us = elapsed_us(start);
     auto statuses = doppel::testing::parse_p1_statuses(reply);
     if (reply.size() != c.reply_bytes || !statuses || statuses->size() != static_cast<std::size_t>(c.replies)) {
       ++out.failures;
       continue;
     }
     round_trips.push_back(us);
-    if (wire) {
-      errors.push_back(std::fabs(us - floor_us - wire_model_us(c)));
-    }
   }
   out.round_trip_us = percentiles(round_trips);
-  out.error_us = percentiles(errors);
-  return out;
-}
-
-Percentiles measure_echo(int samples) {
-  doppel::bench::PtyEcho echo;
-  SerialClient client(echo.path(), kBaud);
-  Bytes ping(8, 0x55);
-  std::vector<double> round_trips;
-  for (int i = 0; i < samples; ++i) {
-    auto start = Clock::now();
-    Bytes reply = client.transact(ping, ping.size(), 200);
-    if (reply.size() == ping.size()) {
-      round_trips.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+  out.echo_us = percentiles(echoes);
+  if (wire) {
+    std::vector<double> errors;
+    for (double us : round_trips) {
+      errors.push_back(std::fabs(us - out.echo_us.p50 - wire_model_us(c)));
     }
+    out.error_us = percentiles(errors);
   }
-  return percentiles(round_trips);
+  return out;
 }
 
 }  // namespace
@@ -121,25 +120,26 @@ int main(int argc, char** argv) {
     }
   }
   int failures = 0;
-  Percentiles echo = measure_echo(samples);
-  std::printf("bare pty echo, 8 B out / 8 B back: p50 %.1f us  p99 %.1f us  p99.9 %.1f us  (n=%zu)\n\n", echo.p50,
-              echo.p99, echo.p999, echo.count);
-  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  doppel::bench::PtyEcho echo_server;
+  SerialClient echo(echo_server.path(), kBaud);
+  std::printf("Protocol 1.0 at %u bps, robot mx-test; each Doppel sample alternates with a bare pty echo "
+              "(8 B out, 8 B back) through the same client code.\n\n", kBaud);
+  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | echo p50 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* mode : {"fast", "wire"}) {
     bool wire = std::strcmp(mode, "wire") == 0;
     DoppelProcess doppel({"--robot", "mx-test", "--timing", mode});
     SerialClient client(doppel.link(), kBaud);
     for (const Case& c : cases()) {
-      Measured m = measure(client, c, wire ? std::max(samples / 2, 20) : samples, wire, echo.p50);
+      Measured m = measure(client, echo, c, wire ? std::max(samples / 2, 20) : samples, wire);
       failures += m.failures;
+      const Percentiles& rt = m.round_trip_us;
       if (wire) {
-        std::printf("| %s | wire | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", c.name, m.round_trip_us.p50,
-                    m.round_trip_us.p99, m.round_trip_us.p999, wire_model_us(c), m.error_us.p50, m.error_us.p99,
-                    m.failures);
+        std::printf("| %s | wire | %.1f | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", c.name, rt.p50, rt.p99,
+                    rt.p999, m.echo_us.p50, wire_model_us(c), m.error_us.p50, m.error_us.p99, m.failures);
       } else {
-        std::printf("| %s | fast | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", c.name, m.round_trip_us.p50,
-                    m.round_trip_us.p99, m.round_trip_us.p999, m.round_trip_us.p50 / echo.p50, m.failures);
+        std::printf("| %s | fast | %.1f | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", c.name, rt.p50, rt.p99,
+                    rt.p999, m.echo_us.p50, rt.p50 / m.echo_us.p50, m.failures);
       }
     }
     int status = doppel.stop();
