@@ -4,6 +4,8 @@
 // here from the reference (10 bit times per byte, firmware time, Return Delay Time).
 //
 //   bus_latency [--samples N] [--quick]
+#include <pthread.h>
+#include <sched.h>
 #include <sys/wait.h>
 
 #include <chrono>
@@ -109,26 +111,43 @@ Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int sa
 
 int main(int argc, char** argv) {
   int samples = 2000;
+  bool realtime = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
+    if (std::strcmp(argv[i], "--rt") == 0) {
+      realtime = true;
+    } else if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
       samples = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--quick") == 0) {
       samples = 50;
     } else {
-      std::fprintf(stderr, "usage: bus_latency [--samples N] [--quick]\n");
+      std::fprintf(stderr, "usage: bus_latency [--samples N] [--quick] [--rt]\n");
       return 2;
     }
   }
   int failures = 0;
-  doppel::bench::PtyEcho echo_server;
+  // --rt: client, echo and Doppel's bus threads all run SCHED_FIFO (priority 50), as a tuned
+  // control computer would; without it, all use normal scheduling.
+  if (realtime) {
+    sched_param param{};
+    param.sched_priority = 50;
+    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
+      std::fprintf(stderr, "bus_latency: SCHED_FIFO refused (needs root or CAP_SYS_NICE)\n");
+      return 2;
+    }
+  }
+  doppel::bench::PtyEcho echo_server(realtime ? 50 : 0);
   SerialClient echo(echo_server.path(), kBaud);
-  std::printf("Protocol 1.0 at %u bps, robot mx-test; each Doppel sample alternates with a bare pty echo "
-              "(8 B out, 8 B back) through the same client code.\n\n", kBaud);
+  std::printf("Protocol 1.0 at %u bps, robot mx-test, %s scheduling; each Doppel sample alternates with a bare "
+              "pty echo (8 B out, 8 B back) through the same client code.\n\n", kBaud, realtime ? "SCHED_FIFO" : "normal");
   std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | echo p50 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* mode : {"fast", "wire"}) {
     bool wire = std::strcmp(mode, "wire") == 0;
-    DoppelProcess doppel({"--robot", "mx-test", "--timing", mode});
+    std::vector<std::string> args{"--robot", "mx-test", "--timing", mode};
+    if (realtime) {
+      args.insert(args.end(), {"--rt-priority", "50"});
+    }
+    DoppelProcess doppel(args);
     SerialClient client(doppel.link(), kBaud);
     for (const Case& c : cases()) {
       Measured m = measure(client, echo, c, wire ? std::max(samples / 2, 20) : samples, wire);

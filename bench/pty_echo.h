@@ -3,6 +3,8 @@
 // measured with the same client code as Doppel, so the ratio between the two is Doppel's cost.
 
 #include <fcntl.h>
+#include <pthread.h>
+#include <sched.h>
 #include <poll.h>
 #include <pty.h>
 #include <unistd.h>
@@ -16,7 +18,8 @@ namespace doppel::bench {
 
 class PtyEcho {
  public:
-  PtyEcho() {
+  // rt_priority > 0: the echo thread runs SCHED_FIFO at that priority, like the server it stands for.
+  explicit PtyEcho(int rt_priority = 0) {
     int slave = -1;
     if (openpty(&master_, &slave, nullptr, nullptr, nullptr) != 0) {
       throw std::runtime_error("openpty failed");
@@ -24,7 +27,14 @@ class PtyEcho {
     slave_path_ = ttyname(slave);
     ::close(slave);
     fcntl(master_, F_SETFL, fcntl(master_, F_GETFL) | O_NONBLOCK);
-    thread_ = std::thread([this] { run(); });
+    thread_ = std::thread([this, rt_priority] {
+      if (rt_priority > 0) {
+        sched_param param{};
+        param.sched_priority = rt_priority;
+        pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+      }
+      run();
+    });
   }
   ~PtyEcho() {
     stop_ = true;

@@ -32,7 +32,7 @@ void Gateway::start() {
   }
   stop_ = false;
   for (auto& robot : robots_) {
-    robot->start(stop_);
+    robot->start(stop_, options_.rt_priority);
   }
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");

@@ -39,6 +39,9 @@ Options:
                          (default 50, as measured on MX-64 servos).
   --latency-timer MS     Model a USB serial adapter (FTDI/U2D2) whose latency timer is MS ms
                          (1..255; FTDI default 16). Default 0: no adapter model.
+  --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
+                         CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
+                         tail on a loaded machine.
   --robots-dir DIR       Where robot names are looked up (default: the robots/ folder of the source tree,
                          or $DOPPEL_ROBOTS_DIR).
   --list-robots          Print the shipped robots and exit.
@@ -83,6 +86,8 @@ Options parse_options(int argc, const char* const* argv) {
       }
     } else if (arg == "--processing-us") {
       options.processing_us = parse_number<double>(arg, value(), 0.0, 10000.0);
+    } else if (arg == "--rt-priority") {
+      options.rt_priority = parse_number<int>(arg, value(), 0, 99);
     } else if (arg == "--latency-timer") {
       options.latency_timer_ms = parse_number<uint32_t>(arg, value(), 0, 255);
     } else {

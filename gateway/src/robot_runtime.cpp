@@ -3,6 +3,8 @@
 #include <pthread.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <numbers>
 #include <sstream>
 
@@ -58,9 +60,17 @@ BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const O
 
 BusRuntime::~BusRuntime() { join(); }
 
-void BusRuntime::start(const std::atomic<bool>& stop) {
-  thread_ = std::thread([this, &stop] {
+void BusRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
+  thread_ = std::thread([this, &stop, rt_priority] {
     pthread_setname_np(pthread_self(), "doppel-bus");
+    if (rt_priority > 0) {
+      sched_param param{};
+      param.sched_priority = rt_priority;
+      if (int error = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); error != 0) {
+        std::fprintf(stderr, "doppel: %s: SCHED_FIFO priority %d refused (%s); normal scheduling\n",
+                     port_->link_path().c_str(), rt_priority, std::strerror(error));
+      }
+    }
     server_->run(stop);
   });
 }
@@ -152,9 +162,9 @@ RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, c
   }
 }
 
-void RobotRuntime::start(const std::atomic<bool>& stop) {
+void RobotRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
   for (auto& bus : buses_) {
-    bus->start(stop);
+    bus->start(stop, rt_priority);
   }
 }
 

@@ -50,7 +50,7 @@ class BusRuntime final : public bus::DeviceSync {
   BusRuntime(const BusConfig& config, const std::string& link, const Options& options);
   ~BusRuntime() override;
 
-  void start(const std::atomic<bool>& stop);  // serves until stop is true
+  void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
   void join();
 
   // bus::DeviceSync, called on the bus thread around every dispatched packet. rt-safe.
@@ -83,7 +83,7 @@ class RobotRuntime {
  public:
   RobotRuntime(const RobotConfig& config, std::size_t robot_index, const Options& options);
 
-  void start(const std::atomic<bool>& stop);  // serves until stop is true
+  void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
   void join();
   // Simulation thread: one step. rt-safe.
   void simulate(double dt_s, int64_t sim_time_ns) noexcept;

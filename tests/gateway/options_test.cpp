@@ -25,13 +25,14 @@ TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
 
 TEST(Options, EveryOptionIsParsed) {
   Options sut = parse({"--robot", "mx-test", "--robot", "/x/r.textproto", "--link-dir", "/tmp/l", "--timing", "fast",
-                       "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r"});
+                       "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r", "--rt-priority", "50"});
   EXPECT_EQ(sut.robots, (std::vector<std::string>{"mx-test", "/x/r.textproto"}));
   EXPECT_EQ(sut.link_dir, "/tmp/l");
   EXPECT_EQ(sut.timing, bus::TimingMode::kFast);
   EXPECT_DOUBLE_EQ(sut.processing_us, 20.0);
   EXPECT_EQ(sut.latency_timer_ms, 16u);
   EXPECT_EQ(sut.robots_dir, "/r");
+  EXPECT_EQ(sut.rt_priority, 50);
 }
 
 TEST(Options, BadOptionsAreRejectedWithTheirName) {
@@ -39,6 +40,7 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
   EXPECT_THROW(parse({"--latency-timer", "256"}), std::invalid_argument);
   EXPECT_THROW(parse({"--latency-timer", "1x"}), std::invalid_argument);
   EXPECT_THROW(parse({"--robot"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--rt-priority", "100"}), std::invalid_argument);
   EXPECT_THROW(parse({"--link-dir", ""}), std::invalid_argument);
   try {
     parse({"--bogus"});
@@ -51,7 +53,7 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
 TEST(Options, HelpDocumentsEveryOption) {
   std::string text = usage();
   for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
-                             "--robots-dir", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>"}) {
+                             "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
   }
 }

@@ -17,6 +17,7 @@ struct Options {
   bus::TimingMode timing = bus::TimingMode::kWire;  // --timing wire|fast
   double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
   uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)
+  int rt_priority = 0;                   // SCHED_FIFO priority of the bus threads, 0 = normal scheduling
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };
