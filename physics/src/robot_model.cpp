@@ -294,6 +294,8 @@ class Compiler {
           fail(l, "axis", -1, "a revolute or prismatic link needs a non-zero axis");
         }
         link.axis_R.normalize();
+      } else {
+        link.axis_R = Eigen::Vector3d::UnitZ();  // unused by the joint; keeps joint frames well defined
       }
       const bool revolute = link.type == JointType::kRevolute;
       const bool has_deg = l.has_lower_deg() || l.has_upper_deg();

@@ -1,0 +1,87 @@
+#pragma once
+// The motor controller inside a servo's firmware: from the control-table command (ServoCommand)
+// and the measured angle and speed it computes the H-bridge duty (PWM, -1..1) that the motor gets;
+// the physics turns that into a voltage (duty x supply) and a torque. AX/RX servos use compliance
+// margin, slope and punch; MX and X servos a PID on the position error. A goal is approached at
+// the Moving Speed (and MX Goal Acceleration) through a moving set-point, as the firmware's
+// profile does. It is not the motor (physics/dc_motor.h) and not the control table (servo
+// models in this folder). std only.
+
+#include <cstdint>
+#include <string_view>
+
+#include "dynamixel/device_io.h"
+
+namespace doppel::dynamixel {
+
+enum class ControlLaw : uint8_t {
+  kCompliance,  // AX-12, RX-28, RX-64
+  kPid,         // MX (Protocol 1.0 and 2.0 firmware), X series
+};
+
+struct ServoControllerConfig {
+  ControlLaw law = ControlLaw::kCompliance;
+  double units_per_rad = 1023.0 / (300.0 * 3.14159265358979323846 / 180.0);  // position register units per rad
+  double wheel_full_speed_rad_s = 11.89;  // wheel-mode Moving Speed that means full duty (1023 units)
+  double pwm_full_scale = 1023.0;         // PID output that means full duty (1023 MX, 885 X)
+  double overload_time_s = 1.0;           // saturated and stalled this long -> overload (assumption)
+  // Motor constants for torque control (MX-64/106 Goal Torque), output-shaft referred; 0 = unknown,
+  // then the goal torque ratio is used as the duty directly.
+  double back_emf_v_s_rad = 0.0;
+  double resistance_ohm = 0.0;
+  double torque_constant_nm_a = 0.0;
+  double max_torque_nm = 0.0;             // torque that Goal Torque 100 % means at the supply
+};
+
+// The controller configuration of a servo model ("RX-64", "MX-28", "XM430-W350", ...).
+// Throws std::invalid_argument for a model that is not a servo this controller knows.
+ServoControllerConfig servo_controller_config(std::string_view model);
+
+// PID gains in register units: output (PWM units of pwm_full_scale) per position unit, per
+// position unit x s, per position unit / s.
+struct PidGains {
+  double kp = 0.0;
+  double ki = 0.0;
+  double kd = 0.0;
+};
+
+// MX (Protocol 1.0 firmware): Kp = P / 8, Ki = I * 1000 / 2048, Kd = D * 4 / 1000 (e-Manual).
+PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept;
+// X series and MX(2.0) position gains: Kp = P / 128, Ki = I / 65536, Kd = D / 16 (e-Manual).
+PidGains x_pid_gains(uint16_t p_raw, uint16_t i_raw, uint16_t d_raw) noexcept;
+
+// The compliance slope's representative value (e-Manual: 0-3 -> 2, 4-7 -> 4, ..., 128-254 -> 128).
+int compliance_slope_step(uint8_t slope_raw) noexcept;
+
+struct ControllerOutput {
+  double pwm_ratio = 0.0;     // duty, -1..1, + = CCW
+  double setpoint_rad = 0.0;  // where the profile is now
+  bool moving = false;        // the set-point has not reached the goal, or the joint still moves
+  bool overload = false;      // drive saturated against a stalled joint for overload_time_s
+};
+
+class ServoController {
+ public:
+  explicit ServoController(const ServoControllerConfig& config) noexcept;
+
+  // One firmware cycle of `dt_s` seconds. Angles as in device_io.h (0 = centre, + = CCW).
+  // `gains` overrides the command's MX gain registers (X series: pass x_pid_gains()).
+  // supply_v is needed for torque control only. rt-safe.
+  ControllerOutput update(const ServoCommand& command, double position_rad, double velocity_rad_s, double dt_s,
+                          double supply_v = 0.0) noexcept;
+  ControllerOutput update(const ServoCommand& command, const PidGains& gains, double position_rad,
+                          double velocity_rad_s, double dt_s, double supply_v = 0.0) noexcept;
+
+  // Forgets the profile and the integrator; the set-point starts at `position_rad`. rt-safe.
+  void reset(double position_rad) noexcept;
+
+ private:
+  ServoControllerConfig config_;
+  double setpoint_rad_ = 0.0;
+  double setpoint_velocity_rad_s_ = 0.0;
+  double integral_units_s_ = 0.0;
+  double saturated_s_ = 0.0;
+  bool active_ = false;
+};
+
+}  // namespace doppel::dynamixel

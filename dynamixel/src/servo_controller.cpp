@@ -1,0 +1,171 @@
+#include "dynamixel/servo_controller.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace doppel::dynamixel {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kRpm = 2.0 * kPi / 60.0;
+constexpr double kStallSpeed_rad_s = 0.05;      // below this a saturated joint counts as stalled
+constexpr double kMovingSpeed_rad_s = 0.02;     // Moving stays 1 while the joint turns faster
+
+double sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
+
+}  // namespace
+
+ServoControllerConfig servo_controller_config(std::string_view model) {
+  ServoControllerConfig c;
+  const double mx_units = 4096.0 / (2.0 * kPi);
+  if (model == "AX-12A" || model == "AX-12" || model == "AX-12+" || model == "RX-28" || model == "RX-64") {
+    c.law = ControlLaw::kCompliance;
+    c.units_per_rad = 1023.0 / (300.0 * kPi / 180.0);
+    c.wheel_full_speed_rad_s = 1023.0 * 0.111 * kRpm;
+    c.pwm_full_scale = 1023.0;
+  } else if (model == "MX-28" || model == "MX-64" || model == "MX-106" || model == "MX-28(2.0)" ||
+             model == "MX-64(2.0)" || model == "MX-106(2.0)") {
+    c.law = ControlLaw::kPid;
+    c.units_per_rad = mx_units;
+    c.wheel_full_speed_rad_s = 1023.0 * 0.114 * kRpm;
+    c.pwm_full_scale = model.find("(2.0)") != std::string_view::npos ? 885.0 : 1023.0;
+  } else if (model == "XM430-W350" || model == "XM430-W210" || model == "XL430-W250") {
+    c.law = ControlLaw::kPid;
+    c.units_per_rad = mx_units;
+    c.wheel_full_speed_rad_s = 1023.0 * 0.229 * kRpm;
+    c.pwm_full_scale = 885.0;
+  } else {
+    throw std::invalid_argument("no servo controller for model '" + std::string(model) + "'");
+  }
+  return c;
+}
+
+PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept {
+  return PidGains{p_raw / 8.0, i_raw * 1000.0 / 2048.0, d_raw * 4.0 / 1000.0};
+}
+
+PidGains x_pid_gains(uint16_t p_raw, uint16_t i_raw, uint16_t d_raw) noexcept {
+  return PidGains{p_raw / 128.0, i_raw / 65536.0, d_raw / 16.0};
+}
+
+int compliance_slope_step(uint8_t slope_raw) noexcept {
+  int step = 2;
+  while (step < 128 && slope_raw >= 2 * step) {
+    step *= 2;
+  }
+  return step;
+}
+
+ServoController::ServoController(const ServoControllerConfig& config) noexcept : config_(config) {}
+
+void ServoController::reset(double position_rad) noexcept {
+  setpoint_rad_ = position_rad;
+  setpoint_velocity_rad_s_ = 0.0;
+  integral_units_s_ = 0.0;
+  saturated_s_ = 0.0;
+}
+
+ControllerOutput ServoController::update(const ServoCommand& command, double position_rad, double velocity_rad_s,
+                                         double dt_s, double supply_v) noexcept {
+  return update(command, mx_pid_gains(command.p_gain_raw, command.i_gain_raw, command.d_gain_raw), position_rad,
+                velocity_rad_s, dt_s, supply_v);
+}
+
+ControllerOutput ServoController::update(const ServoCommand& command, const PidGains& gains, double position_rad,
+                                         double velocity_rad_s, double dt_s, double supply_v) noexcept {
+  ControllerOutput out;
+  if (!command.torque_enabled) {
+    // H-bridge off; the profile restarts from wherever the joint is when torque returns.
+    active_ = false;
+    reset(position_rad);
+    out.setpoint_rad = position_rad;
+    out.moving = std::abs(velocity_rad_s) > kMovingSpeed_rad_s;
+    return out;
+  }
+  if (!active_) {
+    active_ = true;
+    reset(position_rad);
+  }
+
+  double pwm = 0.0;
+  if (command.torque_control) {
+    // Current control: the duty that gives the goal torque at the present speed.
+    const ServoControllerConfig& c = config_;
+    if (c.back_emf_v_s_rad > 0.0 && c.resistance_ohm > 0.0 && c.torque_constant_nm_a > 0.0 && supply_v > 0.0) {
+      const double torque = command.goal_torque_ratio * c.max_torque_nm;
+      pwm = (torque * c.resistance_ohm / c.torque_constant_nm_a + c.back_emf_v_s_rad * velocity_rad_s) / supply_v;
+    } else {
+      pwm = command.goal_torque_ratio;
+    }
+    setpoint_rad_ = position_rad;
+  } else if (command.wheel_mode) {
+    pwm = command.moving_speed_rad_s / config_.wheel_full_speed_rad_s;
+    setpoint_rad_ = position_rad;
+  } else {
+    // Profile: the set-point runs toward the goal at Moving Speed (0 = no limit), and with a Goal
+    // Acceleration it speeds up and slows down at that rate.
+    const double goal = command.goal_position_rad;
+    const double to_go = goal - setpoint_rad_;
+    const double max_speed = command.moving_speed_rad_s > 0.0 ? command.moving_speed_rad_s : std::numeric_limits<double>::infinity();
+    const double accel = command.goal_acceleration_rad_s2;
+    if (accel > 0.0) {
+      const double wanted = sign(to_go) * std::min(max_speed, std::sqrt(2.0 * accel * std::abs(to_go)));
+      const double dv = std::clamp(wanted - setpoint_velocity_rad_s_, -accel * dt_s, accel * dt_s);
+      setpoint_velocity_rad_s_ += dv;
+    } else {
+      setpoint_velocity_rad_s_ = sign(to_go) * max_speed;
+    }
+    if (!std::isfinite(setpoint_velocity_rad_s_)) {
+      setpoint_rad_ = goal;  // no speed limit: the set-point jumps
+      setpoint_velocity_rad_s_ = 0.0;
+    } else {
+      const double travel = setpoint_velocity_rad_s_ * dt_s;
+      if (sign(travel) == sign(to_go) && std::abs(travel) >= std::abs(to_go)) {
+        setpoint_rad_ = goal;
+        setpoint_velocity_rad_s_ = 0.0;
+      } else {
+        setpoint_rad_ += travel;
+      }
+    }
+
+    const double error_units = (setpoint_rad_ - position_rad) * config_.units_per_rad;
+    if (config_.law == ControlLaw::kCompliance) {
+      const bool ccw = error_units > 0.0;
+      const double margin = ccw ? command.ccw_compliance_margin_raw : command.cw_compliance_margin_raw;
+      const double slope = compliance_slope_step(ccw ? command.ccw_compliance_slope_raw : command.cw_compliance_slope_raw);
+      const double beyond = std::abs(error_units) - margin;
+      if (beyond > 0.0) {
+        const double punch = std::clamp(command.punch_raw / 1023.0, 0.0, 1.0);
+        pwm = sign(error_units) * std::min(1.0, punch + (1.0 - punch) * beyond / slope);
+      }
+    } else {
+      const double error_rate_units_s = (setpoint_velocity_rad_s_ - velocity_rad_s) * config_.units_per_rad;
+      integral_units_s_ += error_units * dt_s;
+      if (gains.ki > 0.0) {
+        const double cap = config_.pwm_full_scale / gains.ki;
+        integral_units_s_ = std::clamp(integral_units_s_, -cap, cap);
+      } else {
+        integral_units_s_ = 0.0;
+      }
+      const double u = gains.kp * error_units + gains.ki * integral_units_s_ + gains.kd * error_rate_units_s;
+      pwm = u / config_.pwm_full_scale;
+    }
+    out.moving = std::abs(goal - setpoint_rad_) > 0.0 || std::abs(velocity_rad_s) > kMovingSpeed_rad_s;
+  }
+  pwm = std::clamp(pwm, -1.0, 1.0);
+
+  // Overload: the drive is at the Torque Limit and the joint does not move.
+  const double limit = std::clamp(command.torque_limit_ratio, 0.0, 1.0);
+  const bool saturated = std::abs(pwm) >= limit - 1e-9 && std::abs(pwm) > 0.0;
+  saturated_s_ = saturated && std::abs(velocity_rad_s) < kStallSpeed_rad_s ? saturated_s_ + dt_s : 0.0;
+  out.overload = saturated_s_ >= config_.overload_time_s;
+
+  out.pwm_ratio = pwm;
+  out.setpoint_rad = setpoint_rad_;
+  return out;
+}
+
+}  // namespace doppel::dynamixel

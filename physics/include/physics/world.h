@@ -1,0 +1,187 @@
+#pragma once
+// The simulated world the gateway drives: one or more robots built from their Robot Description
+// Files, a static field, a ball, on an exchangeable engine (Backend). Each step applies every
+// servo's motor voltage through the DC-motor model, steps the engine by the fixed step, and updates
+// what the bus devices read back: joint angle/speed/torque, motor temperature, IMU, load cells.
+//
+// The world knows servos only by their (bus index, ID) in the description; it never sees a control
+// table or a packet: the gateway runs the firmware (dynamixel/servo_controller.h) and hands the
+// resulting voltage to set_motor(). Angles at this interface are the servo's: 0 at the centre of
+// its range, + = CCW (the direction in which the position register grows).
+//
+// A robot starts in its description's initial pose, its feet on the floor, held by a "handler":
+// the root body pinned and every joint locked, as a person holds a robot while it powers up. The
+// hold ends when the first servo of that robot gets Torque Enable (HoldMode::kUntilTorque), at
+// once (kReleased), or by release(). Same inputs on the same engine and build give a bit-identical
+// trajectory: fixed step, no wall clock, fixed iteration order.
+//
+// Threads: construct on any thread; then one thread calls step() and the readouts. step(),
+// set_motor() and the readouts are rt-safe: no allocation, no locks, no exceptions.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "physics/backend.h"
+#include "physics/dc_motor.h"
+#include "physics/robot_model.h"
+#include "physics/scene_view.h"
+
+namespace doppel::physics {
+
+enum class HoldMode : uint8_t {
+  kUntilTorque,  // held until the robot's first servo gets Torque Enable (default)
+  kReleased,     // free from the first step (a limp robot falls)
+};
+
+struct RobotPlacement {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // robot frame origin on the floor (z is ignored:
+                                                         // the robot is lowered until it touches the floor)
+  double yaw_rad = 0.0;                                  // heading, about z
+  uint8_t team = 0;                                      // team marker colour: 0 cyan, 1 magenta
+};
+
+struct BallOptions {
+  bool present = true;                                   // add a dynamic ball
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // centre; z is set to the radius
+  double radius_m = 0.0325;                              // orange tennis-ball size (assumption)
+  double mass_kg = 0.057;
+  MaterialSpec material{0.5, 0.6};
+};
+
+struct WorldOptions {
+  double step_s = 0.001;           // fixed step
+  double gravity_m_s2 = 9.80665;   // along -z
+  double supply_voltage_v = 14.8;  // every servo's supply (the FUmanoid battery)
+  double ambient_c = 25.0;         // start and ambient temperature of the motors
+  HoldMode hold = HoldMode::kUntilTorque;
+  double hold_torque_nm = 50.0;    // how hard the handler holds each joint
+  int solver_iterations = 20;      // constraint solver sweeps per step
+  MaterialSpec ground{0.8, 0.0};   // carpet
+  BallOptions ball;
+  // Static field objects (the camera's field model): every shape except carpet, lines and rings
+  // becomes a static collision shape; all are copied into the scene view as they are.
+  std::vector<VisualShape> field;
+};
+
+// Handles: indices into the world's flat lists, stable for the world's lifetime.
+struct MotorHandle {
+  uint32_t index = 0;
+};
+struct ImuHandle {
+  uint32_t index = 0;
+};
+struct FootHandle {
+  uint32_t index = 0;
+};
+
+struct MotorState {
+  double position_rad = 0.0;     // servo angle, 0 = centre, + = CCW
+  double velocity_rad_s = 0.0;   // + = CCW
+  double torque_nm = 0.0;        // output torque of the motor, + = CCW
+  double torque_ratio = 0.0;     // torque / maximum torque at the supply voltage (Present Load), -1..1
+  double current_a = 0.0;        // motor current (torque / kt), unsigned
+  double temperature_c = 25.0;   // winding temperature
+  double voltage_v = 14.8;       // supply voltage at the servo
+};
+
+// Compatible with dynamixel::ImuFeedback (same names and meaning).
+struct ImuState {
+  double roll_rad = 0.0;                                 // rotation about x of the sensor frame S
+  double pitch_rad = 0.0;                                // about y, + = nose down
+  double yaw_rad = 0.0;                                  // about z
+  std::array<double, 3> w_WS_S_rad_s{};                  // angular velocity of S, expressed in S
+  std::array<double, 3> a_WS_S_m_s2{0.0, 0.0, 9.80665};  // specific force (what an accelerometer reads) in S
+  int64_t sim_time_ns = 0;
+};
+
+// Compatible with dynamixel::FootFeedback.
+struct FootState {
+  std::array<double, 4> force_n{};  // FL, FR, BL, BR normal force along the foot's z, >= 0
+  int64_t sim_time_ns = 0;
+};
+
+class World {
+ public:
+  // Builds the world. `robots` and `placements` pair up (placements may be shorter: the rest stand
+  // in a row along y). Throws std::invalid_argument (more than 6 robots, bad options).
+  World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, std::vector<RobotPlacement> placements,
+        WorldOptions options);
+  ~World();
+  World(const World&) = delete;
+  World& operator=(const World&) = delete;
+
+  // Look-ups (setup): nullopt when the robot has no such device in its figure.
+  std::optional<MotorHandle> find_motor(size_t robot, uint32_t bus, uint8_t id) const noexcept;
+  std::optional<ImuHandle> find_imu(size_t robot, uint32_t bus, uint8_t id) const noexcept;
+  std::optional<FootHandle> find_foot(size_t robot, uint32_t bus, uint8_t id) const noexcept;
+
+  // The firmware's output for one servo, used from the next step on. With HoldMode::kUntilTorque
+  // the first enabled command of a robot releases it. rt-safe.
+  void set_motor(MotorHandle motor, const MotorCommand& command) noexcept;
+
+  // One fixed step. rt-safe.
+  void step() noexcept;
+
+  // Readouts of the last step. rt-safe.
+  MotorState motor(MotorHandle motor) const noexcept;
+  ImuState imu(ImuHandle imu) const noexcept;
+  FootState foot(FootHandle foot) const noexcept;
+  double time_s() const noexcept { return static_cast<double>(steps_) * options_.step_s; }
+  int64_t time_ns() const noexcept { return steps_ * step_ns_; }
+  uint64_t steps() const noexcept { return steps_; }
+
+  // The handler: hold() pins the robot where it is and locks its joints; release() lets go. rt-safe.
+  void hold(size_t robot) noexcept;
+  void release(size_t robot) noexcept;
+  bool held(size_t robot) const noexcept;
+  // Puts a held robot's robot frame at X_WR (joints at their held positions), e.g. to tilt it.
+  // Setup code (allocates); the robot stays held.
+  void place_held(size_t robot, const Eigen::Isometry3d& X_WR);
+  // Sets a motor's winding temperature (tests, scenarios). rt-safe.
+  void set_motor_temperature(MotorHandle motor, double temperature_c) noexcept;
+
+  // Ground truth. rt-safe.
+  size_t robot_count() const noexcept;
+  const RobotModel& robot(size_t robot) const noexcept;
+  size_t motor_count() const noexcept;
+  // Pose of a body's description frame D (the file's body frame) in the world.
+  Eigen::Isometry3d body_pose(size_t robot, size_t body) const noexcept;
+  // Centre of mass of a whole robot, world frame.
+  Eigen::Vector3d center_of_mass(size_t robot) const noexcept;
+  // Joint position of link `link` of a robot (rad or m, the file's convention, not the servo's).
+  double link_position(size_t robot, size_t link) const noexcept;
+  Eigen::Vector3d ball_position() const noexcept;
+  const WorldOptions& options() const noexcept { return options_; }
+  std::string_view engine() const noexcept { return backend_->name(); }
+
+  // Writes every visible shape into `view` (robots with team markers, ball, field). The first call
+  // sizes view.shapes; later calls with the same view do not allocate. rt-safe after the first call.
+  void fill_scene(SceneView& view) const;
+
+ private:
+  struct RobotSlot;
+  struct MotorSlot;
+  struct ImuSlot;
+  struct FootSlot;
+
+  void build_robot(size_t index, const RobotPlacement& placement);
+  void update_sensors() noexcept;
+  DriveLaw hold_law(double target, double position) const noexcept;
+
+  std::unique_ptr<Backend> backend_;
+  WorldOptions options_;
+  int64_t step_ns_ = 1000000;
+  uint64_t steps_ = 0;
+  std::vector<RobotSlot> robots_;
+  std::vector<MotorSlot> motors_;
+  std::vector<ImuSlot> imus_;
+  std::vector<FootSlot> feet_;
+  std::vector<ContactForce> contact_buffer_;
+  int ball_body_ = -1;
+};
+
+}  // namespace doppel::physics

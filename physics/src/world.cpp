@@ -1,0 +1,550 @@
+#include "physics/world.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace doppel::physics {
+namespace {
+
+constexpr size_t kContactBufferSize = 64;  // contacts per foot per step that the load cells see
+constexpr double kHoldRate_1_s = 20.0;     // how fast a held joint is pulled back to its hold angle
+const Rgb kTeamColours[2] = {Rgb{0, 200, 220}, Rgb{220, 0, 200}};
+
+// Lowest z of a shape placed at X_WS.
+double lowest_point(const ShapeSpec& s, const Eigen::Isometry3d& X_WS) {
+  switch (s.type) {
+    case ShapeType::kBox: {
+      const Eigen::Vector3d half = 0.5 * s.size_m;
+      return X_WS.translation().z() - (X_WS.linear().row(2).cwiseAbs() * half).value();
+    }
+    case ShapeType::kSphere:
+      return X_WS.translation().z() - s.size_m.x();
+    case ShapeType::kCylinder:
+    case ShapeType::kCapsule: {
+      const double axis_z = std::abs(X_WS.linear()(2, 2));
+      const double half_axis = 0.5 * s.size_m.y() * axis_z;
+      const double rim = s.type == ShapeType::kCapsule ? s.size_m.x() : s.size_m.x() * std::sqrt(std::max(0.0, 1.0 - axis_z * axis_z));
+      return X_WS.translation().z() - half_axis - rim;
+    }
+    case ShapeType::kRing:
+      break;
+  }
+  return X_WS.translation().z();
+}
+
+// Roll, pitch, yaw of R = Rz(yaw) Ry(pitch) Rx(roll).
+void rpy_of(const Eigen::Matrix3d& R, double& roll, double& pitch, double& yaw) {
+  pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  roll = std::atan2(R(2, 1), R(2, 2));
+  yaw = std::atan2(R(1, 0), R(0, 0));
+}
+
+}  // namespace
+
+struct World::RobotSlot {
+  RobotModel model;
+  int first_body = 0;                 // backend index of model body 0
+  int first_joint = 0;                // backend index of model link 0
+  bool held = false;
+  bool release_pending = false;
+  std::vector<double> hold_position;  // per link, rad or m
+  std::vector<int> link_motor;        // per link: motor slot or -1
+  int marker_body = 0;                // body that carries the team marker
+  Eigen::Isometry3d marker_X_BM = Eigen::Isometry3d::Identity();
+  uint8_t team = 0;
+};
+
+struct World::MotorSlot {
+  size_t robot = 0;
+  int link = 0;       // link index in the robot
+  int joint = 0;      // backend joint
+  DcMotorParams params;
+  double direction = 1.0;
+  double offset_rad = 0.0;
+  uint32_t bus = 0;
+  uint8_t id = 0;
+  MotorCommand command;
+  DriveLaw law;
+  ThermalModel thermal;
+  MotorState state;
+};
+
+struct World::ImuSlot {
+  size_t robot = 0;
+  uint32_t bus = 0;
+  uint8_t id = 0;
+  int body = 0;  // backend body
+  Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_prev = Eigen::Vector3d::Zero();
+  bool has_prev = false;
+  ImuState state;
+};
+
+struct World::FootSlot {
+  size_t robot = 0;
+  uint32_t bus = 0;
+  uint8_t id = 0;
+  int body = 0;  // backend body
+  Eigen::Isometry3d X_BD = Eigen::Isometry3d::Identity();
+  double x_front = 0.0, x_back = 0.0, y_left = 0.0, y_right = 0.0;  // cell rectangle in D
+  FootState state;
+};
+
+World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, std::vector<RobotPlacement> placements,
+             WorldOptions options)
+    : backend_(std::move(backend)), options_(std::move(options)) {
+  if (!backend_) {
+    throw std::invalid_argument("World: no physics backend");
+  }
+  if (robots.size() > kMaxRobotGroups) {
+    throw std::invalid_argument("World: at most " + std::to_string(kMaxRobotGroups) + " robots, got " +
+                                std::to_string(robots.size()));
+  }
+  if (!(options_.step_s > 0.0 && options_.step_s <= 0.01)) {
+    throw std::invalid_argument("World: step must be within (0, 10 ms], got " + std::to_string(options_.step_s) + " s");
+  }
+  if (!(options_.supply_voltage_v > 0.0)) {
+    throw std::invalid_argument("World: supply voltage must be > 0");
+  }
+  if (options_.solver_iterations < 1) {
+    throw std::invalid_argument("World: solver iterations must be >= 1");
+  }
+  step_ns_ = std::llround(options_.step_s * 1e9);
+  backend_->init(BackendOptions{options_.gravity_m_s2, options_.solver_iterations, options_.step_s});
+  backend_->add_ground(options_.ground);
+  for (const VisualShape& shape : options_.field) {
+    if (shape.kind == ObjectKind::kCarpet || shape.kind == ObjectKind::kFieldLine || shape.type == ShapeType::kRing) {
+      continue;
+    }
+    backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m}, MaterialSpec{0.5, 0.1});
+  }
+  if (options_.ball.present) {
+    const BallOptions& ball = options_.ball;
+    const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}};
+    BodyDesc desc;
+    desc.shapes = &sphere;
+    desc.shape_count = 1;
+    desc.mass_kg = ball.mass_kg;
+    desc.inertia_kg_m2.setConstant(2.0 / 3.0 * ball.mass_kg * ball.radius_m * ball.radius_m);  // hollow sphere
+    desc.X_WB.translation() = Eigen::Vector3d(ball.position_m.x(), ball.position_m.y(), ball.radius_m);
+    desc.material = ball.material;
+    desc.group = kGroupBall;
+    ball_body_ = backend_->add_body(desc);
+  }
+  robots_.resize(robots.size());
+  for (size_t r = 0; r < robots.size(); ++r) {
+    robots_[r].model = std::move(robots[r]);
+    RobotPlacement placement = r < placements.size() ? placements[r] : RobotPlacement{};
+    if (r >= placements.size()) {
+      placement.position_m = Eigen::Vector3d(0.0, 0.5 * static_cast<double>(r), 0.0);
+    }
+    build_robot(r, placement);
+  }
+  backend_->finalize();
+  contact_buffer_.resize(kContactBufferSize);
+  update_sensors();
+}
+
+World::~World() = default;
+
+void World::build_robot(size_t index, const RobotPlacement& placement) {
+  RobotSlot& robot = robots_[index];
+  const RobotModel& model = robot.model;
+  robot.team = placement.team;
+
+  // Initial pose, lowered onto the floor.
+  std::vector<double> q(model.links.size());
+  for (size_t l = 0; l < q.size(); ++l) {
+    q[l] = model.links[l].initial;
+  }
+  const std::vector<Eigen::Isometry3d> X_RB = body_poses(model, q);
+  Eigen::Isometry3d X_WR = Eigen::Isometry3d::Identity();
+  X_WR.linear() = Eigen::AngleAxisd(placement.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  X_WR.translation() = Eigen::Vector3d(placement.position_m.x(), placement.position_m.y(), 0.0);
+  double lowest = std::numeric_limits<double>::infinity();
+  double highest = -lowest;
+  for (size_t b = 0; b < model.bodies.size(); ++b) {
+    for (const ShapeSpec& s : model.bodies[b].shapes) {
+      lowest = std::min(lowest, lowest_point(s, X_WR * X_RB[b] * s.X_BS));
+    }
+    const double top = model.bodies[b].X_RB.translation().z();
+    if (top > highest) {
+      highest = top;
+      robot.marker_body = static_cast<int>(b);
+    }
+  }
+  X_WR.translation().z() -= lowest;
+
+  // Team marker: a flat tile on top of the highest body (the head), level at the design pose.
+  const BodyModel& marker_body = model.bodies[static_cast<size_t>(robot.marker_body)];
+  double half_height = 0.0;
+  for (const ShapeSpec& s : marker_body.shapes) {
+    half_height = std::max(half_height, s.type == ShapeType::kBox ? 0.5 * s.size_m.z() : s.size_m.x());
+  }
+  Eigen::Isometry3d X_RM = Eigen::Isometry3d::Identity();
+  X_RM.translation() = marker_body.X_RB.translation() + Eigen::Vector3d(0.0, 0.0, half_height + 0.004);
+  robot.marker_X_BM = marker_body.X_RB.inverse() * X_RM;
+
+  // Bodies at the design pose, joints, then the initial pose.
+  robot.first_body = -1;
+  for (size_t b = 0; b < model.bodies.size(); ++b) {
+    const BodyModel& body = model.bodies[b];
+    BodyDesc desc;
+    desc.shapes = body.shapes.data();
+    desc.shape_count = body.shapes.size();
+    desc.mass_kg = body.mass_kg;
+    desc.inertia_kg_m2 = body.inertia_kg_m2;
+    desc.X_WB = X_WR * body.X_RB;
+    desc.material = body.material;
+    desc.group = static_cast<uint32_t>(index);
+    desc.report_contacts = std::any_of(model.feet.begin(), model.feet.end(),
+                                       [&](const FootModel& f) { return f.body == static_cast<int>(b); });
+    const int id = backend_->add_body(desc);
+    if (b == 0) {
+      robot.first_body = id;
+    }
+  }
+  robot.link_motor.assign(model.links.size(), -1);
+  for (size_t l = 0; l < model.links.size(); ++l) {
+    const LinkModel& link = model.links[l];
+    JointDesc desc;
+    desc.type = link.type;
+    desc.parent = robot.first_body + link.parent;
+    desc.child = robot.first_body + link.child;
+    desc.anchor_W = X_WR * link.anchor_R;
+    desc.axis_W = X_WR.linear() * link.axis_R;
+    desc.limited = link.limited;
+    desc.lower = link.lower;
+    desc.upper = link.upper;
+    const int id = backend_->add_joint(desc);
+    if (l == 0) {
+      robot.first_joint = id;
+    }
+  }
+  for (size_t b = 0; b < model.bodies.size(); ++b) {
+    backend_->set_body_state(robot.first_body + static_cast<int>(b), X_WR * X_RB[b], Eigen::Vector3d::Zero(),
+                             Eigen::Vector3d::Zero());
+  }
+  robot.hold_position = q;
+
+  for (const MotorModel& m : model.motors) {
+    MotorSlot slot{index,
+                   m.link,
+                   robot.first_joint + m.link,
+                   m.params,
+                   m.direction,
+                   m.offset_rad,
+                   m.bus,
+                   m.id,
+                   MotorCommand{},
+                   DriveLaw{},
+                   ThermalModel(m.params, options_.ambient_c, options_.step_s),
+                   MotorState{}};
+    slot.state.temperature_c = options_.ambient_c;
+    slot.state.voltage_v = options_.supply_voltage_v;
+    slot.state.position_rad = m.direction * q[static_cast<size_t>(m.link)] + m.offset_rad;
+    robot.link_motor[static_cast<size_t>(m.link)] = static_cast<int>(motors_.size());
+    motors_.push_back(slot);
+  }
+  for (const ImuModel& s : model.imus) {
+    ImuSlot slot;
+    slot.robot = index;
+    slot.bus = s.bus;
+    slot.id = s.id;
+    slot.body = robot.first_body + s.body;
+    slot.X_BS = model.bodies[static_cast<size_t>(s.body)].X_BD * s.X_DS;
+    imus_.push_back(slot);
+  }
+  for (const FootModel& s : model.feet) {
+    FootSlot slot;
+    slot.robot = index;
+    slot.bus = s.bus;
+    slot.id = s.id;
+    slot.body = robot.first_body + s.body;
+    slot.X_BD = model.bodies[static_cast<size_t>(s.body)].X_BD;
+    slot.x_front = 0.5 * (s.cell_D[0].x() + s.cell_D[1].x());
+    slot.x_back = 0.5 * (s.cell_D[2].x() + s.cell_D[3].x());
+    slot.y_left = 0.5 * (s.cell_D[0].y() + s.cell_D[2].y());
+    slot.y_right = 0.5 * (s.cell_D[1].y() + s.cell_D[3].y());
+    feet_.push_back(slot);
+  }
+
+  if (options_.hold == HoldMode::kUntilTorque) {
+    robot.held = true;
+    backend_->set_pinned(robot.first_body + model.root, true);
+  }
+}
+
+std::optional<MotorHandle> World::find_motor(size_t robot, uint32_t bus, uint8_t id) const noexcept {
+  for (size_t i = 0; i < motors_.size(); ++i) {
+    if (motors_[i].robot == robot && motors_[i].bus == bus && motors_[i].id == id) {
+      return MotorHandle{static_cast<uint32_t>(i)};
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<ImuHandle> World::find_imu(size_t robot, uint32_t bus, uint8_t id) const noexcept {
+  for (size_t i = 0; i < imus_.size(); ++i) {
+    if (imus_[i].robot == robot && imus_[i].bus == bus && imus_[i].id == id) {
+      return ImuHandle{static_cast<uint32_t>(i)};
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<FootHandle> World::find_foot(size_t robot, uint32_t bus, uint8_t id) const noexcept {
+  for (size_t i = 0; i < feet_.size(); ++i) {
+    if (feet_[i].robot == robot && feet_[i].bus == bus && feet_[i].id == id) {
+      return FootHandle{static_cast<uint32_t>(i)};
+    }
+  }
+  return std::nullopt;
+}
+
+void World::set_motor(MotorHandle motor, const MotorCommand& command) noexcept {
+  if (motor.index >= motors_.size()) {
+    return;
+  }
+  MotorSlot& slot = motors_[motor.index];
+  slot.command = command;
+  RobotSlot& robot = robots_[slot.robot];
+  if (command.enabled && robot.held && options_.hold == HoldMode::kUntilTorque) {
+    robot.release_pending = true;
+  }
+}
+
+DriveLaw World::hold_law(double target, double position) const noexcept {
+  return DriveLaw{kHoldRate_1_s * (target - position), std::numeric_limits<double>::infinity(), options_.hold_torque_nm};
+}
+
+void World::hold(size_t robot) noexcept {
+  if (robot >= robots_.size()) {
+    return;
+  }
+  RobotSlot& slot = robots_[robot];
+  for (size_t l = 0; l < slot.model.links.size(); ++l) {
+    slot.hold_position[l] = backend_->joint(slot.first_joint + static_cast<int>(l)).position;
+  }
+  slot.held = true;
+  slot.release_pending = false;
+  backend_->set_pinned(slot.first_body + slot.model.root, true);
+}
+
+void World::release(size_t robot) noexcept {
+  if (robot >= robots_.size()) {
+    return;
+  }
+  RobotSlot& slot = robots_[robot];
+  slot.held = false;
+  slot.release_pending = false;
+  backend_->set_pinned(slot.first_body + slot.model.root, false);
+  for (size_t l = 0; l < slot.model.links.size(); ++l) {
+    backend_->set_drive(slot.first_joint + static_cast<int>(l), DriveLaw{});
+  }
+}
+
+bool World::held(size_t robot) const noexcept { return robot < robots_.size() && robots_[robot].held; }
+
+void World::place_held(size_t robot, const Eigen::Isometry3d& X_WR) {
+  if (robot >= robots_.size()) {
+    throw std::invalid_argument("World::place_held: no robot " + std::to_string(robot));
+  }
+  RobotSlot& slot = robots_[robot];
+  if (!slot.held) {
+    hold(robot);
+  }
+  const std::vector<Eigen::Isometry3d> X_RB = body_poses(slot.model, slot.hold_position);
+  backend_->set_pinned(slot.first_body + slot.model.root, false);
+  for (size_t b = 0; b < X_RB.size(); ++b) {
+    backend_->set_body_state(slot.first_body + static_cast<int>(b), X_WR * X_RB[b], Eigen::Vector3d::Zero(),
+                             Eigen::Vector3d::Zero());
+  }
+  backend_->set_pinned(slot.first_body + slot.model.root, true);
+  for (ImuSlot& imu : imus_) {
+    if (imu.robot == robot) {
+      imu.has_prev = false;
+    }
+  }
+  update_sensors();
+}
+
+void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexcept {
+  if (motor.index < motors_.size()) {
+    motors_[motor.index].thermal.set_temperature_c(temperature_c);
+    motors_[motor.index].state.temperature_c = temperature_c;
+  }
+}
+
+void World::step() noexcept {
+  const double supply = options_.supply_voltage_v;
+  for (size_t r = 0; r < robots_.size(); ++r) {
+    RobotSlot& robot = robots_[r];
+    if (robot.release_pending) {
+      release(r);
+    }
+    if (!robot.held) {
+      continue;
+    }
+    for (size_t l = 0; l < robot.model.links.size(); ++l) {
+      const JointType type = robot.model.links[l].type;
+      if (type == JointType::kRevolute || type == JointType::kPrismatic) {
+        const int joint = robot.first_joint + static_cast<int>(l);
+        backend_->set_drive(joint, hold_law(robot.hold_position[l], backend_->joint(joint).position));
+      }
+    }
+  }
+  for (MotorSlot& m : motors_) {
+    if (robots_[m.robot].held) {
+      m.law = DriveLaw{};
+      continue;
+    }
+    // The law in servo coordinates, turned into the joint's.
+    const DriveLaw servo = motor_drive(m.params, m.command, supply);
+    m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque};
+    backend_->set_drive(m.joint, m.law);
+  }
+
+  backend_->step(options_.step_s);
+  ++steps_;
+
+  for (MotorSlot& m : motors_) {
+    const JointReading reading = backend_->joint(m.joint);
+    const double joint_torque = drive_torque(m.law, reading.velocity);
+    m.thermal.step(joint_torque);
+    MotorState& s = m.state;
+    s.position_rad = m.direction * reading.position + m.offset_rad;
+    s.velocity_rad_s = m.direction * reading.velocity;
+    s.torque_nm = m.direction * joint_torque;
+    const double full = max_torque_nm(m.params, supply);
+    s.torque_ratio = full > 0.0 ? std::clamp(s.torque_nm / full, -1.0, 1.0) : 0.0;
+    s.current_a = std::abs(joint_torque) / m.params.torque_constant_nm_a;
+    s.temperature_c = m.thermal.temperature_c();
+    s.voltage_v = supply;
+  }
+  update_sensors();
+}
+
+void World::update_sensors() noexcept {
+  const int64_t now_ns = time_ns();
+  const Eigen::Vector3d up_g(0.0, 0.0, options_.gravity_m_s2);
+  for (ImuSlot& imu : imus_) {
+    const BodyReading body = backend_->body(imu.body);
+    const Eigen::Isometry3d X_WS = body.X_WB * imu.X_BS;
+    const Eigen::Matrix3d R_SW = X_WS.linear().transpose();
+    const Eigen::Vector3d v_S = body.v_WB_W + body.w_WB_W.cross(X_WS.translation() - body.X_WB.translation());
+    const Eigen::Vector3d a_W = imu.has_prev ? Eigen::Vector3d((v_S - imu.v_prev) / options_.step_s) : Eigen::Vector3d::Zero();
+    imu.v_prev = v_S;
+    imu.has_prev = true;
+    const Eigen::Vector3d w_S = R_SW * body.w_WB_W;
+    const Eigen::Vector3d f_S = R_SW * (a_W + up_g);
+    ImuState& s = imu.state;
+    rpy_of(X_WS.linear(), s.roll_rad, s.pitch_rad, s.yaw_rad);
+    s.w_WS_S_rad_s = {w_S.x(), w_S.y(), w_S.z()};
+    s.a_WS_S_m_s2 = {f_S.x(), f_S.y(), f_S.z()};
+    s.sim_time_ns = now_ns;
+  }
+  for (FootSlot& foot : feet_) {
+    const BodyReading body = backend_->body(foot.body);
+    const Eigen::Isometry3d X_WD = body.X_WB * foot.X_BD;
+    const Eigen::Isometry3d X_DW = X_WD.inverse();
+    const Eigen::Vector3d z_D = X_WD.linear().col(2);
+    const size_t n = backend_->contacts(foot.body, contact_buffer_.data(), contact_buffer_.size());
+    std::array<double, 4> cells{};
+    for (size_t c = 0; c < n; ++c) {
+      const double normal = contact_buffer_[c].f_W.dot(z_D);
+      if (!(normal > 0.0)) {
+        continue;
+      }
+      // Bilinear share of the four corners: the shares sum to 1 and keep the centre of pressure.
+      const Eigen::Vector3d p = X_DW * contact_buffer_[c].p_W;
+      const double u = std::clamp((p.x() - foot.x_back) / (foot.x_front - foot.x_back), 0.0, 1.0);
+      const double v = std::clamp((p.y() - foot.y_right) / (foot.y_left - foot.y_right), 0.0, 1.0);
+      cells[0] += normal * u * v;
+      cells[1] += normal * u * (1.0 - v);
+      cells[2] += normal * (1.0 - u) * v;
+      cells[3] += normal * (1.0 - u) * (1.0 - v);
+    }
+    foot.state.force_n = cells;
+    foot.state.sim_time_ns = now_ns;
+  }
+}
+
+MotorState World::motor(MotorHandle motor) const noexcept {
+  return motor.index < motors_.size() ? motors_[motor.index].state : MotorState{};
+}
+
+ImuState World::imu(ImuHandle imu) const noexcept { return imu.index < imus_.size() ? imus_[imu.index].state : ImuState{}; }
+
+FootState World::foot(FootHandle foot) const noexcept {
+  return foot.index < feet_.size() ? feet_[foot.index].state : FootState{};
+}
+
+size_t World::robot_count() const noexcept { return robots_.size(); }
+
+size_t World::motor_count() const noexcept { return motors_.size(); }
+
+const RobotModel& World::robot(size_t robot) const noexcept { return robots_[robot].model; }
+
+Eigen::Isometry3d World::body_pose(size_t robot, size_t body) const noexcept {
+  const RobotSlot& slot = robots_[robot];
+  return backend_->body(slot.first_body + static_cast<int>(body)).X_WB * slot.model.bodies[body].X_BD;
+}
+
+Eigen::Vector3d World::center_of_mass(size_t robot) const noexcept {
+  const RobotSlot& slot = robots_[robot];
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (size_t b = 0; b < slot.model.bodies.size(); ++b) {
+    sum += slot.model.bodies[b].mass_kg * backend_->body(slot.first_body + static_cast<int>(b)).X_WB.translation();
+  }
+  return sum / slot.model.mass_kg;
+}
+
+double World::link_position(size_t robot, size_t link) const noexcept {
+  const RobotSlot& slot = robots_[robot];
+  return backend_->joint(slot.first_joint + static_cast<int>(link)).position;
+}
+
+Eigen::Vector3d World::ball_position() const noexcept {
+  return ball_body_ >= 0 ? Eigen::Vector3d(backend_->body(ball_body_).X_WB.translation()) : Eigen::Vector3d::Zero();
+}
+
+void World::fill_scene(SceneView& view) const {
+  size_t count = options_.field.size() + (ball_body_ >= 0 ? 1U : 0U);
+  for (const RobotSlot& robot : robots_) {
+    for (const BodyModel& body : robot.model.bodies) {
+      count += body.shapes.size();
+    }
+    ++count;  // team marker
+  }
+  view.shapes.resize(count);
+  size_t i = 0;
+  for (size_t r = 0; r < robots_.size(); ++r) {
+    const RobotSlot& robot = robots_[r];
+    for (size_t b = 0; b < robot.model.bodies.size(); ++b) {
+      const BodyModel& body = robot.model.bodies[b];
+      const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + static_cast<int>(b)).X_WB;
+      for (const ShapeSpec& s : body.shapes) {
+        view.shapes[i++] = VisualShape{s.type, ObjectKind::kRobotBody, X_WB * s.X_BS, s.size_m, body.colour,
+                                       static_cast<uint16_t>(r)};
+      }
+    }
+    const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + robot.marker_body).X_WB;
+    view.shapes[i++] = VisualShape{ShapeType::kBox, ObjectKind::kTeamMarker, X_WB * robot.marker_X_BM,
+                                   Eigen::Vector3d(0.05, 0.05, 0.008), kTeamColours[robot.team & 1U],
+                                   static_cast<uint16_t>(r)};
+  }
+  if (ball_body_ >= 0) {
+    view.shapes[i++] = VisualShape{ShapeType::kSphere, ObjectKind::kBall, backend_->body(ball_body_).X_WB,
+                                   Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), Rgb{255, 120, 0}, 0};
+  }
+  for (const VisualShape& shape : options_.field) {
+    view.shapes[i++] = shape;
+  }
+  view.sim_time_s = time_s();
+}
+
+}  // namespace doppel::physics

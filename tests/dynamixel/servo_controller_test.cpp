@@ -1,0 +1,184 @@
+#include "dynamixel/servo_controller.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+namespace doppel::dynamixel {
+namespace {
+
+constexpr double kDt = 0.001;
+constexpr double kPi = 3.14159265358979323846;
+// AX/RX position unit (e-Manual: 0..1023 over 300 deg) and MX/X (4096 per turn).
+constexpr double kRxUnit = 300.0 / 1023.0 * kPi / 180.0;
+constexpr double kMxUnit = 2.0 * kPi / 4096.0;
+
+ServoCommand compliance_command(double goal_rad) {
+  ServoCommand c;
+  c.torque_enabled = true;
+  c.goal_position_rad = goal_rad;
+  c.cw_compliance_margin_raw = 1;  // e-Manual defaults
+  c.ccw_compliance_margin_raw = 1;
+  c.cw_compliance_slope_raw = 32;
+  c.ccw_compliance_slope_raw = 32;
+  c.punch_raw = 32;
+  return c;
+}
+
+TEST(ServoControllerTest, TorqueOffGivesNoDrive) {
+  ServoController sut(servo_controller_config("RX-64"));
+  ServoCommand command = compliance_command(1.0);
+  command.torque_enabled = false;
+
+  const ControllerOutput out = sut.update(command, 0.0, 0.0, kDt);
+
+  EXPECT_EQ(out.pwm_ratio, 0.0);
+}
+
+TEST(ServoControllerTest, ComplianceMarginIsADeadBand) {
+  ServoController sut(servo_controller_config("RX-64"));
+
+  const ControllerOutput out = sut.update(compliance_command(0.9 * kRxUnit), 0.0, 0.0, kDt);
+
+  EXPECT_EQ(out.pwm_ratio, 0.0);
+}
+
+TEST(ServoControllerTest, ComplianceStartsAtPunchAndReachesFullDriveAtMarginPlusSlope) {
+  ServoController sut(servo_controller_config("RX-64"));
+  const double punch = 32.0 / 1023.0;
+
+  const double just_out = sut.update(compliance_command(1.0001 * kRxUnit), 0.0, 0.0, kDt).pwm_ratio;
+  const double halfway = sut.update(compliance_command(17.0 * kRxUnit), 0.0, 0.0, kDt).pwm_ratio;
+  const double full = sut.update(compliance_command(33.0 * kRxUnit), 0.0, 0.0, kDt).pwm_ratio;
+  const double cw = sut.update(compliance_command(-33.0 * kRxUnit), 0.0, 0.0, kDt).pwm_ratio;
+
+  EXPECT_NEAR(just_out, punch, 1e-4);
+  EXPECT_NEAR(halfway, punch + (1.0 - punch) * 16.0 / 32.0, 1e-9);
+  EXPECT_NEAR(full, 1.0, 1e-9);
+  EXPECT_NEAR(cw, -1.0, 1e-9);
+}
+
+TEST(ServoControllerTest, ComplianceSlopeUsesTheRepresentativeSteps) {
+  EXPECT_EQ(compliance_slope_step(0), 2);  // e-Manual table
+  EXPECT_EQ(compliance_slope_step(3), 2);
+  EXPECT_EQ(compliance_slope_step(4), 4);
+  EXPECT_EQ(compliance_slope_step(31), 16);
+  EXPECT_EQ(compliance_slope_step(32), 32);
+  EXPECT_EQ(compliance_slope_step(63), 32);
+  EXPECT_EQ(compliance_slope_step(127), 64);
+  EXPECT_EQ(compliance_slope_step(128), 128);
+  EXPECT_EQ(compliance_slope_step(254), 128);
+}
+
+TEST(ServoControllerTest, SetPointMovesAtMovingSpeed) {
+  ServoController sut(servo_controller_config("RX-28"));
+  ServoCommand command = compliance_command(1.0);
+  command.moving_speed_rad_s = 2.0;
+
+  ControllerOutput out;
+  for (int i = 0; i < 100; ++i) {
+    out = sut.update(command, 0.0, 0.0, kDt);
+  }
+
+  EXPECT_NEAR(out.setpoint_rad, 0.2, 1e-9);
+  EXPECT_TRUE(out.moving);
+}
+
+TEST(ServoControllerTest, MovingSpeedZeroJumpsToTheGoal) {
+  ServoController sut(servo_controller_config("RX-28"));
+
+  const ControllerOutput out = sut.update(compliance_command(1.0), 0.0, 0.0, kDt);
+
+  EXPECT_DOUBLE_EQ(out.setpoint_rad, 1.0);
+}
+
+TEST(ServoControllerTest, MxProportionalGainAsInTheManual) {
+  ServoController sut(servo_controller_config("MX-28"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.goal_position_rad = 100.0 * kMxUnit;
+  command.p_gain_raw = 32;  // Kp = 32 / 8 = 4 output units per position unit
+
+  const ControllerOutput out = sut.update(command, 0.0, 0.0, kDt);
+
+  EXPECT_NEAR(out.pwm_ratio, 4.0 * 100.0 / 1023.0, 1e-9);
+}
+
+TEST(ServoControllerTest, MxIntegralGainAccumulatesTheError) {
+  ServoController sut(servo_controller_config("MX-64"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.goal_position_rad = 10.0 * kMxUnit;
+  command.i_gain_raw = 2;  // Ki = 2 * 1000 / 2048
+
+  ControllerOutput out;
+  for (int i = 0; i < 100; ++i) {
+    out = sut.update(command, 0.0, 0.0, kDt);
+  }
+
+  EXPECT_NEAR(out.pwm_ratio, (2.0 * 1000.0 / 2048.0) * 10.0 * 0.1 / 1023.0, 1e-9);
+}
+
+TEST(ServoControllerTest, MxDerivativeGainDampsTheSpeed) {
+  ServoController sut(servo_controller_config("MX-106"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.d_gain_raw = 250;  // Kd = 1.0 output unit per position unit / s
+
+  const ControllerOutput out = sut.update(command, 0.0, 1.0, kDt);
+
+  EXPECT_NEAR(out.pwm_ratio, -1.0 / kMxUnit / 1023.0, 1e-9);
+}
+
+TEST(ServoControllerTest, WheelModeDutyFollowsMovingSpeed) {
+  ServoController sut(servo_controller_config("RX-64"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.wheel_mode = true;
+  command.moving_speed_rad_s = -0.5 * 1023.0 * 0.111 * 2.0 * kPi / 60.0;  // 50 % CW
+
+  const ControllerOutput out = sut.update(command, 0.0, 0.0, kDt);
+
+  EXPECT_NEAR(out.pwm_ratio, -0.5, 1e-9);
+}
+
+TEST(ServoControllerTest, StalledAtFullDriveRaisesOverloadAfterOverloadTime) {
+  ServoController sut(servo_controller_config("RX-64"));
+  const ServoCommand command = compliance_command(1.0);
+
+  bool before = false, after = false;
+  for (int i = 0; i < 1500; ++i) {
+    const bool overload = sut.update(command, 0.0, 0.0, kDt).overload;
+    if (i == 900) before = overload;
+    if (i == 1100) after = overload;
+  }
+
+  EXPECT_FALSE(before);
+  EXPECT_TRUE(after);
+}
+
+TEST(ServoControllerTest, TorqueControlComputesTheDutyFromTheMotorLine) {
+  ServoControllerConfig config = servo_controller_config("MX-64");
+  config.back_emf_v_s_rad = 2.0;
+  config.resistance_ohm = 3.0;
+  config.torque_constant_nm_a = 1.5;
+  config.max_torque_nm = 6.0;
+  ServoController sut(config);
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.torque_control = true;
+  command.goal_torque_ratio = 0.5;
+
+  const ControllerOutput out = sut.update(command, 0.0, 1.0, kDt, 12.0);
+
+  // V = R tau / kt + ke w = 3 * 3 / 1.5 + 2 * 1 = 8 V of 12 V.
+  EXPECT_NEAR(out.pwm_ratio, 8.0 / 12.0, 1e-12);
+}
+
+TEST(ServoControllerTest, UnknownModelIsRejected) {
+  EXPECT_THROW(servo_controller_config("FUMANOID-IMU"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace doppel::dynamixel
