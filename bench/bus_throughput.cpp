@@ -43,6 +43,8 @@ struct RobotResult {
   uint64_t frames = 0;        // rounds over all servos
   uint64_t transactions = 0;  // instructions sent
   uint64_t errors = 0;        // replies missing or corrupt
+  uint64_t timeouts = 0;      // of those, nothing at all within the timeout
+  uint64_t partial = 0;       // of those, fewer bytes than a status within the timeout
 };
 
 RobotResult drive(const std::string& port, int servos, double seconds) {
@@ -57,8 +59,14 @@ RobotResult drive(const std::string& port, int servos, double seconds) {
       Bytes read = p1_instruction(id, 0x02, {36, 2});
       auto ok = [&](const Bytes& reply, std::size_t bytes) {
         auto statuses = doppel::testing::parse_p1_statuses(reply);
-        return reply.size() == bytes && statuses && statuses->size() == 1 && (*statuses)[0].id == id &&
-               (*statuses)[0].error == 0;
+        bool good = reply.size() == bytes && statuses && statuses->size() == 1 && (*statuses)[0].id == id &&
+                    (*statuses)[0].error == 0;
+        if (!good) {
+          result.timeouts += reply.empty() ? 1 : 0;
+          result.partial += !reply.empty() && reply.size() < bytes ? 1 : 0;
+          client.drain(5);  // a late reply must not be taken for the next one
+        }
+        return good;
       };
       result.errors += ok(client.transact(write, 6, 100), 6) ? 0 : 1;
       result.errors += ok(client.transact(read, 8, 100), 8) ? 0 : 1;
@@ -114,12 +122,19 @@ int main(int argc, char** argv) {
         sum.frames += result.frames;
         sum.transactions += result.transactions;
         sum.errors += result.errors;
+        sum.timeouts += result.timeouts;
+        sum.partial += result.partial;
       }
       int status = doppel.stop();
       if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         ++sum.errors;
       }
       total_errors += sum.errors;
+      if (sum.errors > 0) {
+        std::fprintf(stderr, "row %d x %d: %llu timeouts, %llu partial replies; doppel said:\n%s\n", robots, servos,
+                     static_cast<unsigned long long>(sum.timeouts), static_cast<unsigned long long>(sum.partial),
+                     doppel.output().c_str());
+      }
       std::printf("| %d | %d | %.0f | %.0f | %llu | %.3f %% | %s |\n", robots, servos,
                   static_cast<double>(sum.frames) / robots / seconds, static_cast<double>(sum.transactions) / seconds,
                   static_cast<unsigned long long>(sum.errors),

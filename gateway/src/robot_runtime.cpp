@@ -142,10 +142,18 @@ std::string BusRuntime::describe() const {
 
 std::string BusRuntime::summary() const {
   const bus::BusDiagnostics d = server_->diagnostics();
+  const dynamixel::BusDeviceCounters& devices = bus_devices_.counters();
   std::ostringstream out;
-  out << "  " << port_->link_path() << ": " << d.packets << " packets, " << d.bad_checksums << " bad checksums, "
-      << d.bytes_in << " bytes in, " << d.bytes_out << " bytes out, " << d.connects << " client sessions, " << d.timeouts << " inter-byte timeouts, " << d.late_deliveries
-      << " late deliveries (worst " << static_cast<double>(d.max_lateness_ns) / 1000.0 << " us)\n";
+  out << "  " << port_->link_path() << ": " << d.connects << " client sessions, " << d.bytes_in << " bytes in, "
+      << d.bytes_out << " bytes out\n"
+      << "    packets " << d.packets << " (bad checksum " << d.bad_checksums << ", not understood at the line's baud rate "
+      << devices.baud_mismatches << "), garbage bytes skipped " << d.dropped_bytes << ", inter-byte timeouts "
+      << d.timeouts << "\n"
+      << "    replies " << d.replies << " (collisions " << devices.collisions << ", broken bulk-read chains "
+      << devices.broken_chains << "), dropped for a full schedule " << d.dropped_replies
+      << ", bytes discarded after a client left " << d.discarded_bytes << "\n"
+      << "    late deliveries " << d.late_deliveries << " (worst " << static_cast<double>(d.max_lateness_ns) / 1000.0
+      << " us late)\n";
   return out.str();
 }
 
