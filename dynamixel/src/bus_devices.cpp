@@ -1,8 +1,11 @@
 #include "dynamixel/bus_devices.h"
 
 #include <algorithm>
+#include <bitset>
 #include <stdexcept>
 #include <string>
+
+#include "dynamixel/protocol2.h"
 
 namespace doppel::dynamixel {
 
@@ -14,11 +17,21 @@ namespace {
 constexpr uint32_t kUnreachableSlot = 0xFFFFFFFFu;
 
 uint32_t reply_slot(const Response& r) noexcept {
-  if (r.timing == ReplyTiming::kAfterInstruction) {
-    return 0;
+  switch (r.timing) {
+    case ReplyTiming::kAfterInstruction:
+      return 0;
+    case ReplyTiming::kFastBlock:
+    case ReplyTiming::kIdOrder:  // chain_position set by dispatch() from the ID rank
+      return r.chain_position;
+    case ReplyTiming::kAfterPrevious:
+      break;
   }
   return r.chain_position == 0 ? kUnreachableSlot : r.chain_position;
 }
+
+// Protocol 2.0 broadcast PING (reference §2.6): ROBOTIS' slave firmware lets ID n answer once the
+// status of the previous ID has been seen, or after 3 ms of silence per missing ID.
+constexpr int64_t kPingSlotNs = 3'000'000;
 
 // The wire carries the AND of the bits every driver pushes (an idle line reads 1).
 void wired_and(StatusPacket& into, const StatusPacket& other) noexcept {
@@ -79,6 +92,21 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     ++counters_.baud_mismatches;
   }
 
+  // P2 broadcast PING: the slot of an answer is the rank of its ID among the answering IDs.
+  for (std::size_t a = 0; a < transmitting; ++a) {
+    Response& r = responses_[order_[a]];
+    if (r.timing != ReplyTiming::kIdOrder) {
+      continue;
+    }
+    std::bitset<256> lower;
+    for (std::size_t b = 0; b < transmitting; ++b) {
+      if (responses_[order_[b]].timing == ReplyTiming::kIdOrder && sender_ids_[order_[b]] < sender_ids_[order_[a]]) {
+        lower.set(sender_ids_[order_[b]]);
+      }
+    }
+    r.chain_position = static_cast<uint16_t>(lower.count());
+  }
+
   // Wire order: by slot, ties (collisions) in the order the devices were added.
   for (std::size_t a = 1; a < transmitting; ++a) {
     const uint8_t idx = order_[a];
@@ -94,6 +122,8 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
   std::size_t out = 0;
   uint32_t expected_slot = 0;
   std::size_t k = 0;
+  uint16_t fast_crc = 0;  // running CRC of a P2 fast-read combined status
+  int previous_id = -1;   // P2 broadcast PING: ID of the previous answer
   while (k < transmitting) {
     const uint8_t first = order_[k];
     const uint32_t slot = reply_slot(responses_[first]);
@@ -108,9 +138,26 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     o.return_delay_us = sender_delays_us_[first];
     o.after_previous = base.timing == ReplyTiming::kAfterPrevious;
     o.collision = false;
+    o.extra_delay_ns = 0;
+    o.continues_previous = false;
+    const uint16_t block_crc = fast_crc;
+    if (base.timing == ReplyTiming::kFastBlock) {
+      o.after_previous = slot > 0;
+      o.continues_previous = slot > 0;
+      fast_crc = seal_fast_block(base.status, block_crc);
+    } else if (base.timing == ReplyTiming::kIdOrder) {
+      const int id = sender_ids_[first];
+      const int idle_slots = previous_id < 0 ? std::max(0, id - 1) : std::max(0, id - previous_id - 1);
+      o.after_previous = previous_id >= 0;
+      o.extra_delay_ns = idle_slots * kPingSlotNs;
+      previous_id = id;
+    }
     ++k;
     while (k < transmitting && reply_slot(responses_[order_[k]]) == slot) {
       const uint8_t other = order_[k];
+      if (responses_[other].timing == ReplyTiming::kFastBlock) {
+        seal_fast_block(responses_[other].status, block_crc);
+      }
       wired_and(base.status, responses_[other].status);
       o.return_delay_us = std::min(o.return_delay_us, sender_delays_us_[other]);
       o.collision = true;

@@ -24,6 +24,8 @@ struct OutgoingStatus {
   uint32_t return_delay_us = 0;          // sender's Return Delay Time
   bool after_previous = false;           // starts after the previous status in this list has ended
   bool collision = false;                // bytes are the garbled overlap of several devices
+  int64_t extra_delay_ns = 0;            // P2 broadcast PING: idle ID slots before this status, ns
+  bool continues_previous = false;       // P2 fast-read block: follows the previous one with no gap
 };
 
 // Counters a diagnostics thread may read (plain integers, written only by the bus thread).

@@ -15,6 +15,14 @@ namespace doppel::dynamixel {
 enum class ReplyTiming : uint8_t {
   kAfterInstruction,  // Return Delay Time after the instruction's last byte
   kAfterPrevious,     // after the status of the device at chain_position - 1 has ended (BULK READ chain)
+  // Protocol 2.0 broadcast PING: answers go out in ascending ID order, each after the previous
+  // one plus a 3 ms slot for every unused ID in between (the slot scheme of ROBOTIS' slave
+  // firmware; chain_position is not used, BusDevices orders by ID).
+  kIdOrder,
+  // One block of the single combined status of a P2 FAST SYNC/BULK READ: block 0 (it carries the
+  // header) answers like kAfterInstruction, block k follows block k - 1 without a gap; BusDevices
+  // fills in the running CRC of every block.
+  kFastBlock,
 };
 
 struct Response {

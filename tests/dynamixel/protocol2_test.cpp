@@ -1,0 +1,402 @@
+// Protocol 2.0 codec: every expected byte comes from shared/reference/dynamixel.md §2.2-2.7 (the
+// two e-Manual CRCs the reference flags as wrong are used in their corrected form).
+#include "dynamixel/protocol2.h"
+
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+#include "dynamixel/packet_framer.h"
+
+namespace doppel::dynamixel {
+namespace {
+
+using Bytes = std::vector<uint8_t>;
+
+struct Parsed {
+  std::vector<InstructionPacket> packets;
+  ParserCounters counters;
+};
+
+Parsed parse(const Bytes& bytes, std::size_t chunk = 1) {
+  Protocol2Parser sut;
+  Parsed result;
+  for (std::size_t start = 0; start < bytes.size(); start += chunk) {
+    for (std::size_t i = start; i < std::min(bytes.size(), start + chunk); ++i) {
+      if (sut.push(bytes[i]) == Protocol2Parser::Result::kPacket) {
+        result.packets.push_back(sut.packet());
+      }
+    }
+  }
+  result.counters = sut.counters();
+  return result;
+}
+
+Bytes params_of(const InstructionPacket& p) { return Bytes(p.params.begin(), p.params.begin() + p.param_count); }
+Bytes bytes_of(const StatusPacket& s) { return Bytes(s.bytes.begin(), s.bytes.begin() + s.size); }
+Bytes cat(Bytes a, const Bytes& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+TEST(Protocol2Crc, CheckValueOf123456789) {
+  const char* text = "123456789";
+  EXPECT_EQ(protocol2_crc(reinterpret_cast<const uint8_t*>(text), std::strlen(text)), 0xFEE8);
+}
+
+TEST(Protocol2Crc, RunningCrcEqualsOneShot) {
+  const Bytes all = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01};
+  const uint16_t first = protocol2_crc(all.data(), 3);
+  EXPECT_EQ(protocol2_crc(all.data() + 3, all.size() - 3, first), protocol2_crc(all.data(), all.size()));
+}
+
+TEST(Protocol2Crc, WorkedExamplesOfTheReference) {
+  // §2.2: the last two bytes are the CRC (low first) of everything before them.
+  const Bytes packets[] = {
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E},
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x55, 0x00, 0x06, 0x04, 0x26, 0x65, 0x5D},
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x55, 0x00, 0xFC, 0x03, 0x2D, 0x17, 0x43},
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x55, 0x00, 0x24, 0x04, 0x2D, 0xF4, 0xDF},
+      {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x03, 0x00, 0x01, 0x31, 0x42},
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x55, 0x00, 0xA1, 0x0C},
+      {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x55, 0x07, 0xB0, 0x8C},
+  };
+  for (const Bytes& p : packets) {
+    const uint16_t crc = protocol2_crc(p.data(), p.size() - 2);
+    EXPECT_EQ(crc & 0xFF, p[p.size() - 2]);
+    EXPECT_EQ(crc >> 8, p[p.size() - 1]);
+  }
+}
+
+TEST(Protocol2Stuffing, AppendsFdAfterEveryHeaderPattern) {
+  const Bytes in = {0x74, 0x00, 0xFF, 0xFF, 0xFD, 0x00, 0xFF, 0xFF, 0xFD, 0xFD};
+  uint8_t out[32];
+  const std::size_t n = protocol2_stuff(in.data(), in.size(), out, sizeof out);
+  EXPECT_EQ(Bytes(out, out + n), (Bytes{0x74, 0x00, 0xFF, 0xFF, 0xFD, 0xFD, 0x00, 0xFF, 0xFF, 0xFD, 0xFD, 0xFD}));
+  uint8_t back[32];
+  const std::size_t m = protocol2_unstuff(out, n, back);
+  EXPECT_EQ(Bytes(back, back + m), in);
+}
+
+TEST(Protocol2Stuffing, ThreeFfThenFdIsOnePattern) {
+  const Bytes in = {0xFF, 0xFF, 0xFF, 0xFD, 0x01};
+  uint8_t out[16];
+  const std::size_t n = protocol2_stuff(in.data(), in.size(), out, sizeof out);
+  EXPECT_EQ(Bytes(out, out + n), (Bytes{0xFF, 0xFF, 0xFF, 0xFD, 0xFD, 0x01}));
+}
+
+TEST(Protocol2Stuffing, RefusesWhenTheOutputIsTooSmall) {
+  const Bytes in = {0xFF, 0xFF, 0xFD};
+  uint8_t out[3];
+  EXPECT_EQ(protocol2_stuff(in.data(), in.size(), out, sizeof out), 0u);
+}
+
+TEST(Protocol2Encoder, StuffedWriteOfTheReference) {
+  // §2.3: WRITE ID 1, address 116, data FF FF FD 00 -> LEN 9 becomes 10.
+  const uint8_t params[] = {0x74, 0x00, 0xFF, 0xFF, 0xFD, 0x00};
+  uint8_t out[64];
+  const std::size_t n = encode_protocol2_instruction(1, instruction::kWrite, params, sizeof params, out, sizeof out);
+  EXPECT_EQ(Bytes(out, out + n), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x0A, 0x00, 0x03, 0x74, 0x00, 0xFF, 0xFF, 0xFD,
+                                        0xFD, 0x00, 0x21, 0xE7}));
+}
+
+TEST(Protocol2Encoder, PingAndReadInstructions) {
+  uint8_t out[64];
+  std::size_t n = encode_protocol2_instruction(1, instruction::kPing, nullptr, 0, out, sizeof out);
+  EXPECT_EQ(Bytes(out, out + n), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E}));
+  const uint8_t read[] = {0x84, 0x00, 0x04, 0x00};
+  n = encode_protocol2_instruction(1, instruction::kRead, read, sizeof read, out, sizeof out);
+  EXPECT_EQ(Bytes(out, out + n), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x02, 0x84, 0x00, 0x04, 0x00, 0x1D, 0x15}));
+  EXPECT_EQ(encode_protocol2_instruction(1, instruction::kRead, read, sizeof read, out, 13), 0u);
+}
+
+TEST(Protocol2Encoder, StatusPacketsOfTheReference) {
+  StatusPacket sut;
+  const uint8_t xm[] = {0xFC, 0x03, 0x2D};
+  ASSERT_TRUE(encode_protocol2_status(1, 0, xm, sizeof xm, sut));
+  EXPECT_EQ(bytes_of(sut), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x55, 0x00, 0xFC, 0x03, 0x2D, 0x17, 0x43}));
+  ASSERT_TRUE(encode_protocol2_status(1, 0, nullptr, 0, sut));
+  EXPECT_EQ(bytes_of(sut), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x55, 0x00, 0xA1, 0x0C}));
+  ASSERT_TRUE(encode_protocol2_status(1, p2_error::kAccess, nullptr, 0, sut));
+  EXPECT_EQ(bytes_of(sut), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x55, 0x07, 0xB0, 0x8C}));
+  const uint8_t position[] = {0xA6, 0x00, 0x00, 0x00};
+  ASSERT_TRUE(encode_protocol2_status(1, 0, position, sizeof position, sut));
+  EXPECT_EQ(bytes_of(sut),
+            (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x08, 0x00, 0x55, 0x00, 0xA6, 0x00, 0x00, 0x00, 0x8C, 0xC0}));
+  const uint8_t id2[] = {0x1F, 0x08, 0x00, 0x00};
+  ASSERT_TRUE(encode_protocol2_status(2, 0, id2, sizeof id2, sut));
+  EXPECT_EQ(bytes_of(sut),
+            (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x02, 0x08, 0x00, 0x55, 0x00, 0x1F, 0x08, 0x00, 0x00, 0xBA, 0xBE}));
+  const uint8_t bulk1[] = {0x77, 0x00};
+  ASSERT_TRUE(encode_protocol2_status(1, 0, bulk1, sizeof bulk1, sut));
+  EXPECT_EQ(bytes_of(sut), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x06, 0x00, 0x55, 0x00, 0x77, 0x00, 0xC3, 0x69}));
+  const uint8_t bulk2[] = {0x24};
+  ASSERT_TRUE(encode_protocol2_status(2, 0, bulk2, sizeof bulk2, sut));
+  EXPECT_EQ(bytes_of(sut), (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x02, 0x05, 0x00, 0x55, 0x00, 0x24, 0x8B, 0xA9}));
+}
+
+TEST(Protocol2Encoder, EveryErrorNumberAndTheAlertBit) {
+  // Layout of §2.1 with ERR = n; CRC recomputed from §2.2 (the Access Error packet is golden).
+  StatusPacket sut;
+  for (uint8_t error : {p2_error::kResultFail, p2_error::kInstruction, p2_error::kCrc, p2_error::kDataRange,
+                        p2_error::kDataLength, p2_error::kDataLimit, p2_error::kAccess,
+                        static_cast<uint8_t>(p2_error::kAlert | p2_error::kAccess)}) {
+    ASSERT_TRUE(encode_protocol2_status(1, error, nullptr, 0, sut));
+    Bytes expected = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x55, error};
+    const uint16_t crc = protocol2_crc(expected.data(), expected.size());
+    expected.push_back(static_cast<uint8_t>(crc & 0xFF));
+    expected.push_back(static_cast<uint8_t>(crc >> 8));
+    EXPECT_EQ(bytes_of(sut), expected) << int(error);
+  }
+  EXPECT_EQ(p2_error::kResultFail, 1);
+  EXPECT_EQ(p2_error::kAccess, 7);
+  EXPECT_EQ(p2_error::kAlert, 0x80);
+}
+
+TEST(Protocol2Encoder, StatusDataIsStuffedAndLenCountsTheExtraByte) {
+  StatusPacket sut;
+  const uint8_t data[] = {0xFF, 0xFF, 0xFD, 0x00};
+  ASSERT_TRUE(encode_protocol2_status(1, 0, data, sizeof data, sut));
+  Bytes expected = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x09, 0x00, 0x55, 0x00, 0xFF, 0xFF, 0xFD, 0xFD, 0x00};
+  const uint16_t crc = protocol2_crc(expected.data(), expected.size());
+  expected.push_back(static_cast<uint8_t>(crc & 0xFF));
+  expected.push_back(static_cast<uint8_t>(crc >> 8));
+  EXPECT_EQ(bytes_of(sut), expected);
+}
+
+struct Golden {
+  const char* what;
+  Bytes bytes;
+  uint8_t id;
+  uint8_t instruction;
+  Bytes params;
+};
+
+std::vector<Golden> golden_instructions() {
+  return {
+      {"PING", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E}, 1, 0x01, {}},
+      {"PING broadcast", {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x03, 0x00, 0x01, 0x31, 0x42}, 0xFE, 0x01, {}},
+      {"READ", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x07, 0x00, 0x02, 0x84, 0x00, 0x04, 0x00, 0x1D, 0x15}, 1, 0x02,
+       {0x84, 0x00, 0x04, 0x00}},
+      {"WRITE",
+       {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x09, 0x00, 0x03, 0x74, 0x00, 0x00, 0x02, 0x00, 0x00, 0xCA, 0x89},
+       1, 0x03, {0x74, 0x00, 0x00, 0x02, 0x00, 0x00}},
+      {"WRITE stuffed",
+       {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x0A, 0x00, 0x03, 0x74, 0x00, 0xFF, 0xFF, 0xFD, 0xFD, 0x00, 0x21, 0xE7},
+       1, 0x03, {0x74, 0x00, 0xFF, 0xFF, 0xFD, 0x00}},
+      {"REG WRITE",
+       {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x09, 0x00, 0x04, 0x68, 0x00, 0xC8, 0x00, 0x00, 0x00, 0xAE, 0x8E},
+       1, 0x04, {0x68, 0x00, 0xC8, 0x00, 0x00, 0x00}},
+      {"ACTION", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x05, 0x02, 0xCE}, 1, 0x05, {}},
+      {"FACTORY RESET", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x00, 0x06, 0x01, 0xA1, 0xE6}, 1, 0x06, {0x01}},
+      {"REBOOT", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x08, 0x2F, 0x4E}, 1, 0x08, {}},
+      {"CLEAR", {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x08, 0x00, 0x10, 0x01, 0x44, 0x58, 0x4C, 0x22, 0xB1, 0xDC}, 1, 0x10,
+       {0x01, 0x44, 0x58, 0x4C, 0x22}},
+      {"BACKUP store",
+       {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x08, 0x00, 0x20, 0x01, 0x43, 0x54, 0x52, 0x4C, 0x16, 0xF5}, 1, 0x20,
+       {0x01, 0x43, 0x54, 0x52, 0x4C}},
+      {"BACKUP restore (corrected CRC)",
+       {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x08, 0x00, 0x20, 0x02, 0x43, 0x54, 0x52, 0x4C, 0x9E, 0xF5}, 1, 0x20,
+       {0x02, 0x43, 0x54, 0x52, 0x4C}},
+      {"SYNC READ",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x09, 0x00, 0x82, 0x84, 0x00, 0x04, 0x00, 0x01, 0x02, 0xCE, 0xFA}, 0xFE, 0x82,
+       {0x84, 0x00, 0x04, 0x00, 0x01, 0x02}},
+      {"SYNC WRITE",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x11, 0x00, 0x83, 0x74, 0x00, 0x04, 0x00, 0x01, 0x96, 0x00, 0x00, 0x00, 0x02,
+        0xAA, 0x00, 0x00, 0x00, 0x82, 0x87},
+       0xFE, 0x83, {0x74, 0x00, 0x04, 0x00, 0x01, 0x96, 0x00, 0x00, 0x00, 0x02, 0xAA, 0x00, 0x00, 0x00}},
+      {"FAST SYNC READ",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x0A, 0x00, 0x8A, 0x84, 0x00, 0x04, 0x00, 0x03, 0x07, 0x04, 0x20, 0xF2}, 0xFE,
+       0x8A, {0x84, 0x00, 0x04, 0x00, 0x03, 0x07, 0x04}},
+      {"BULK READ",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x0D, 0x00, 0x92, 0x01, 0x90, 0x00, 0x02, 0x00, 0x02, 0x92, 0x00, 0x01, 0x00, 0x1A,
+        0x05},
+       0xFE, 0x92, {0x01, 0x90, 0x00, 0x02, 0x00, 0x02, 0x92, 0x00, 0x01, 0x00}},
+      {"BULK WRITE",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x10, 0x00, 0x93, 0x01, 0x20, 0x00, 0x02, 0x00, 0xA0, 0x00, 0x02, 0x1F, 0x00, 0x01,
+        0x00, 0x50, 0xB7, 0x68},
+       0xFE, 0x93, {0x01, 0x20, 0x00, 0x02, 0x00, 0xA0, 0x00, 0x02, 0x1F, 0x00, 0x01, 0x00, 0x50}},
+      {"FAST BULK READ (corrected CRC)",
+       {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x12, 0x00, 0x9A, 0x03, 0x84, 0x00, 0x04, 0x00, 0x07, 0x7C, 0x00, 0x02, 0x00, 0x04,
+        0x92, 0x00, 0x01, 0x00, 0xDA, 0x2D},
+       0xFE, 0x9A, {0x03, 0x84, 0x00, 0x04, 0x00, 0x07, 0x7C, 0x00, 0x02, 0x00, 0x04, 0x92, 0x00, 0x01, 0x00}},
+  };
+}
+
+TEST(Protocol2Parser, FramesEveryGoldenInstruction) {
+  for (const Golden& g : golden_instructions()) {
+    for (std::size_t chunk : {std::size_t{1}, std::size_t{5}, g.bytes.size()}) {
+      const Parsed parsed = parse(g.bytes, chunk);
+      ASSERT_EQ(parsed.packets.size(), 1u) << g.what;
+      const InstructionPacket& p = parsed.packets[0];
+      EXPECT_EQ(p.protocol, Protocol::kV2) << g.what;
+      EXPECT_TRUE(p.checksum_ok) << g.what;
+      EXPECT_EQ(p.id, g.id) << g.what;
+      EXPECT_EQ(p.instruction, g.instruction) << g.what;
+      EXPECT_EQ(params_of(p), g.params) << g.what;
+      EXPECT_EQ(parsed.counters.dropped_bytes, 0u) << g.what;
+    }
+  }
+}
+
+TEST(Protocol2Parser, TheTwoWrongEmanualCrcsAreReportedAsCrcErrors) {
+  // §2.4 / §2.7: the e-Manual prints 92 F5 for BACKUP restore and 20 F2 for FAST BULK READ.
+  const Bytes restore = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x08, 0x00, 0x20, 0x02, 0x43, 0x54, 0x52, 0x4C, 0x92, 0xF5};
+  const Bytes fast_bulk = {0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x12, 0x00, 0x9A, 0x03, 0x84, 0x00, 0x04, 0x00,
+                           0x07, 0x7C, 0x00, 0x02, 0x00, 0x04, 0x92, 0x00, 0x01, 0x00, 0x20, 0xF2};
+  for (const Bytes& bytes : {restore, fast_bulk}) {
+    const Parsed parsed = parse(bytes);
+    ASSERT_EQ(parsed.packets.size(), 1u);
+    EXPECT_FALSE(parsed.packets[0].checksum_ok);
+    EXPECT_EQ(parsed.counters.bad_checksums, 1u);
+  }
+}
+
+TEST(Protocol2Parser, ResynchronisesAfterGarbage) {
+  const Bytes ping = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};
+  // Garbage, a lone FF, a stuffed-looking FF FF FD FD (no header), FF FF FF FD 00 (header at the last two FF).
+  const Bytes stream = cat(cat({0x12, 0xFF, 0x34, 0xFF, 0xFF, 0xFD, 0xFD, 0xFF}, ping), cat({0xFF}, ping));
+  const Parsed parsed = parse(stream);
+  ASSERT_EQ(parsed.packets.size(), 2u);
+  EXPECT_TRUE(parsed.packets[0].checksum_ok);
+  EXPECT_TRUE(parsed.packets[1].checksum_ok);
+  EXPECT_EQ(parsed.counters.dropped_bytes, 1u + 2u + 4u + 1u + 1u);
+}
+
+TEST(Protocol2Parser, ImpossibleLengthsAreDroppedAndHuntingResumesInsideThem) {
+  const Bytes ping = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};
+  for (const Bytes& bad : {Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x02, 0x00}, Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x00, 0x00},
+                           Bytes{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x04, 0x04}}) {
+    const Parsed parsed = parse(cat(bad, ping));
+    ASSERT_EQ(parsed.packets.size(), 1u);
+    EXPECT_TRUE(parsed.packets[0].checksum_ok);
+    EXPECT_EQ(parsed.counters.bad_lengths, 1u);
+  }
+  // ID FF, LEN FF FD: the rejected header's last three bytes start the next header.
+  const Parsed nested = parse(cat({0xFF, 0xFF, 0xFD, 0x00, 0xFF, 0xFF, 0xFD}, Bytes(ping.begin() + 3, ping.end())));
+  ASSERT_EQ(nested.packets.size(), 1u);
+  EXPECT_TRUE(nested.packets[0].checksum_ok);
+  EXPECT_EQ(nested.packets[0].id, 1);
+}
+
+TEST(Protocol2Parser, ResetDropsAPartialPacket) {
+  const Bytes ping = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};
+  Protocol2Parser sut;
+  for (std::size_t i = 0; i < 6; ++i) {
+    sut.push(ping[i]);
+  }
+  EXPECT_FALSE(sut.idle());
+  sut.reset();
+  EXPECT_TRUE(sut.idle());
+  EXPECT_EQ(sut.counters().timeouts, 1u);
+  int packets = 0;
+  for (uint8_t b : ping) {
+    packets += sut.push(b) == Protocol2Parser::Result::kPacket ? 1 : 0;
+  }
+  EXPECT_EQ(packets, 1);
+}
+
+TEST(Protocol2FastStatus, SyncExampleOfTheReference) {
+  // §2.7: FAST SYNC READ IDs 3, 7, 4, address 132, 4 bytes.
+  StatusPacket a, b, c;
+  const uint8_t d3[] = {0xA6, 0x00, 0x00, 0x00}, d7[] = {0x1F, 0x08, 0x00, 0x00}, d4[] = {0xFF, 0x03, 0x00, 0x00};
+  ASSERT_TRUE(encode_fast_block(true, 12, 3, 0, 3, d3, 4, a));
+  ASSERT_TRUE(encode_fast_block(false, 12, 3, 0, 7, d7, 4, b));
+  ASSERT_TRUE(encode_fast_block(false, 12, 3, 0, 4, d4, 4, c));
+  uint16_t crc = seal_fast_block(a, 0);
+  crc = seal_fast_block(b, crc);
+  seal_fast_block(c, crc);
+  EXPECT_EQ(cat(cat(bytes_of(a), bytes_of(b)), bytes_of(c)),
+            (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x19, 0x00, 0x55, 0x00, 0x03, 0xA6, 0x00, 0x00, 0x00, 0x84, 0x08,
+                   0x00, 0x07, 0x1F, 0x08, 0x00, 0x00, 0x16, 0xCA, 0x00, 0x04, 0xFF, 0x03, 0x00, 0x00, 0xD1, 0x9E}));
+}
+
+TEST(Protocol2FastStatus, BulkExampleOfTheReference) {
+  // §2.7: FAST BULK READ ID 3 (132, 4 B), ID 7 (124, 2 B), ID 4 (146, 1 B).
+  StatusPacket a, b, c;
+  const uint8_t d3[] = {0xA6, 0x00, 0x00, 0x00}, d7[] = {0xA5, 0x01}, d4[] = {0x1F};
+  ASSERT_TRUE(encode_fast_block(true, 7, 3, 0, 3, d3, 4, a));
+  ASSERT_TRUE(encode_fast_block(false, 7, 3, 0, 7, d7, 2, b));
+  ASSERT_TRUE(encode_fast_block(false, 7, 3, 0, 4, d4, 1, c));
+  uint16_t crc = seal_fast_block(a, 0);
+  crc = seal_fast_block(b, crc);
+  seal_fast_block(c, crc);
+  EXPECT_EQ(cat(cat(bytes_of(a), bytes_of(b)), bytes_of(c)),
+            (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x14, 0x00, 0x55, 0x00, 0x03, 0xA6, 0x00, 0x00, 0x00, 0x67, 0xA4,
+                   0x00, 0x07, 0xA5, 0x01, 0x24, 0x74, 0x00, 0x04, 0x1F, 0xD9, 0xC1}));
+}
+
+std::vector<InstructionPacket> frame(const Bytes& bytes, ParserCounters* counters = nullptr) {
+  PacketFramer sut;
+  std::vector<InstructionPacket> out;
+  for (uint8_t b : bytes) {
+    if (sut.push(b) == PacketFramer::Result::kPacket) {
+      out.push_back(sut.packet());
+    }
+  }
+  EXPECT_TRUE(sut.idle());
+  if (counters != nullptr) {
+    *counters = sut.counters();
+  }
+  return out;
+}
+
+TEST(PacketFramer, MixedProtocol1And2Stream) {
+  const Bytes p2_ping = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};
+  const Bytes p1_ping = {0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};           // reference §1.7
+  const Bytes p1_fd = {0xFF, 0xFF, 0xFD, 0x02, 0x01, 0xFF};             // P1 PING to ID 0xFD: ~(FD+02+01) = FF
+  const Bytes stream = cat(cat(cat(cat({0x00, 0x42}, p2_ping), p1_ping), p1_fd), p2_ping);
+  ParserCounters counters;
+  const auto packets = frame(stream, &counters);
+  ASSERT_EQ(packets.size(), 4u);
+  EXPECT_EQ(packets[0].protocol, Protocol::kV2);
+  EXPECT_EQ(packets[1].protocol, Protocol::kV1);
+  EXPECT_EQ(packets[1].id, 1);
+  EXPECT_EQ(packets[2].protocol, Protocol::kV1);
+  EXPECT_EQ(packets[2].id, 0xFD);
+  EXPECT_EQ(packets[3].protocol, Protocol::kV2);
+  for (const auto& p : packets) {
+    EXPECT_TRUE(p.checksum_ok);
+  }
+  EXPECT_EQ(counters.packets, 4u);
+  EXPECT_EQ(counters.dropped_bytes, 2u);
+}
+
+TEST(PacketFramer, AProtocol1PacketInsideProtocol2ParametersIsNotFramed) {
+  // WRITE to ID 1 whose data bytes spell a P1 PING (FF FF 01 02 01 FB).
+  const uint8_t params[] = {0x41, 0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};
+  uint8_t wire[64];
+  const std::size_t n = encode_protocol2_instruction(1, instruction::kWrite, params, sizeof params, wire, sizeof wire);
+  const auto packets = frame(Bytes(wire, wire + n));
+  ASSERT_EQ(packets.size(), 1u);
+  EXPECT_EQ(packets[0].protocol, Protocol::kV2);
+  EXPECT_EQ(params_of(packets[0]), Bytes(params, params + sizeof params));
+}
+
+TEST(PacketFramer, ReportsWhichInterByteTimeoutApplies) {
+  PacketFramer sut;
+  for (uint8_t b : {0xFF, 0xFF, 0x01}) {
+    sut.push(b);
+  }
+  EXPECT_FALSE(sut.receiving_protocol2());
+  sut.reset();
+  for (uint8_t b : {0xFF, 0xFF, 0xFD, 0x00, 0x01}) {
+    sut.push(b);
+  }
+  EXPECT_TRUE(sut.receiving_protocol2());
+  sut.reset();
+  EXPECT_TRUE(sut.idle());
+}
+
+TEST(PacketFramer, BadP2LengthFollowedByAP1Packet) {
+  // LEN FF00 is impossible; its high byte FF and the next bytes form a P1 PING (reference §1.7).
+  const auto packets = frame({0xFF, 0xFF, 0xFD, 0x00, 0x05, 0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB});
+  ASSERT_EQ(packets.size(), 1u);
+  EXPECT_EQ(packets[0].protocol, Protocol::kV1);
+  EXPECT_EQ(packets[0].id, 1);
+}
+
+}  // namespace
+}  // namespace doppel::dynamixel
