@@ -11,6 +11,7 @@ namespace {
 
 constexpr size_t kContactBufferSize = 64;  // contacts per foot per step that the load cells see
 constexpr double kHoldRate_1_s = 20.0;     // how fast a held joint is pulled back to its hold angle
+constexpr double kHoldDamping = 50.0;      // N m s/rad: a firm grip, soft enough for the iterative solvers
 const Rgb kTeamColours[2] = {Rgb{0, 200, 220}, Rgb{220, 0, 200}};
 
 // Lowest z of a shape placed at X_WS.
@@ -79,6 +80,7 @@ struct World::ImuSlot {
   int body = 0;  // backend body
   Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();
   Eigen::Vector3d v_prev = Eigen::Vector3d::Zero();
+  Eigen::Vector3d f_S = Eigen::Vector3d::Zero();  // filtered specific force
   bool has_prev = false;
   ImuState state;
 };
@@ -318,7 +320,7 @@ void World::set_motor(MotorHandle motor, const MotorCommand& command) noexcept {
 }
 
 DriveLaw World::hold_law(double target, double position) const noexcept {
-  return DriveLaw{kHoldRate_1_s * (target - position), std::numeric_limits<double>::infinity(), options_.hold_torque_nm};
+  return DriveLaw{kHoldRate_1_s * (target - position), kHoldDamping, options_.hold_torque_nm};
 }
 
 void World::hold(size_t robot) noexcept {
@@ -431,16 +433,19 @@ void World::step() noexcept {
 void World::update_sensors() noexcept {
   const int64_t now_ns = time_ns();
   const Eigen::Vector3d up_g(0.0, 0.0, options_.gravity_m_s2);
+  const double accel_alpha = options_.step_s / (options_.imu_accel_filter_s + options_.step_s);
   for (ImuSlot& imu : imus_) {
     const BodyReading body = backend_->body(imu.body);
     const Eigen::Isometry3d X_WS = body.X_WB * imu.X_BS;
     const Eigen::Matrix3d R_SW = X_WS.linear().transpose();
     const Eigen::Vector3d v_S = body.v_WB_W + body.w_WB_W.cross(X_WS.translation() - body.X_WB.translation());
     const Eigen::Vector3d a_W = imu.has_prev ? Eigen::Vector3d((v_S - imu.v_prev) / options_.step_s) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d raw_S = R_SW * (a_W + up_g);
+    imu.f_S = imu.has_prev ? Eigen::Vector3d(imu.f_S + accel_alpha * (raw_S - imu.f_S)) : raw_S;
     imu.v_prev = v_S;
     imu.has_prev = true;
     const Eigen::Vector3d w_S = R_SW * body.w_WB_W;
-    const Eigen::Vector3d f_S = R_SW * (a_W + up_g);
+    const Eigen::Vector3d& f_S = imu.f_S;
     ImuState& s = imu.state;
     rpy_of(X_WS.linear(), s.roll_rad, s.pitch_rad, s.yaw_rad);
     s.w_WS_S_rad_s = {w_S.x(), w_S.y(), w_S.z()};

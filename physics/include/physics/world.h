@@ -59,6 +59,8 @@ struct WorldOptions {
   double ambient_c = 25.0;         // start and ambient temperature of the motors
   HoldMode hold = HoldMode::kUntilTorque;
   double hold_torque_nm = 50.0;    // how hard the handler holds each joint
+  double imu_accel_filter_s = 0.005;  // accelerometer low-pass time constant (a MEMS part's
+                                      // anti-alias filter, about 30 Hz); 0 = raw finite difference
   int solver_iterations = 20;      // constraint solver sweeps per step
   MaterialSpec ground{0.8, 0.0};   // carpet
   BallOptions ball;

@@ -11,10 +11,12 @@
 #include <array>
 #include <cmath>
 #include <memory>
+#include <mutex>
 #include <stdexcept>
 #include <vector>
 
 #include "physics/backend.h"
+#include "physics/block_pool.h"
 #include "physics/engines.h"
 
 namespace doppel::physics {
@@ -22,6 +24,12 @@ namespace {
 
 constexpr size_t kMaxReportedContacts = 512;
 constexpr btScalar kMargin = 0.001;
+
+// Bullet's allocations go to the block pool (see block_pool.h), installed before Bullet allocates
+// anything, so that the arrays Bullet grows during a step do not reach malloc.
+std::once_flag g_bullet_once;
+void* bullet_alloc(size_t size) { return BlockPool::allocate(size); }
+void bullet_free(void* block) { BlockPool::release(block); }
 
 btVector3 bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); }
 Eigen::Vector3d eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
@@ -146,6 +154,10 @@ struct Reported {
 
 class BulletBackend final : public Backend {
  public:
+  BulletBackend() {
+    std::call_once(g_bullet_once, [] { btAlignedAllocSetCustom(&bullet_alloc, &bullet_free); });
+  }
+
   ~BulletBackend() override {
     if (!world_) return;
     for (auto& pin : pins_) {
@@ -332,6 +344,7 @@ class BulletBackend final : public Backend {
   }
 
   void step(double dt_s) noexcept override {
+    BlockPool::stock(8);
     for (Joint& j : joints_) {
       if (j.drive) j.drive->prepare(dt_s);
     }

@@ -6,8 +6,11 @@
 
 #include <ode/ode.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
@@ -15,6 +18,7 @@
 #include <vector>
 
 #include "physics/backend.h"
+#include "physics/block_pool.h"
 #include "physics/engines.h"
 
 namespace doppel::physics {
@@ -26,6 +30,20 @@ constexpr double kContactErp = 0.2;
 constexpr double kContactCfm = 1e-5;
 
 std::once_flag g_ode_once;
+
+// ODE frees the arena of the step's contact joints after every step and allocates it again in
+// the next one: its allocation hooks go to the block pool, so the steady state does not call malloc.
+void* ode_alloc(dsizeint size) { return BlockPool::allocate(size); }
+
+void ode_free(void* block, dsizeint) { BlockPool::release(block); }
+
+void* ode_realloc(void* block, dsizeint old_size, dsizeint new_size) {
+  void* fresh = BlockPool::allocate(new_size);
+  if (fresh != nullptr && block != nullptr) std::memcpy(fresh, block, std::min(old_size, new_size));
+  BlockPool::release(block);
+  return fresh;
+}
+
 thread_local bool t_ode_thread_ready = false;
 
 void ensure_ode_thread() noexcept {
@@ -51,7 +69,12 @@ struct Reported {
 class OdeBackend final : public Backend {
  public:
   OdeBackend() {
-    std::call_once(g_ode_once, [] { dInitODE2(0); });
+    std::call_once(g_ode_once, [] {
+      dSetAllocHandler(&ode_alloc);
+      dSetReallocHandler(&ode_realloc);
+      dSetFreeHandler(&ode_free);
+      dInitODE2(0);
+    });
     ensure_ode_thread();
   }
 
@@ -63,8 +86,7 @@ class OdeBackend final : public Backend {
 
   void init(const BackendOptions& options) override {
     world_ = dWorldCreate();
-    space_ = dHashSpaceCreate(nullptr);
-    dHashSpaceSetLevels(space_, -5, 3);
+    space_ = dSimpleSpaceCreate(nullptr);  // the hash space allocates a std::vector in every collide
     contacts_ = dJointGroupCreate(0);
     dWorldSetGravity(world_, 0.0, 0.0, -options.gravity_m_s2);
     dWorldSetERP(world_, 0.2);
@@ -73,6 +95,7 @@ class OdeBackend final : public Backend {
     dWorldSetContactSurfaceLayer(world_, 0.0005);
     dWorldSetContactMaxCorrectingVel(world_, 1.0);
     dWorldSetAutoDisableFlag(world_, 0);
+    dWorldSetQuickStepW(world_, 1.0);
     feedback_.resize(kMaxReportedContacts);
     reported_.resize(kMaxReportedContacts);
     step_s_ = options.step_s;
@@ -210,6 +233,7 @@ class OdeBackend final : public Backend {
 
   void step(double dt_s) noexcept override {
     ensure_ode_thread();
+    BlockPool::stock(8);
     reported_count_ = 0;
     feedback_count_ = 0;
     dRandSetSeed(seed_);  // QuickStep reorders constraints with ODE's global generator: keep it per world

@@ -1,0 +1,81 @@
+// The physics step does not allocate after setup (a real-time requirement): every malloc of the
+// process is counted while a standing robot is stepped, on both engines. ODE and Bullet allocate
+// through malloc, so replacing malloc/calloc/realloc here (forwarding to glibc) sees them all.
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstddef>
+
+#include "rigs.h"
+
+extern "C" {
+void* __libc_malloc(size_t size);
+void* __libc_calloc(size_t count, size_t size);
+void* __libc_realloc(void* block, size_t size);
+}
+
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_allocations{0};
+
+// A place for a debugger breakpoint: every counted allocation passes here.
+[[gnu::noinline]] void count_allocation() { g_allocations.fetch_add(1, std::memory_order_relaxed); }
+}  // namespace
+
+extern "C" void* malloc(size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) count_allocation();
+  return __libc_malloc(size);
+}
+
+extern "C" void* calloc(size_t count, size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) count_allocation();
+  return __libc_calloc(count, size);
+}
+
+extern "C" void* realloc(void* block, size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) count_allocation();
+  return __libc_realloc(block, size);
+}
+
+namespace doppel::physics {
+namespace {
+
+class AllocationTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
+  WorldOptions options;  // with the ball
+  auto world = test::make_world(GetParam(), {test::shipped_robot("fumanoid-2011"), test::shipped_robot("fumanoid-2011")},
+                                options);
+  test::Firmware firmware(*world, 0);
+  SceneView view;
+  world->fill_scene(view);
+  firmware.enable_all();
+  firmware.run(0.5);  // warm-up: contact pools and solver buffers reach their working size
+
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 1000; ++i) {
+    firmware.step();
+    if (i % 40 == 0) world->fill_scene(view);
+  }
+  g_counting = false;
+
+  EXPECT_EQ(g_allocations.load(), 0);
+}
+
+TEST(AllocationCounterTest, CountsAllocations) {
+  g_allocations = 0;
+  g_counting = true;
+  void* volatile block = malloc(32);
+  g_counting = false;
+  free(block);
+
+  EXPECT_EQ(g_allocations.load(), 1);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, AllocationTest, ::testing::ValuesIn(engine_names()),
+                         [](const ::testing::TestParamInfo<std::string>& param) { return param.param; });
+
+}  // namespace
+}  // namespace doppel::physics
