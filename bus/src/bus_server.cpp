@@ -57,11 +57,21 @@ void BusServer::run(const std::atomic<bool>& stop) noexcept {
   if (old_slack > 0) ::prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(old_slack), 0, 0, 0);
 }
 
+void BusServer::tick() noexcept {
+  if (sync_ == nullptr) return;
+  const int64_t now = now_ns();
+  if (now - last_tick_ns_ < kTickNs) return;
+  last_tick_ns_ = now;
+  sync_->on_tick();
+}
+
 void BusServer::run_once(int64_t max_wait_ns) noexcept {
+  tick();
   if (!port_.connected()) {
-    if (port_.wait_for_client(max_wait_ns)) on_connect();
+    if (port_.wait_for_client(std::min(max_wait_ns, kTickNs))) on_connect();
     return;
   }
+  if (sync_ != nullptr) max_wait_ns = std::min(max_wait_ns, kTickNs);
   write_due();
 
   // Sleep until input arrives or shortly before the next delivery is due.
@@ -105,20 +115,23 @@ void BusServer::read_input() noexcept {
 }
 
 void BusServer::process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept {
-  // The servo firmware drops a packet whose bytes stop for more than 100 ms. Checking when the next
-  // bytes come is equivalent: a dropped partial packet has no effect until then.
-  if (!parser_.idle() && seen_ns - last_input_ns_ > kInterByteTimeoutNs) {
+  // Firmware drops a packet whose bytes stop for more than 100 ms (P1) / 1.5 ms (P2). Checking
+  // when the next bytes come is equivalent: a dropped partial packet has no effect until then. The
+  // gap is counted from when the previous bytes had crossed the wire, not from when Doppel read
+  // them (a pty hands a whole write over at once).
+  const int64_t timeout_ns = parser_.receiving_protocol2() ? kP2InterByteTimeoutNs : kInterByteTimeoutNs;
+  if (!parser_.idle() && seen_ns - last_input_ns_ > timeout_ns) {
     parser_.reset();
     add(counters_.timeouts);
   }
-  last_input_ns_ = seen_ns;
   const WireSpan span = timing_.host_bytes(seen_ns, n, baud_bps);
+  last_input_ns_ = std::max(seen_ns, span.end_ns);
   for (std::size_t i = 0; i < n; ++i) {
-    if (parser_.push(bytes[i]) == dynamixel::Protocol1Parser::Result::kPacket) {
+    if (parser_.push(bytes[i]) == dynamixel::PacketFramer::Result::kPacket) {
       dispatch(parser_.packet(), span.byte_end_ns(i), seen_ns, baud_bps);
     }
   }
-  const dynamixel::ParserCounters& parsed = parser_.counters();
+  const dynamixel::ParserCounters parsed = parser_.counters();
   set_if_changed(counters_.packets, parsed.packets);
   set_if_changed(counters_.bad_checksums, parsed.bad_checksums);
   set_if_changed(counters_.dropped_bytes, parsed.dropped_bytes);
@@ -156,7 +169,8 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
     if (status.packet == nullptr || status.packet->size == 0) continue;
     const std::size_t size = status.packet->size;
     schedule_.push_bytes(status.packet->bytes.data(), size);
-    const WireSpan span = timing_.status(size, status.return_delay_us, status.after_previous, baud_bps);
+    const WireSpan span = timing_.status(size, status.return_delay_us, status.after_previous, baud_bps,
+                                         status.extra_delay_ns, status.continues_previous);
     trace.status_end_ns = span.end_ns;
     adapter_.add_status(span, size, emit);
   }

@@ -25,13 +25,13 @@ void WireTiming::begin_reply(int64_t instruction_end_ns) noexcept {
   have_previous_status_ = false;
 }
 
-WireSpan WireTiming::status(std::size_t n, uint32_t return_delay_us, bool after_previous,
-                            uint32_t baud_bps) noexcept {
+WireSpan WireTiming::status(std::size_t n, uint32_t return_delay_us, bool after_previous, uint32_t baud_bps,
+                            int64_t extra_delay_ns, bool continues_previous) noexcept {
   if (mode_ == TimingMode::kFast) return WireSpan{instruction_end_ns_, instruction_end_ns_, 0};
-  const int64_t delay_ns = processing_ns_ + static_cast<int64_t>(return_delay_us) * 1000;
+  const int64_t delay_ns = processing_ns_ + static_cast<int64_t>(return_delay_us) * 1000 + std::max<int64_t>(extra_delay_ns, 0);
   const int64_t origin_ns = (after_previous && have_previous_status_) ? previous_status_end_ns_ : instruction_end_ns_;
   WireSpan span;
-  span.start_ns = origin_ns + delay_ns;
+  span.start_ns = (continues_previous && have_previous_status_) ? previous_status_end_ns_ : origin_ns + delay_ns;
   if (have_previous_status_) span.start_ns = std::max(span.start_ns, previous_status_end_ns_);
   span.baud_bps = baud_bps;
   span.end_ns = span.start_ns + wire_duration_ns(n, baud_bps);

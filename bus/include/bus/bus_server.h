@@ -1,6 +1,6 @@
 #pragma once
-// Serves one Dynamixel bus on one PtyPort: reads the driver's bytes, frames Protocol 1.0
-// instruction packets, lets the bus's devices answer (dynamixel::BusDevices), and writes their
+// Serves one Dynamixel bus on one PtyPort: reads the driver's bytes, frames Protocol 1.0 and 2.0
+// instruction packets (both may share the bus, dynamixel::PacketFramer), lets the bus's devices answer (dynamixel::BusDevices), and writes their
 // status bytes back at the times the wire and adapter models give. One thread runs it; it never
 // allocates, locks or logs per packet, and it never waits for the simulation (DeviceSync hooks
 // must not wait either). It does not own the devices or decide what they answer.
@@ -19,7 +19,7 @@
 #include "bus/spsc_queue.h"
 #include "bus/wire_timing.h"
 #include "dynamixel/bus_devices.h"
-#include "dynamixel/protocol1.h"
+#include "dynamixel/packet_framer.h"
 
 namespace doppel::bus {
 
@@ -40,7 +40,7 @@ struct BusDiagnostics {
   uint64_t bytes_in = 0;         // bytes read from the client
   uint64_t bytes_out = 0;        // status bytes written to the client
   uint64_t dropped_bytes = 0;    // bytes skipped while hunting for a packet header
-  uint64_t timeouts = 0;         // partial packets dropped by the 100 ms inter-byte timeout
+  uint64_t timeouts = 0;         // partial packets dropped by the inter-byte timeout (P1 100 ms, P2 1.5 ms)
   uint64_t connects = 0;         // client sessions started
   uint64_t reconnects = 0;       // client sessions ended (port closed or client killed), line cleaned
   uint64_t replies = 0;          // instructions that got at least one status scheduled
@@ -61,11 +61,16 @@ class DeviceSync {
   virtual ~DeviceSync() = default;
   virtual void before_dispatch() noexcept = 0;
   virtual void after_dispatch() noexcept = 0;
+  // Called about every BusServer::kTickNs also without traffic (and without a client), so that
+  // devices see time pass (Protocol 2.0 Bus Watchdog). Same rules as above.
+  virtual void on_tick() noexcept {}
 };
 
 class BusServer {
  public:
-  static constexpr int64_t kInterByteTimeoutNs = 100'000'000;  // Protocol 1.0 (reference §1.1)
+  static constexpr int64_t kInterByteTimeoutNs = 100'000'000;    // Protocol 1.0 (reference §1.1)
+  static constexpr int64_t kP2InterByteTimeoutNs = 1'500'000;    // Protocol 2.0 (reference §2.1)
+  static constexpr int64_t kTickNs = 10'000'000;                 // DeviceSync::on_tick period
   static constexpr std::size_t kTraceCapacity = 1024;
   using TraceQueue = SpscQueue<ReplyTrace, kTraceCapacity>;
 
@@ -118,11 +123,14 @@ class BusServer {
   BusServerOptions options_;
   WireTiming timing_;
   AdapterLatency adapter_;
-  dynamixel::Protocol1Parser parser_;
+  void tick() noexcept;
+
+  dynamixel::PacketFramer parser_;
   ReplySchedule schedule_;
   TraceQueue traces_;
   Counters counters_;
-  int64_t last_input_ns_ = 0;   // when the previous input chunk was read
+  int64_t last_input_ns_ = 0;   // when the previous input chunk had crossed the wire (fast: was read)
+  int64_t last_tick_ns_ = 0;    // last DeviceSync::on_tick
   bool write_blocked_ = false;  // the client's queue was full at the last write
 };
 

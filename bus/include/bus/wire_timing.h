@@ -13,6 +13,9 @@
 //   next device "transmits when the previous one finishes" and reference §6 says the spacing is not
 //   documented; adding the same firmware time and the device's own RDT keeps a chained device no
 //   faster than a unicast reply from it.
+// - Protocol 2.0 (BusDevices decides the order): a broadcast PING answer waits 3 ms more for
+//   every unused ID before it; the blocks of a FAST SYNC/BULK READ status follow each other
+//   without a gap, as one packet.
 // - A status never starts before the previous status of the same instruction has ended (one
 //   sender at a time); overlapping replies are BusDevices' business (it marks collisions).
 // - Fast mode: no model delay at all; everything happens at the time it is seen.
@@ -61,8 +64,12 @@ class WireTiming {
   void begin_reply(int64_t instruction_end_ns) noexcept;
 
   // Places the next status of the current reply: `n` bytes from a device with the given Return
-  // Delay Time (µs), chained after the previous status or not. Marks the wire busy. rt-safe.
-  WireSpan status(std::size_t n, uint32_t return_delay_us, bool after_previous, uint32_t baud_bps) noexcept;
+  // Delay Time (µs), chained after the previous status or not, `extra_delay_ns` later still (idle
+  // ID slots of a Protocol 2.0 broadcast PING). `continues_previous` (a block of a P2 fast-read
+  // combined status) starts right where the previous status ended, with no firmware time or
+  // Return Delay Time. Marks the wire busy. rt-safe.
+  WireSpan status(std::size_t n, uint32_t return_delay_us, bool after_previous, uint32_t baud_bps,
+                  int64_t extra_delay_ns = 0, bool continues_previous = false) noexcept;
 
   // Forgets the wire's state (a new client session starts with an idle line). rt-safe.
   void reset() noexcept;

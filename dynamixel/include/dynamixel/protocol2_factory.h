@@ -1,0 +1,21 @@
+#pragma once
+// Builds a Protocol 2.0 device model from a robot description entry (model name, ID, baud rate,
+// Return Delay Time). Setup only; the gateway keeps the concrete type (dynamic_cast to
+// Protocol2Servo, BitbotsImu, BitFoot, BitbotsCore) for its link to the simulation.
+
+#include <cstdint>
+#include <memory>
+#include <string_view>
+
+#include "dynamixel/device.h"
+
+namespace doppel::dynamixel {
+
+// `model`: a name known to p2_model_spec(); `baud_bps`: the bus rate, turned into the model's
+// Baud Rate index (within 3 %); `return_delay_raw`: Return Delay Time (2 µs units; the Bit-Bots
+// boards have none and ignore it). Servos start at 0 rad. Throws std::invalid_argument for an
+// unknown model or a value the model cannot hold.
+std::unique_ptr<Device> make_protocol2_device(std::string_view model, uint8_t id, uint32_t baud_bps,
+                                              uint8_t return_delay_raw = 250);
+
+}  // namespace doppel::dynamixel
