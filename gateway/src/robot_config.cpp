@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "dynamixel/models.h"
+#include "dynamixel/protocol2_models.h"
 #include "proto/robot_file.h"
 
 #ifndef DOPPEL_SOURCE_ROBOTS_DIR
@@ -31,9 +32,10 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
       config.protocol = dynamixel::Protocol::kV1;
       break;
     case proto::PROTOCOL_2:
-      file.fail(bus, "protocol", -1, "Protocol 2.0 buses are not supported yet (only PROTOCOL_1)");
+      config.protocol = dynamixel::Protocol::kV2;
+      break;
     default:
-      file.fail(bus, "protocol", -1, "missing or unknown protocol (PROTOCOL_1)");
+      file.fail(bus, "protocol", -1, "missing or unknown protocol (PROTOCOL_1 or PROTOCOL_2)");
   }
   if (bus.baud_bps() == 0) {
     file.fail(bus, "baud_bps", -1, "missing baud rate (e.g. 1000000)");
@@ -51,22 +53,38 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
   std::set<uint32_t> ids;
   for (int d = 0; d < bus.device_size(); ++d) {
     const proto::Device& device = bus.device(d);
-    if (device.id() > 253) {
-      file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is outside 0..253");
+    const bool p2 = config.protocol == dynamixel::Protocol::kV2;
+    const uint32_t max_id = p2 ? 252 : 253;
+    if (device.id() > max_id) {
+      file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is outside 0.." + std::to_string(max_id));
     }
     if (!ids.insert(device.id()).second) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is used twice on bus '" + config.name + "'");
     }
-    const dynamixel::ModelSpec* model = nullptr;
-    try {
-      model = &dynamixel::model_spec(device.model());
-    } catch (const std::invalid_argument& e) {
-      file.fail(device, "model", -1, e.what());
-    }
-    try {
-      dynamixel::p1_baud_register(config.baud_bps, *model);
-    } catch (const std::invalid_argument& e) {
-      file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
+    if (p2) {
+      const dynamixel::P2ModelSpec* model = nullptr;
+      try {
+        model = &dynamixel::p2_model_spec(device.model());
+      } catch (const std::invalid_argument& e) {
+        file.fail(device, "model", -1, e.what());
+      }
+      try {
+        dynamixel::p2_baud_register(config.baud_bps, *model);
+      } catch (const std::invalid_argument& e) {
+        file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
+      }
+    } else {
+      const dynamixel::ModelSpec* model = nullptr;
+      try {
+        model = &dynamixel::model_spec(device.model());
+      } catch (const std::invalid_argument& e) {
+        file.fail(device, "model", -1, e.what());
+      }
+      try {
+        dynamixel::p1_baud_register(config.baud_bps, *model);
+      } catch (const std::invalid_argument& e) {
+        file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
+      }
     }
     DeviceConfig device_config;
     device_config.id = static_cast<uint8_t>(device.id());

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "dynamixel/device_factory.h"
+#include "dynamixel/protocol2_factory.h"
 #include "gateway/gateway.h"
 
 namespace doppel::gateway {
@@ -32,17 +33,35 @@ const char* protocol_name(dynamixel::Protocol protocol) {
 
 BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const Options& options) : config_(config) {
   for (const DeviceConfig& device : config.devices) {
+    if (config.protocol == dynamixel::Protocol::kV2) {
+      const dynamixel::P2ModelSpec& spec = dynamixel::p2_model_spec(device.model);
+      devices_.push_back(dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
+                                                          device.return_delay_raw.value_or(250)));
+      dynamixel::Device* created = devices_.back().get();
+      if (auto* servo = dynamic_cast<dynamixel::Protocol2Servo*>(created)) {
+        servos_.push_back({nullptr, servo});
+        joints_.emplace_back(no_load_speed_rad_s(spec.servo, config.supply_voltage_v));
+      } else if (auto* imu = dynamic_cast<dynamixel::BitbotsImu*>(created)) {
+        imus_.push_back({nullptr, imu});
+      } else if (auto* foot = dynamic_cast<dynamixel::BitFoot*>(created)) {
+        feet_.push_back({nullptr, foot});
+      } else if (auto* core = dynamic_cast<dynamixel::BitbotsCore*>(created)) {
+        cores_.push_back(core);
+      }
+      bus_devices_.add(*created);
+      continue;
+    }
     const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
     devices_.push_back(dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
                                                         device.return_delay_raw.value_or(default_return_delay_raw(spec))));
     dynamixel::Device* created = devices_.back().get();
     if (auto* servo = dynamic_cast<dynamixel::Protocol1Servo*>(created)) {
-      servos_.push_back(servo);
+      servos_.push_back({servo, nullptr});
       joints_.emplace_back(no_load_speed_rad_s(spec.servo, config.supply_voltage_v));
     } else if (auto* imu = dynamic_cast<dynamixel::FumanoidImu*>(created)) {
-      imus_.push_back(imu);
+      imus_.push_back({imu, nullptr});
     } else if (auto* foot = dynamic_cast<dynamixel::FumanoidFootBoard*>(created)) {
-      feet_.push_back(foot);
+      feet_.push_back({foot, nullptr});
     }
     bus_devices_.add(*created);
   }
@@ -88,22 +107,42 @@ void BusRuntime::before_dispatch() noexcept {
   }
   const BusFeedback& feedback = feedback_.latest();
   for (std::size_t i = 0; i < servos_.size(); ++i) {
-    servos_[i]->apply(feedback.servos[i]);
+    if (servos_[i].p1 != nullptr) {
+      servos_[i].p1->apply(feedback.servos[i]);
+    } else {
+      servos_[i].p2->apply(feedback.servos[i]);
+    }
   }
   for (std::size_t i = 0; i < imus_.size(); ++i) {
-    imus_[i]->apply(feedback.imus[i]);
+    if (imus_[i].fumanoid != nullptr) {
+      imus_[i].fumanoid->apply(feedback.imus[i]);
+    } else {
+      imus_[i].bitbots->apply(feedback.imus[i]);
+    }
   }
   for (std::size_t i = 0; i < feet_.size(); ++i) {
-    feet_[i]->apply(feedback.feet[i]);
+    if (feet_[i].fumanoid != nullptr) {
+      feet_[i].fumanoid->apply(feedback.feet[i]);
+    } else {
+      feet_[i].bitbots->apply(feedback.feet[i]);
+    }
+  }
+  for (dynamixel::BitbotsCore* core : cores_) {
+    core->apply(config_.supply_voltage_v, 0.0);
   }
 }
 
 void BusRuntime::after_dispatch() noexcept {
   BusCommands& commands = commands_.back();
   for (std::size_t i = 0; i < servos_.size(); ++i) {
-    commands.servos[i] = servos_[i]->command();
+    commands.servos[i] = servos_[i].p1 != nullptr ? servos_[i].p1->command() : servos_[i].p2->command();
   }
   commands_.publish();
+}
+
+void BusRuntime::on_tick() noexcept {
+  before_dispatch();
+  after_dispatch();
 }
 
 void BusRuntime::simulate(double dt_s, int64_t sim_time_ns, double foot_force_n) noexcept {

@@ -16,10 +16,12 @@
 #include "bus/bus_server.h"
 #include "bus/pty_port.h"
 #include "bus/snapshot.h"
+#include "dynamixel/bitbots_boards.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device_io.h"
 #include "dynamixel/fumanoid_boards.h"
 #include "dynamixel/protocol1_servo.h"
+#include "dynamixel/protocol2_servo.h"
 #include "gateway/kinematic_joint.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -56,6 +58,8 @@ class BusRuntime final : public bus::DeviceSync {
   // bus::DeviceSync, called on the bus thread around every dispatched packet. rt-safe.
   void before_dispatch() noexcept override;
   void after_dispatch() noexcept override;
+  // Also without traffic, so that time passes for the devices (Protocol 2.0 Bus Watchdog). rt-safe.
+  void on_tick() noexcept override;
 
   // Simulation thread: one step of dt_s at simulation time sim_time_ns. rt-safe.
   void simulate(double dt_s, int64_t sim_time_ns, double foot_force_n) noexcept;
@@ -66,10 +70,25 @@ class BusRuntime final : public bus::DeviceSync {
 
  private:
   BusConfig config_;
-  std::vector<std::unique_ptr<dynamixel::Protocol1Device>> devices_;  // owns every device on the bus
-  std::vector<dynamixel::Protocol1Servo*> servos_;
-  std::vector<dynamixel::FumanoidImu*> imus_;
-  std::vector<dynamixel::FumanoidFootBoard*> feet_;
+  // A servo, IMU or foot board of either protocol (exactly one pointer set).
+  struct ServoRef {
+    dynamixel::Protocol1Servo* p1 = nullptr;
+    dynamixel::Protocol2Servo* p2 = nullptr;
+  };
+  struct ImuRef {
+    dynamixel::FumanoidImu* fumanoid = nullptr;
+    dynamixel::BitbotsImu* bitbots = nullptr;
+  };
+  struct FootRef {
+    dynamixel::FumanoidFootBoard* fumanoid = nullptr;
+    dynamixel::BitFoot* bitbots = nullptr;
+  };
+
+  std::vector<std::unique_ptr<dynamixel::Device>> devices_;  // owns every device on the bus
+  std::vector<ServoRef> servos_;
+  std::vector<ImuRef> imus_;
+  std::vector<FootRef> feet_;
+  std::vector<dynamixel::BitbotsCore*> cores_;
   std::vector<KinematicJoint> joints_;                        // one per servo, simulation thread only
   dynamixel::BusDevices bus_devices_;
   std::unique_ptr<bus::PtyPort> port_;
