@@ -11,7 +11,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRpm = 2.0 * kPi / 60.0;
-constexpr double kStallSpeed_rad_s = 0.05;      // below this a saturated joint counts as stalled
+constexpr double kStallTravel_rad = 0.05;       // a saturated joint that moves less than this is stalled
 constexpr double kMovingSpeed_rad_s = 0.02;     // Moving stays 1 while the joint turns faster
 
 double sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
@@ -157,10 +157,16 @@ ControllerOutput ServoController::update(const ServoCommand& command, const PidG
   }
   pwm = std::clamp(pwm, -1.0, 1.0);
 
-  // Overload: the drive is at the Torque Limit and the joint does not move.
+  // Overload: the drive stays at the Torque Limit and the joint makes no headway (judged by its
+  // position, which a jittering contact cannot fool the way a speed sample can).
   const double limit = std::clamp(command.torque_limit_ratio, 0.0, 1.0);
   const bool saturated = std::abs(pwm) >= limit - 1e-9 && std::abs(pwm) > 0.0;
-  saturated_s_ = saturated && std::abs(velocity_rad_s) < kStallSpeed_rad_s ? saturated_s_ + dt_s : 0.0;
+  if (!saturated || std::abs(position_rad - stall_position_rad_) > kStallTravel_rad) {
+    saturated_s_ = 0.0;
+    stall_position_rad_ = position_rad;
+  } else {
+    saturated_s_ += dt_s;
+  }
   out.overload = saturated_s_ >= config_.overload_time_s;
 
   out.pwm_ratio = pwm;

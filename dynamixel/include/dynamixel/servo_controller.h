@@ -57,7 +57,7 @@ struct ControllerOutput {
   double pwm_ratio = 0.0;     // duty, -1..1, + = CCW
   double setpoint_rad = 0.0;  // where the profile is now
   bool moving = false;        // the set-point has not reached the goal, or the joint still moves
-  bool overload = false;      // drive saturated against a stalled joint for overload_time_s
+  bool overload = false;      // drive saturated for overload_time_s while the joint moved < 0.05 rad
 };
 
 class ServoController {
@@ -81,6 +81,7 @@ class ServoController {
   double setpoint_velocity_rad_s_ = 0.0;
   double integral_units_s_ = 0.0;
   double saturated_s_ = 0.0;
+  double stall_position_rad_ = 0.0;
   bool active_ = false;
 };
 

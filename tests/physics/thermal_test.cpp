@@ -1,0 +1,85 @@
+// The motor's thermal model: a servo stalled at its full torque overheats past the 80 C Temperature
+// Limit of the RX series within about a minute and a half (the firmware then raises Overheating and,
+// with the default Alarm Shutdown mask, switches torque off); unloaded it cools back.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "physics/dc_motor.h"
+#include "rigs.h"
+
+namespace doppel::physics {
+namespace {
+
+TEST(ThermalModelTest, ApproachesAmbientPlusLossTimesThermalResistance) {
+  const DcMotorParams params = *dc_motor_params("RX-64");
+  ThermalModel sut(params, 25.0, 0.001);
+  const double torque = 2.0;
+
+  for (int i = 0; i < 60000; ++i) sut.step(torque);  // one time constant (60 s)
+
+  const double current = torque / params.torque_constant_nm_a;
+  const double steady = 25.0 + current * current * params.resistance_ohm * params.thermal_resistance_k_w;
+  EXPECT_NEAR(sut.temperature_c(), steady + (25.0 - steady) * std::exp(-1.0), 1e-6);
+}
+
+TEST(ThermalModelTest, CoolsTowardAmbientWithoutCurrent) {
+  ThermalModel sut(*dc_motor_params("RX-28"), 25.0, 0.001);
+  sut.set_temperature_c(85.0);
+
+  for (int i = 0; i < 50000; ++i) sut.step(0.0);  // one time constant (50 s)
+
+  EXPECT_NEAR(sut.temperature_c(), 25.0 + 60.0 * std::exp(-1.0), 1e-6);
+}
+
+class StallTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(StallTest, StalledServoOverheatsAndRaisesOverload) {
+  // An arm driven against its mechanical stop at +20 deg while its goal is far beyond: the motor
+  // pushes at its full torque and cannot move (a servo blocked by an obstacle).
+  const std::string rig = R"(name: "stall"
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
+})";
+  WorldOptions options = test::bare_options();
+  auto world = test::make_world(GetParam(), {test::robot_from_text(rig)}, options);
+  test::Firmware firmware(*world, 0);
+  firmware.enable_all();
+  firmware.command(0).goal_position_rad = 1.6;  // 92 deg: behind the stop
+  dynamixel::ServoController controller(dynamixel::servo_controller_config("RX-64"));
+
+  double at_30_s = 0.0;
+  bool overload = false;
+  double crossed_at = -1.0;
+  for (int i = 1; i <= 120000 && crossed_at < 0.0; ++i) {
+    firmware.step();
+    const MotorState s = world->motor(firmware.handle(0));
+    overload = overload || controller.update(firmware.command(0), s.position_rad, s.velocity_rad_s, 0.001).overload;
+    if (i == 30000) at_30_s = s.temperature_c;
+    if (s.temperature_c > 80.0) crossed_at = world->time_s();
+  }
+
+  EXPECT_LT(at_30_s, 80.0);   // not at once: a real motor takes tens of seconds
+  EXPECT_GT(crossed_at, 30.0);
+  EXPECT_LT(crossed_at, 120.0);  // but within two minutes of stall
+  EXPECT_TRUE(overload);
+  EXPECT_NEAR(world->motor(firmware.handle(0)).torque_ratio, 1.0, 0.02);  // at the Torque Limit all along
+
+  // Shutdown (torque off, as the Alarm Shutdown does): the motor cools.
+  firmware.disable_all();
+  firmware.run(10.0);
+  EXPECT_LT(world->motor(firmware.handle(0)).temperature_c, 80.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, StallTest, ::testing::ValuesIn(engine_names()),
+                         [](const ::testing::TestParamInfo<std::string>& param) { return param.param; });
+
+}  // namespace
+}  // namespace doppel::physics
