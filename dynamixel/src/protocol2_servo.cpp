@@ -184,6 +184,8 @@ void Protocol2Servo::after_write(const Table& before, const ItemSet& touched) no
   if (touches(touched, x430::kBusWatchdog)) {
     last_communication_ns_ = now_ns_;
   }
+  // Homing Offset, Drive Mode and re-basing change Present Position at once, not at the next sample.
+  set_register(x430::kPresentPosition, std::clamp<int64_t>(present_raw_from_rad(last_position_rad_), INT32_MIN, INT32_MAX));
   if (touches(touched, x430::kGoalPosition) && (raw_table()[x430::kDriveMode] & kDriveTimeBased) != 0) {
     const int64_t period_ms = register_value(x430::kProfileVelocity);
     const double distance_rad = std::abs(rad_from_present_raw(register_value(x430::kGoalPosition)) - last_position_rad_);
