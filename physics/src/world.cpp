@@ -1,5 +1,7 @@
 #include "physics/world.h"
 
+#include "physics/field.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -12,7 +14,7 @@ namespace {
 constexpr size_t kContactBufferSize = 64;  // contacts per foot per step that the load cells see
 constexpr double kHoldRate_1_s = 20.0;     // how fast a held joint is pulled back to its hold angle
 constexpr double kHoldDamping = 50.0;      // N m s/rad: a firm grip, soft enough for the iterative solvers
-const Rgb kTeamColours[2] = {Rgb{0, 200, 220}, Rgb{220, 0, 200}};
+const Rgb kTeamColours[2] = {kTeamCyan, kTeamMagenta};
 
 // Lowest z of a shape placed at X_WS.
 double lowest_point(const ShapeSpec& s, const Eigen::Isometry3d& X_WS) {
@@ -534,17 +536,17 @@ void World::fill_scene(SceneView& view) const {
       const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + static_cast<int>(b)).X_WB;
       for (const ShapeSpec& s : body.shapes) {
         view.shapes[i++] = VisualShape{s.type, ObjectKind::kRobotBody, X_WB * s.X_BS, s.size_m, body.colour,
-                                       static_cast<uint16_t>(r)};
+                                       static_cast<uint16_t>(kFirstRobotObjectId + r)};
       }
     }
     const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + robot.marker_body).X_WB;
     view.shapes[i++] = VisualShape{ShapeType::kBox, ObjectKind::kTeamMarker, X_WB * robot.marker_X_BM,
                                    Eigen::Vector3d(0.05, 0.05, 0.008), kTeamColours[robot.team & 1U],
-                                   static_cast<uint16_t>(r)};
+                                   static_cast<uint16_t>(kFirstRobotObjectId + r)};
   }
   if (ball_body_ >= 0) {
     view.shapes[i++] = VisualShape{ShapeType::kSphere, ObjectKind::kBall, backend_->body(ball_body_).X_WB,
-                                   Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), Rgb{255, 120, 0}, 0};
+                                   Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), kBallOrange, kBallObjectId};
   }
   for (const VisualShape& shape : options_.field) {
     view.shapes[i++] = shape;

@@ -77,6 +77,7 @@ TEST_P(KneeBendTest, KneesTrackTheirGoalPositions) {
       worst = std::max(worst, std::abs(q[k] - run.goal[k]));
     }
     EXPECT_LT(worst, tolerance) << knee;
+    RecordProperty(std::string(knee) + "_worst_error_deg", std::to_string(worst / kDeg));
   }
   // The bend really happened: the knees reached 70 deg.
   EXPECT_GT(*std::max_element(run.link.at("KNEE_LEFT_PITCH").begin(), run.link.at("KNEE_LEFT_PITCH").end()), 68.0 * kDeg);
@@ -96,6 +97,7 @@ TEST(KneeBendEnginesTest, OdeAndBulletAgreeOnTheJointTrajectories) {
     double worst = 0.0;
     for (size_t k = 10; k < q_ode.size(); ++k) worst = std::max(worst, std::abs(q_ode[k] - q_bullet[k]));
     EXPECT_LT(worst, 1.0 * kDeg) << name;
+    RecordProperty(name + "_worst_difference_deg", std::to_string(worst / kDeg));
   }
 }
 

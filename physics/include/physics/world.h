@@ -47,7 +47,7 @@ struct RobotPlacement {
 struct BallOptions {
   bool present = true;                                   // add a dynamic ball
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // centre; z is set to the radius
-  double radius_m = 0.0325;                              // orange tennis-ball size (assumption)
+  double radius_m = 0.0335;                              // orange tennis ball (FieldSpec::ball_diameter_m / 2)
   double mass_kg = 0.057;
   MaterialSpec material{0.5, 0.6};
 };
@@ -61,11 +61,11 @@ struct WorldOptions {
   double hold_torque_nm = 50.0;    // how hard the handler holds each joint
   double imu_accel_filter_s = 0.005;  // accelerometer low-pass time constant (a MEMS part's
                                       // anti-alias filter, about 30 Hz); 0 = raw finite difference
-  int solver_iterations = 20;      // constraint solver sweeps per step
+  int solver_iterations = 10;      // constraint solver sweeps per step (docs/physics.md: why 10)
   MaterialSpec ground{0.8, 0.0};   // carpet
   BallOptions ball;
-  // Static field objects (the camera's field model): every shape except carpet, lines and rings
-  // becomes a static collision shape; all are copied into the scene view as they are.
+  // Static field objects, normally field_shapes() of field.h: every shape except carpet, lines and
+  // rings becomes a static collision shape (goals, nets, poles); all are copied into the scene view.
   std::vector<VisualShape> field;
 };
 
@@ -160,7 +160,8 @@ class World {
   const WorldOptions& options() const noexcept { return options_; }
   std::string_view engine() const noexcept { return backend_->name(); }
 
-  // Writes every visible shape into `view` (robots with team markers, ball, field). The first call
+  // Writes every visible shape into `view` (robots with team markers, ball, field); robot r has
+  // object_id kFirstRobotObjectId + r, the ball kBallObjectId (field.h). The first call
   // sizes view.shapes; later calls with the same view do not allocate. rt-safe after the first call.
   void fill_scene(SceneView& view) const;
 
