@@ -1,0 +1,145 @@
+// Arbitrary bytes through the Protocol 2.0 parser, the mixed P1/P2 framer and a BusDevices with
+// X-series servos, the Bit-Bots boards and a Protocol 1.0 servo on the same bus. Must never crash;
+// checks framing, stuffing round trips, status and counter invariants.
+// Input: byte 0 picks the line rate, byte 1 drives the simulation feedback; the rest is the wire.
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+
+#include "dynamixel/bitbots_boards.h"
+#include "dynamixel/bus_devices.h"
+#include "dynamixel/packet_framer.h"
+#include "dynamixel/protocol1_servo.h"
+#include "dynamixel/protocol2.h"
+#include "dynamixel/protocol2_servo.h"
+
+namespace {
+
+namespace dxl = doppel::dynamixel;
+
+#define FUZZ_CHECK(cond)                                                               \
+  do {                                                                                 \
+    if (!(cond)) {                                                                     \
+      std::fprintf(stderr, "invariant failed: %s (line %d)\n", #cond, __LINE__);       \
+      std::abort();                                                                    \
+    }                                                                                  \
+  } while (0)
+
+// A P2 status (or fast-read block) as it leaves the device.
+void check_status(const dxl::OutgoingStatus& s) {
+  FUZZ_CHECK(s.packet != nullptr);
+  const auto& p = *s.packet;
+  FUZZ_CHECK(p.size >= 4 && p.size <= p.bytes.size());
+  if (s.collision || s.continues_previous) {
+    return;  // garbled on purpose / a later block of a combined status (no header)
+  }
+  if (p.bytes[0] != 0xFF || p.bytes[1] != 0xFF) {
+    FUZZ_CHECK(false);
+  }
+  if (p.bytes[2] != 0xFD) {
+    // Protocol 1.0 status from the MX-28.
+    FUZZ_CHECK(p.bytes[3] == p.size - 4);
+    FUZZ_CHECK(dxl::protocol1_checksum(&p.bytes[2], p.size - 3) == p.bytes[p.size - 1]);
+    return;
+  }
+  FUZZ_CHECK(p.size >= 11);
+  FUZZ_CHECK(p.bytes[3] == 0x00 && p.bytes[7] == 0x55);
+  const std::size_t length = p.bytes[5] | (p.bytes[6] << 8);
+  if (p.bytes[4] == 0xFE) {
+    return;  // first block of a fast-read status: LEN covers blocks still to come
+  }
+  FUZZ_CHECK(length + 7 == p.size);
+  const uint16_t crc = dxl::protocol2_crc(p.bytes.data(), p.size - 2);
+  FUZZ_CHECK(p.bytes[p.size - 2] == (crc & 0xFF) && p.bytes[p.size - 1] == (crc >> 8));
+  FUZZ_CHECK((p.bytes[8] & 0x7F) <= 7);
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size < 2) {
+    return 0;
+  }
+  static constexpr uint32_t kRates[] = {4000000, 1000000, 57600, 2000000};
+  const uint32_t line_bps = kRates[data[0] % 4];
+
+  // Stuffing round trip on the raw input.
+  static uint8_t stuffed[4096];
+  static uint8_t back[4096];
+  const std::size_t n_in = size < 1024 ? size : 1024;
+  const std::size_t n_stuffed = dxl::protocol2_stuff(data, n_in, stuffed, sizeof stuffed);
+  FUZZ_CHECK(n_stuffed >= n_in);
+  FUZZ_CHECK(dxl::protocol2_unstuff(stuffed, n_stuffed, back) == n_in);
+  for (std::size_t i = 0; i < n_in; ++i) {
+    FUZZ_CHECK(back[i] == data[i]);
+  }
+
+  const auto& xm_spec = dxl::p2_model_spec("XM430-W350");
+  const auto& xl_spec = dxl::p2_model_spec("XL430-W250");
+  dxl::Protocol2Servo xm1(xm_spec, 1, 6, 0);
+  dxl::Protocol2Servo xm2(xm_spec, 2, 3, 0);
+  dxl::Protocol2Servo xl3(xl_spec, 3, 6, 250);
+  dxl::BitbotsImu imu(241, 6);
+  dxl::BitFoot foot(101, 6);
+  dxl::BitbotsCore core(42, 6);
+  dxl::Protocol1Servo mx(dxl::model_spec("MX-28"), 1, 1, 0);
+  dxl::BusDevices bus;
+  for (dxl::Device* d : {static_cast<dxl::Device*>(&xm1), static_cast<dxl::Device*>(&xm2),
+                         static_cast<dxl::Device*>(&xl3), static_cast<dxl::Device*>(&imu),
+                         static_cast<dxl::Device*>(&foot), static_cast<dxl::Device*>(&core),
+                         static_cast<dxl::Device*>(&mx)}) {
+    bus.add(*d);
+  }
+
+  dxl::Protocol2Parser p2;
+  dxl::PacketFramer framer;
+  uint64_t p2_packets = 0;
+  uint64_t framed = 0;
+  int64_t t_ns = 0;
+  for (size_t i = 2; i < size; ++i) {
+    if (p2.push(data[i]) == dxl::Protocol2Parser::Result::kPacket) {
+      ++p2_packets;
+      FUZZ_CHECK(p2.packet().param_count <= dxl::kMaxInstructionParams);
+      FUZZ_CHECK(p2.idle());
+    }
+    if (framer.push(data[i]) != dxl::PacketFramer::Result::kPacket) {
+      continue;
+    }
+    ++framed;
+    const dxl::InstructionPacket& p = framer.packet();
+    FUZZ_CHECK(framer.idle());
+    for (const dxl::OutgoingStatus& s : bus.dispatch(p, line_bps)) {
+      check_status(s);
+    }
+
+    t_ns += static_cast<int64_t>(data[1]) * 1'000'000;
+    dxl::ServoFeedback fb;
+    fb.position_rad = (static_cast<int>(data[i]) - 128) * 0.5;
+    fb.velocity_rad_s = (static_cast<int>(data[1]) - 128) * 0.5;
+    fb.torque_ratio = (data[i] & 1) ? 1.0 : -0.3;
+    fb.voltage_v = data[1] * 0.1;
+    fb.temperature_c = data[i];
+    fb.sim_time_ns = t_ns;
+    for (dxl::Protocol2Servo* servo : {&xm1, &xm2, &xl3}) {
+      servo->apply(fb);
+      const dxl::ServoCommand c = servo->command();
+      FUZZ_CHECK(c.torque_limit_ratio >= 0.0 && c.torque_limit_ratio <= 1.0);
+      FUZZ_CHECK(c.goal_position_rad >= c.min_position_rad - 1e-9 && c.goal_position_rad <= c.max_position_rad + 1e-9);
+      FUZZ_CHECK(servo->id() <= 252);
+      FUZZ_CHECK(!c.torque_enabled || servo->hardware_error() == 0);
+    }
+    dxl::ImuFeedback imu_fb;
+    imu_fb.roll_rad = fb.position_rad;
+    imu_fb.w_WS_S_rad_s = {fb.velocity_rad_s * 1000, 0.0, -1e300};
+    imu.apply(imu_fb);
+    dxl::FootFeedback foot_fb;
+    foot_fb.force_n = {fb.temperature_c, -1.0, 1e12, fb.velocity_rad_s};
+    foot.apply(foot_fb);
+    core.apply(fb.voltage_v, fb.torque_ratio);
+  }
+  FUZZ_CHECK(p2.counters().packets == p2_packets);
+  FUZZ_CHECK(p2.counters().bad_checksums <= p2.counters().packets);
+  FUZZ_CHECK(framer.counters().packets == framed);
+  FUZZ_CHECK(bus.counters().instructions == framed);
+  return 0;
+}
