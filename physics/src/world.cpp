@@ -123,7 +123,7 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
     if (shape.kind == ObjectKind::kCarpet || shape.kind == ObjectKind::kFieldLine || shape.type == ShapeType::kRing) {
       continue;
     }
-    backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m}, MaterialSpec{0.5, 0.1});
+    backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m}, MaterialSpec{0.5, 0.5});
   }
   if (options_.ball.present) {
     const BallOptions& ball = options_.ball;
@@ -517,6 +517,13 @@ double World::link_position(size_t robot, size_t link) const noexcept {
 
 Eigen::Vector3d World::ball_position() const noexcept {
   return ball_body_ >= 0 ? Eigen::Vector3d(backend_->body(ball_body_).X_WB.translation()) : Eigen::Vector3d::Zero();
+}
+
+void World::place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d& velocity_m_s) noexcept {
+  if (ball_body_ < 0) return;
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.translation() = position_m;
+  backend_->set_body_state(ball_body_, X, velocity_m_s, Eigen::Vector3d::Zero());
 }
 
 void World::fill_scene(SceneView& view) const {

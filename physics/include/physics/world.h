@@ -65,7 +65,8 @@ struct WorldOptions {
   MaterialSpec ground{0.8, 0.0};   // carpet
   BallOptions ball;
   // Static field objects, normally field_shapes() of field.h: every shape except carpet, lines and
-  // rings becomes a static collision shape (goals, nets, poles); all are copied into the scene view.
+  // rings becomes a static collision shape (goals, nets, poles: friction 0.5, restitution 0.5);
+  // all are copied into the scene view.
   std::vector<VisualShape> field;
 };
 
@@ -157,6 +158,9 @@ class World {
   // Joint position of link `link` of a robot (rad or m, the file's convention, not the servo's).
   double link_position(size_t robot, size_t link) const noexcept;
   Eigen::Vector3d ball_position() const noexcept;
+  // Puts the ball's centre at `position_m` with velocity `velocity_m_s` (a kick, a referee's
+  // placement); no-op without a ball. rt-safe.
+  void place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d& velocity_m_s) noexcept;
   const WorldOptions& options() const noexcept { return options_; }
   std::string_view engine() const noexcept { return backend_->name(); }
 
