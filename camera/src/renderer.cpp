@@ -92,7 +92,7 @@ bool is_flat_on_ground(const VisualShape& s) {
 }
 
 // Nearest positive hit of the ray t * d (camera frame, from the origin) with a primitive, or kInf.
-inline float intersect(const Prim& p, const Eigen::Vector3f& d) {
+[[gnu::always_inline]] inline float intersect(const Prim& p, const Eigen::Vector3f& d) {
   if (p.type == ShapeType::kSphere) {
     const float b = d.dot(p.centre_C);
     const float c = p.centre_C.squaredNorm() - p.half.x() * p.half.x();
@@ -102,7 +102,10 @@ inline float intersect(const Prim& p, const Eigen::Vector3f& d) {
     const float t = b - s;
     return t > 1e-4f ? t : kInf;
   }
-  const Eigen::Vector3f dl = p.R_SC * d;
+  const Eigen::Matrix3f& R = p.R_SC;
+  const Eigen::Vector3f dl(R(0, 0) * d.x() + R(0, 1) * d.y() + R(0, 2) * d.z(),
+                           R(1, 0) * d.x() + R(1, 1) * d.y() + R(1, 2) * d.z(),
+                           R(2, 0) * d.x() + R(2, 1) * d.y() + R(2, 2) * d.z());
   const Eigen::Vector3f& o = p.o_S;
   switch (p.type) {
     case ShapeType::kBox: {
@@ -565,6 +568,8 @@ struct Renderer::Impl {
     const float inv_texel = static_cast<float>(1.0 / g.texel_m);
     const float gx0 = static_cast<float>(g.x0);
     const float gy0 = static_cast<float>(g.y0);
+    const float tex_w = static_cast<float>(g.w);
+    const float tex_h = static_cast<float>(g.h);
     const int ty = y / kTile;
     for (int tx = 0; tx < tiles_x; ++tx) {
       const size_t t = static_cast<size_t>(ty) * tiles_x + tx;
@@ -605,12 +610,11 @@ struct Renderer::Impl {
           px[2] = static_cast<uint8_t>(p.colour[2] * shade + 0.5f);
           ++counts[hit];
         } else if (on_ground) {
-          const float wx = o_W_f.x() + best * r0.dot(d);
-          const float wy = o_W_f.y() + best * r1.dot(d);
-          const int i = static_cast<int>(std::floor((wx - gx0) * inv_texel));
-          const int j = static_cast<int>(std::floor((wy - gy0) * inv_texel));
-          if (g.valid && i >= 0 && j >= 0 && i < g.w && j < g.h) {
-            const physics::Rgb& c = g.palette[g.index[static_cast<size_t>(j) * g.w + i]];
+          const float fi = (o_W_f.x() + best * r0.dot(d) - gx0) * inv_texel;
+          const float fj = (o_W_f.y() + best * r1.dot(d) - gy0) * inv_texel;
+          // Truncation is floor here: negative coordinates are rejected first.
+          if (g.valid && fi >= 0.0f && fj >= 0.0f && fi < tex_w && fj < tex_h) {
+            const physics::Rgb& c = g.palette[g.index[static_cast<size_t>(fj) * g.w + static_cast<size_t>(fi)]];
             px[0] = c.r;
             px[1] = c.g;
             px[2] = c.b;

@@ -21,6 +21,7 @@
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
 #include "iceoryx_posh/iceoryx_posh_types.hpp"
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
+#include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
@@ -75,6 +76,15 @@ int64_t now_ns(clockid_t clock) noexcept {
 }
 
 uint32_t align64(uint64_t n) { return static_cast<uint32_t>((n + 63) / 64 * 64); }
+
+// Pool payload size a frame of `payload` bytes needs: iceoryx places the 64-byte aligned payload
+// after its chunk header, so a pool of exactly `payload` bytes would not fit it (and loaning a chunk
+// larger than every pool aborts the process).
+uint64_t pool_payload_for(uint64_t payload) {
+  auto settings = iox::mepoo::ChunkSettings::create(static_cast<uint32_t>(payload), kFrameAlignment);
+  if (settings.has_error()) throw std::invalid_argument("frame payload of " + std::to_string(payload) + " bytes");
+  return align64(settings.value().requiredChunkSize() - sizeof(iox::mepoo::ChunkHeader));
+}
 
 // Largest chunk payload of the running RouDi's pools that this process may write to, from RouDi's
 // mempool introspection topic; 0 when nothing arrives in time.
@@ -147,12 +157,16 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
       throw std::runtime_error("no RouDi runs on this machine: start iox-roudi first or let doppel start its own");
     }
     uint64_t largest_frame = 0;
-    for (const CameraConfig& c : cameras) largest_frame = std::max<uint64_t>(largest_frame, frame_payload_bytes(c));
+    for (const CameraConfig& c : cameras) {
+      largest_frame = std::max<uint64_t>(largest_frame, pool_payload_for(frame_payload_bytes(c)));
+    }
 
     if (!running) {
       // Pools: small ones for info topics and other users, then one pool per distinct frame size.
       std::map<uint32_t, uint32_t> pools = {{128, 1024}, {1024, 512}, {16384, 128}, {131072, 16}};
-      for (const CameraConfig& c : cameras) pools[align64(frame_payload_bytes(c))] += options.chunks_per_camera;
+      for (const CameraConfig& c : cameras) {
+        pools[static_cast<uint32_t>(pool_payload_for(frame_payload_bytes(c)))] += options.chunks_per_camera;
+      }
       iox::mepoo::MePooConfig mepoo;
       uint64_t data_bytes = 0;
       std::string sizes;
@@ -255,7 +269,7 @@ struct CameraStream::Impl {
 
 CameraStream::CameraStream(StreamingHost& host, const CameraConfig& config) {
   validate(config);
-  const uint64_t payload = frame_payload_bytes(config);
+  const uint64_t payload = pool_payload_for(frame_payload_bytes(config));
   if (payload > host.max_payload_bytes()) {
     throw std::runtime_error("camera '" + config.name + "': a frame needs " + std::to_string(payload) +
                              " bytes but the largest chunk holds " + std::to_string(host.max_payload_bytes()) +
@@ -285,25 +299,13 @@ CameraStream::CameraStream(StreamingHost& host, const CameraConfig& config) {
 
 CameraStream::~CameraStream() = default;
 
-bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC,
-                                      double sim_time_s) {
+FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_time_s) noexcept {
   Impl& s = *impl_;
-  if (s.noise_pending.load(std::memory_order_acquire)) {
-    std::unique_lock<std::mutex> lock(s.noise_mutex, std::try_to_lock);
-    if (lock.owns_lock()) {
-      s.renderer.set_noise(s.pending_noise);
-      s.noise_pending.store(false, std::memory_order_release);
-    }
-  }
   const uint64_t sequence = s.sequence++;
-  if (!s.frames.hasSubscribers()) {
-    s.skipped.fetch_add(1, std::memory_order_relaxed);
-    return false;
-  }
   auto loaned = s.frames.loan(s.payload_bytes, kFrameAlignment);
   if (loaned.has_error()) {
     s.dropped.fetch_add(1, std::memory_order_relaxed);
-    return false;
+    return nullptr;
   }
   void* chunk = loaned.value();
   // Only the header is constructed: the pixels are written by the renderer, never zeroed first.
@@ -324,11 +326,10 @@ bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eig
   h->stride_bytes = static_cast<uint32_t>(row_bytes(c.format, c.width_px));
   h->pixel_offset = align64(sizeof(FrameHeader));
   h->pixel_bytes = h->stride_bytes * static_cast<uint32_t>(c.height_px);
-  FrameAnnotations* annotations = nullptr;
   if (c.annotations) {
     h->annotation_offset = align64(uint64_t{h->pixel_offset} + h->pixel_bytes);
     h->annotation_bytes = sizeof(FrameAnnotations);
-    annotations = new (static_cast<uint8_t*>(chunk) + h->annotation_offset) FrameAnnotations;
+    new (static_cast<uint8_t*>(chunk) + h->annotation_offset) FrameAnnotations;
   }
   const Eigen::Quaterniond q(X_WC.linear());
   h->position_w_m[0] = X_WC.translation().x();
@@ -342,14 +343,38 @@ bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eig
   h->fps = c.fps;
   h->frames_dropped = s.dropped.load(std::memory_order_relaxed);
   std::strncpy(h->camera_name, c.name.c_str(), sizeof(h->camera_name) - 1);
+  return h;
+}
 
-  s.renderer.render(scene, X_WC, sequence, static_cast<uint8_t*>(chunk) + h->pixel_offset, annotations);
-
-  h->publish_mono_ns = now_ns(CLOCK_MONOTONIC);
-  s.last_render_ms.store(1e-6 * static_cast<double>(h->publish_mono_ns - h->render_start_mono_ns),
+void CameraStream::publish_frame(FrameHeader* frame) noexcept {
+  Impl& s = *impl_;
+  frame->publish_mono_ns = now_ns(CLOCK_MONOTONIC);
+  s.last_render_ms.store(1e-6 * static_cast<double>(frame->publish_mono_ns - frame->render_start_mono_ns),
                          std::memory_order_relaxed);
-  s.frames.publish(chunk);
+  s.frames.publish(frame);
   s.published.fetch_add(1, std::memory_order_relaxed);
+}
+
+bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC,
+                                      double sim_time_s) {
+  Impl& s = *impl_;
+  if (s.noise_pending.load(std::memory_order_acquire)) {
+    std::unique_lock<std::mutex> lock(s.noise_mutex, std::try_to_lock);
+    if (lock.owns_lock()) {
+      s.renderer.set_noise(s.pending_noise);
+      s.noise_pending.store(false, std::memory_order_release);
+    }
+  }
+  if (!s.frames.hasSubscribers()) {
+    ++s.sequence;
+    s.skipped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  FrameHeader* h = loan_frame(X_WC, sim_time_s);
+  if (h == nullptr) return false;
+  auto* annotations = const_cast<FrameAnnotations*>(frame_annotations(h));
+  s.renderer.render(scene, X_WC, h->sequence, reinterpret_cast<uint8_t*>(h) + h->pixel_offset, annotations);
+  publish_frame(h);
   return true;
 }
 

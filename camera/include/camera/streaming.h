@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "camera/camera_config.h"
+#include "camera/frame.h"
 #include "camera/noise.h"
 #include "physics/scene_view.h"
 
@@ -62,7 +63,7 @@ class StreamingHost {
   bool roudi_in_process() const noexcept;
   // One line for the log: which RouDi is used and, in-process, the pool sizes.
   const std::string& description() const noexcept;
-  // Largest frame payload a camera may loan from the pools in use.
+  // Largest chunk payload of the pools in use (a frame needs frame_payload_bytes plus alignment).
   uint64_t max_payload_bytes() const noexcept;
   // True while a StreamingHost exists in this process.
   static bool exists() noexcept;
@@ -96,6 +97,14 @@ class CameraStream {
   // subscribers. Called by the camera thread at the camera's rate; allocates nothing after the
   // first frame.
   bool render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC, double sim_time_s);
+
+  // The two halves of render_and_publish, for callers that fill frames themselves (benchmarks,
+  // recorded images): loan_frame() takes a chunk and writes the header (sequence, time stamps,
+  // layout, pose); the caller writes frame_pixels() (and the annotations, if any) and then hands the
+  // frame to publish_frame(), which stamps publish_mono_ns. loan_frame() returns nullptr when no
+  // chunk is free (the frame is counted as dropped). Camera thread only.
+  FrameHeader* loan_frame(const Eigen::Isometry3d& X_WC, double sim_time_s) noexcept;
+  void publish_frame(FrameHeader* frame) noexcept;
 
   // Changes the noise filters from any thread; the next frame uses them. Throws
   // std::invalid_argument for out-of-range values.
