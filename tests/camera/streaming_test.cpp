@@ -245,6 +245,36 @@ TEST(StreamingTest, CrashedSubscriberProcessIsReplacedByItsRestart) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(StreamingTest, PoolsSizedFromTheCamerasHoldEveryFormatsFrame) {
+  // Each frame is larger than every general-purpose pool, so each must fit the pool made for its
+  // camera, alignment of the payload included (a loan larger than every pool aborts the process).
+  std::vector<CameraConfig> configs;
+  for (PixelFormat format : kAllPixelFormats) {
+    CameraConfig c = small_camera(std::string("fmt_") + std::string(to_string(format)));
+    c.width_px = 640;
+    c.height_px = 480;
+    c.format = format;
+    c.lens = pinhole_from_hfov(640, 480, 90.0);
+    configs.push_back(c);
+  }
+  StreamingOptions options;
+  options.chunks_per_camera = 4;
+  StreamingHost host(configs, options);
+  const physics::SceneView scene = make_demo_scene(0);
+
+  for (const CameraConfig& c : configs) {
+    CameraStream sut(host, c);
+    FrameSubscriber sub(c.name);
+    ASSERT_TRUE(eventually([&] { return sut.has_subscribers(); }));
+    for (int i = 0; i < 6; ++i) {
+      ASSERT_TRUE(sut.render_and_publish(scene, pose_for(0), 0.0)) << c.name << " frame " << i;
+      auto f = sub.try_take();
+      ASSERT_TRUE(f.has_value()) << c.name;
+      EXPECT_EQ(f->header().pixel_bytes, frame_bytes(c.format, 640, 480));
+    }
+  }
+}
+
 TEST(StreamingTest, CamerasAreListedWithTheirFormat) {
   const CameraConfig a = small_camera("left");
   CameraConfig b = small_camera("right");
