@@ -5,12 +5,15 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -78,11 +81,17 @@ class PublisherThread {
 // A child process that is killed and reaped when the guard goes.
 class Child {
  public:
-  explicit Child(const std::vector<std::string>& args) {
+  explicit Child(const std::vector<std::string>& args, const std::string& stdout_path = "") {
     std::vector<char*> argv;
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
-    if (posix_spawn(&pid_, argv[0], nullptr, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    if (!stdout_path.empty()) {
+      posix_spawn_file_actions_addopen(&actions, 1, stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    }
+    if (posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawn_file_actions_destroy(&actions);
   }
   ~Child() {
     if (pid_ > 0) {
@@ -273,6 +282,39 @@ TEST(StreamingTest, PoolsSizedFromTheCamerasHoldEveryFormatsFrame) {
       EXPECT_EQ(f->header().pixel_bytes, frame_bytes(c.format, 640, 480));
     }
   }
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(StreamingTest, ToolListsCamerasAndReportsStats) {
+  const CameraConfig config = small_camera("tool_cam");
+  StreamingHost host({config});
+  CameraStream sut(host, config);
+  const physics::SceneView scene = make_demo_scene(0);
+  PublisherThread publisher(sut, scene);
+  const std::string list_out = testing::TempDir() + "doppel_camera_list.txt";
+  const std::string stats_out = testing::TempDir() + "doppel_camera_stats.txt";
+
+  Child list({DOPPEL_CAMERA_TOOL, "list"}, list_out);
+  const int list_code = list.wait(15000ms);
+  Child stats({DOPPEL_CAMERA_TOOL, "stats", "--camera", "tool_cam", "--seconds", "1"}, stats_out);
+  const int stats_code = stats.wait(15000ms);
+  Child usage({DOPPEL_CAMERA_TOOL, "save", "--count", "0"});
+  const int usage_code = usage.wait(15000ms);
+
+  EXPECT_EQ(list_code, 0);
+  EXPECT_NE(read_file(list_out).find("tool_cam"), std::string::npos) << read_file(list_out);
+  EXPECT_NE(read_file(list_out).find("160x120"), std::string::npos);
+  EXPECT_EQ(stats_code, 0);
+  EXPECT_NE(read_file(stats_out).find("latency publish->held"), std::string::npos) << read_file(stats_out);
+  EXPECT_EQ(usage_code, 2);
+  std::filesystem::remove(list_out);
+  std::filesystem::remove(stats_out);
 }
 
 TEST(StreamingTest, CamerasAreListedWithTheirFormat) {
