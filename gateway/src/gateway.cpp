@@ -2,9 +2,13 @@
 
 #include <pthread.h>
 
+#include <numbers>
 #include <sstream>
 
 #include "gateway/fixed_rate_clock.h"
+#include "physics/engines.h"
+#include "physics/field.h"
+#include "physics/world.h"
 #include "gateway/robot_config.h"
 #include "robot_runtime.h"
 
@@ -17,10 +21,62 @@ std::string link_path(const std::string& link_dir, std::size_t robot, std::size_
   return robot == 0 ? link_dir + "/" + name : link_dir + "/robot" + std::to_string(robot) + "/" + name;
 }
 
+namespace {
+
+// Where robot r stands at kick-off: teams alternate, each on its own half, facing the centre.
+physics::RobotPlacement kick_off_placement(std::size_t r) {
+  physics::RobotPlacement placement;
+  const bool second_team = r % 2 == 1;
+  const double row = static_cast<double>(r / 2);
+  placement.position_m = Eigen::Vector3d(second_team ? 1.0 + 0.5 * row : -1.0 - 0.5 * row, -0.8 + 0.8 * row, 0.0);
+  placement.yaw_rad = second_team ? std::numbers::pi : 0.0;
+  placement.team = second_team ? 1 : 0;
+  return placement;
+}
+
+}  // namespace
+
 Gateway::Gateway(const Options& options) : options_(options) {
   std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
-  for (std::size_t r = 0; r < options.robots.size(); ++r) {
-    robots_.push_back(std::make_unique<RobotRuntime>(load_robot(options.robots[r], robots_dir), r, options_));
+  std::vector<RobotConfig> configs;
+  for (const std::string& robot : options.robots) {
+    configs.push_back(load_robot(robot, robots_dir));
+  }
+  // One world holds the bodies of every robot that has one.
+  std::vector<physics::RobotModel> bodies;
+  std::vector<physics::RobotPlacement> placements;
+  std::vector<BodyRef> refs(configs.size());
+  if (options.physics != "none") {
+    for (std::size_t r = 0; r < configs.size(); ++r) {
+      if (configs[r].body) {
+        refs[r].robot = bodies.size();
+        bodies.push_back(*configs[r].body);
+        placements.push_back(kick_off_placement(r));
+      }
+    }
+  }
+  if (!bodies.empty()) {
+    physics::WorldOptions world_options;
+    world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
+    world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
+    world_options.field = physics::field_shapes();
+    // One supply for every motor of the world: the first simulated robot's first bus.
+    for (const RobotConfig& config : configs) {
+      if (config.body && !config.buses.empty()) {
+        world_options.supply_voltage_v = config.buses.front().supply_voltage_v;
+        break;
+      }
+    }
+    world_ = std::make_unique<physics::World>(physics::make_backend(options.physics), std::move(bodies),
+                                              std::move(placements), world_options);
+    for (std::size_t r = 0; r < configs.size(); ++r) {
+      if (configs[r].body) {
+        refs[r].world = world_.get();
+      }
+    }
+  }
+  for (std::size_t r = 0; r < configs.size(); ++r) {
+    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));
   }
 }
 
@@ -53,12 +109,20 @@ void Gateway::stop() {
 
 void Gateway::simulate() noexcept {
   FixedRateClock clock(kSimulationStepNs);
-  int64_t sim_time_ns = 0;
+  int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
   while (running_.load(std::memory_order_relaxed)) {
-    sim_time_ns += kSimulationStepNs;
     for (auto& robot : robots_) {
-      robot->simulate(dt_s, sim_time_ns);
+      robot->drive(dt_s);
+    }
+    if (world_ != nullptr) {
+      world_->step();
+      sim_time_ns = world_->time_ns();
+    } else {
+      sim_time_ns += kSimulationStepNs;
+    }
+    for (auto& robot : robots_) {
+      robot->sense(sim_time_ns);
     }
     clock.wait_next();
   }
@@ -71,6 +135,8 @@ std::string Gateway::describe() const {
     out << robot->describe();
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
+  out << "doppel: physics " << (world_ != nullptr ? options_.physics : std::string("none (kinematic joints)"))
+      << (world_ != nullptr && options_.hold ? ", robots held until their first Torque Enable" : "") << "\n";
   out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
       << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")
       << "; running until SIGINT/SIGTERM\n";

@@ -39,6 +39,14 @@ Options:
                          (default 50, as measured on MX-64 servos).
   --latency-timer MS     Model a USB serial adapter (FTDI/U2D2) whose latency timer is MS ms
                          (1..255; FTDI default 16). Default 0: no adapter model.
+  --physics ode|bullet|none
+                         Physics engine for the robots' bodies (default ode). Robots whose file has
+                         no body, and every robot with 'none', move kinematically: joints turn toward
+                         their goals at the commanded speed, the IMU lies level, the feet carry the
+                         weight evenly.
+  --no-hold              Release every robot at start. By default a robot is held in its initial
+                         pose, as a handler holds a real robot while it powers up, until its
+                         driver first enables torque on one of its servos.
   --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
                          CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
                          tail on a loaded machine.
@@ -86,6 +94,13 @@ Options parse_options(int argc, const char* const* argv) {
       }
     } else if (arg == "--processing-us") {
       options.processing_us = parse_number<double>(arg, value(), 0.0, 10000.0);
+    } else if (arg == "--physics") {
+      options.physics = value();
+      if (options.physics != "ode" && options.physics != "bullet" && options.physics != "none") {
+        throw std::invalid_argument("option --physics: '" + options.physics + "' is not one of ode, bullet, none");
+      }
+    } else if (arg == "--no-hold") {
+      options.hold = false;
     } else if (arg == "--rt-priority") {
       options.rt_priority = parse_number<int>(arg, value(), 0, 99);
     } else if (arg == "--latency-timer") {

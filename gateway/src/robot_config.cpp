@@ -66,7 +66,10 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
       try {
         model = &dynamixel::p2_model_spec(device.model());
       } catch (const std::invalid_argument& e) {
-        file.fail(device, "model", -1, e.what());
+        const bool p1_model = std::any_of(dynamixel::known_models().begin(), dynamixel::known_models().end(),
+                                          [&](const dynamixel::ModelSpec* m) { return m->name == device.model(); });
+        file.fail(device, "model", -1,
+                  p1_model ? device.model() + " is a Protocol 1.0 model; this bus is PROTOCOL_2" : std::string(e.what()));
       }
       try {
         dynamixel::p2_baud_register(config.baud_bps, *model);
@@ -78,7 +81,10 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
       try {
         model = &dynamixel::model_spec(device.model());
       } catch (const std::invalid_argument& e) {
-        file.fail(device, "model", -1, e.what());
+        file.fail(device, "model", -1,
+                  dynamixel::find_p2_model(device.model()) != nullptr
+                      ? device.model() + " is a Protocol 2.0 model; set protocol: PROTOCOL_2 on this bus"
+                      : std::string(e.what()));
       }
       try {
         dynamixel::p1_baud_register(config.baud_bps, *model);
@@ -114,6 +120,9 @@ RobotConfig check_robot(const proto::RobotFile& file) {
   }
   for (int b = 0; b < robot.bus_size(); ++b) {
     config.buses.push_back(check_bus(file, robot, b));
+  }
+  if (robot.has_figure()) {
+    config.body = physics::compile_robot(file);
   }
   return config;
 }

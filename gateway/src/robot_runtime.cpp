@@ -31,37 +31,40 @@ const char* protocol_name(dynamixel::Protocol protocol) {
 
 }  // namespace
 
-BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const Options& options) : config_(config) {
+BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef body, const std::string& link,
+                       const Options& options)
+    : config_(config), bus_index_(bus_index), body_(body) {
+  const auto bus = static_cast<uint32_t>(bus_index);
   for (const DeviceConfig& device : config.devices) {
     if (config.protocol == dynamixel::Protocol::kV2) {
-      const dynamixel::P2ModelSpec& spec = dynamixel::p2_model_spec(device.model);
       devices_.push_back(dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
                                                           device.return_delay_raw.value_or(250)));
-      dynamixel::Device* created = devices_.back().get();
-      if (auto* servo = dynamic_cast<dynamixel::Protocol2Servo*>(created)) {
-        servos_.push_back({nullptr, servo});
-        joints_.emplace_back(no_load_speed_rad_s(spec.servo, config.supply_voltage_v));
-      } else if (auto* imu = dynamic_cast<dynamixel::BitbotsImu*>(created)) {
-        imus_.push_back({nullptr, imu});
-      } else if (auto* foot = dynamic_cast<dynamixel::BitFoot*>(created)) {
-        feet_.push_back({nullptr, foot});
-      } else if (auto* core = dynamic_cast<dynamixel::BitbotsCore*>(created)) {
-        cores_.push_back(core);
-      }
-      bus_devices_.add(*created);
-      continue;
+    } else {
+      const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
+      devices_.push_back(dynamixel::make_protocol1_device(
+          device.model, device.id, config.baud_bps, device.return_delay_raw.value_or(default_return_delay_raw(spec))));
     }
-    const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
-    devices_.push_back(dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
-                                                        device.return_delay_raw.value_or(default_return_delay_raw(spec))));
     dynamixel::Device* created = devices_.back().get();
-    if (auto* servo = dynamic_cast<dynamixel::Protocol1Servo*>(created)) {
-      servos_.push_back({servo, nullptr});
-      joints_.emplace_back(no_load_speed_rad_s(spec.servo, config.supply_voltage_v));
+    std::optional<physics::ImuHandle> imu_handle;
+    std::optional<physics::FootHandle> foot_handle;
+    if (body_.world != nullptr) {
+      imu_handle = body_.world->find_imu(body_.robot, bus, device.id);
+      foot_handle = body_.world->find_foot(body_.robot, bus, device.id);
+    }
+    if (auto* p1 = dynamic_cast<dynamixel::Protocol1Servo*>(created)) {
+      add_servo(p1, nullptr, dynamixel::model_spec(device.model).servo, device.model, device.id);
+    } else if (auto* p2 = dynamic_cast<dynamixel::Protocol2Servo*>(created)) {
+      add_servo(nullptr, p2, dynamixel::p2_model_spec(device.model).servo, device.model, device.id);
     } else if (auto* imu = dynamic_cast<dynamixel::FumanoidImu*>(created)) {
-      imus_.push_back({imu, nullptr});
+      imus_.push_back({imu, nullptr, imu_handle});
+    } else if (auto* bitbots_imu = dynamic_cast<dynamixel::BitbotsImu*>(created)) {
+      imus_.push_back({nullptr, bitbots_imu, imu_handle});
     } else if (auto* foot = dynamic_cast<dynamixel::FumanoidFootBoard*>(created)) {
-      feet_.push_back({foot, nullptr});
+      feet_.push_back({foot, nullptr, foot_handle});
+    } else if (auto* bitfoot = dynamic_cast<dynamixel::BitFoot*>(created)) {
+      feet_.push_back({nullptr, bitfoot, foot_handle});
+    } else if (auto* core = dynamic_cast<dynamixel::BitbotsCore*>(created)) {
+      cores_.push_back(core);
     }
     bus_devices_.add(*created);
   }
@@ -75,6 +78,17 @@ BusRuntime::BusRuntime(const BusConfig& config, const std::string& link, const O
   server_options.adapter_latency_ms = options.latency_timer_ms;
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
+}
+
+void BusRuntime::add_servo(dynamixel::Protocol1Servo* p1, dynamixel::Protocol2Servo* p2,
+                           const dynamixel::ServoSpec& spec, const std::string& model, uint8_t id) {
+  ServoSlot& slot = servos_.emplace_back(dynamixel::servo_controller_config(model),
+                                         no_load_speed_rad_s(spec, config_.supply_voltage_v));
+  slot.p1 = p1;
+  slot.p2 = p2;
+  if (body_.world != nullptr) {
+    slot.motor = body_.world->find_motor(body_.robot, static_cast<uint32_t>(bus_index_), id);
+  }
 }
 
 BusRuntime::~BusRuntime() { join(); }
@@ -135,7 +149,14 @@ void BusRuntime::before_dispatch() noexcept {
 void BusRuntime::after_dispatch() noexcept {
   BusCommands& commands = commands_.back();
   for (std::size_t i = 0; i < servos_.size(); ++i) {
-    commands.servos[i] = servos_[i].p1 != nullptr ? servos_[i].p1->command() : servos_[i].p2->command();
+    const ServoSlot& slot = servos_[i];
+    if (slot.p1 != nullptr) {
+      commands.servos[i] = slot.p1->command();
+    } else {
+      commands.servos[i] = slot.p2->command();
+      const dynamixel::XGains gains = slot.p2->gains();
+      commands.x_gains[i] = dynamixel::x_pid_gains(gains.position_p, gains.position_i, gains.position_d);
+    }
   }
   commands_.publish();
 }
@@ -145,26 +166,69 @@ void BusRuntime::on_tick() noexcept {
   after_dispatch();
 }
 
-void BusRuntime::simulate(double dt_s, int64_t sim_time_ns, double foot_force_n) noexcept {
+void BusRuntime::drive(double dt_s) noexcept {
   const BusCommands& commands = commands_.latest();
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    ServoSlot& slot = servos_[i];
+    const dynamixel::ServoCommand& command = commands.servos[i];
+    if (!slot.motor) {
+      slot.joint.step(command, dt_s);
+      continue;
+    }
+    const dynamixel::ControllerOutput out =
+        slot.p2 != nullptr ? slot.controller.update(command, commands.x_gains[i], slot.position_rad,
+                                                    slot.velocity_rad_s, dt_s, config_.supply_voltage_v)
+                           : slot.controller.update(command, slot.position_rad, slot.velocity_rad_s, dt_s,
+                                                    config_.supply_voltage_v);
+    body_.world->set_motor(*slot.motor, physics::MotorCommand{command.torque_enabled, out.pwm_ratio,
+                                                              command.torque_limit_ratio});
+  }
+}
+
+void BusRuntime::sense(int64_t sim_time_ns, double kinematic_cell_force_n) noexcept {
   BusFeedback& feedback = feedback_.back();
-  for (std::size_t i = 0; i < joints_.size(); ++i) {
-    joints_[i].step(commands.servos[i], dt_s);
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    ServoSlot& slot = servos_[i];
     dynamixel::ServoFeedback& servo = feedback.servos[i];
-    servo.position_rad = joints_[i].position_rad();
-    servo.velocity_rad_s = joints_[i].velocity_rad_s();
-    servo.torque_ratio = 0.0;
-    servo.voltage_v = config_.supply_voltage_v;
-    servo.temperature_c = 25.0;
+    if (slot.motor) {
+      const physics::MotorState state = body_.world->motor(*slot.motor);
+      servo.position_rad = state.position_rad;
+      servo.velocity_rad_s = state.velocity_rad_s;
+      servo.torque_ratio = state.torque_ratio;
+      servo.voltage_v = state.voltage_v;
+      servo.temperature_c = state.temperature_c;
+    } else {
+      servo.position_rad = slot.joint.position_rad();
+      servo.velocity_rad_s = slot.joint.velocity_rad_s();
+      servo.torque_ratio = 0.0;
+      servo.voltage_v = config_.supply_voltage_v;
+      servo.temperature_c = 25.0;
+    }
     servo.sim_time_ns = sim_time_ns;
+    slot.position_rad = servo.position_rad;
+    slot.velocity_rad_s = servo.velocity_rad_s;
   }
   for (std::size_t i = 0; i < imus_.size(); ++i) {
-    feedback.imus[i] = dynamixel::ImuFeedback{};
-    feedback.imus[i].sim_time_ns = sim_time_ns;
+    dynamixel::ImuFeedback& imu = feedback.imus[i];
+    imu = dynamixel::ImuFeedback{};
+    if (imus_[i].imu) {
+      const physics::ImuState state = body_.world->imu(*imus_[i].imu);
+      imu.roll_rad = state.roll_rad;
+      imu.pitch_rad = state.pitch_rad;
+      imu.yaw_rad = state.yaw_rad;
+      imu.w_WS_S_rad_s = state.w_WS_S_rad_s;
+      imu.a_WS_S_m_s2 = state.a_WS_S_m_s2;
+    }
+    imu.sim_time_ns = sim_time_ns;
   }
   for (std::size_t i = 0; i < feet_.size(); ++i) {
-    feedback.feet[i].force_n.fill(foot_force_n);
-    feedback.feet[i].sim_time_ns = sim_time_ns;
+    dynamixel::FootFeedback& foot = feedback.feet[i];
+    if (feet_[i].foot) {
+      foot.force_n = body_.world->foot(*feet_[i].foot).force_n;
+    } else {
+      foot.force_n.fill(kinematic_cell_force_n);
+    }
+    foot.sim_time_ns = sim_time_ns;
   }
   feedback_.publish();
 }
@@ -199,14 +263,15 @@ std::string BusRuntime::summary() const {
   return out.str();
 }
 
-RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, const Options& options)
-    : config_(config), index_(robot_index) {
+RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, BodyRef body, const Options& options)
+    : config_(config), index_(robot_index), body_(body) {
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
-    buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], link_path(options.link_dir, robot_index, b), options));
+    buses_.push_back(
+        std::make_unique<BusRuntime>(config.buses[b], b, body, link_path(options.link_dir, robot_index, b), options));
     foot_boards_ += buses_.back()->foot_board_count();
   }
   // Power-on: the sensors' first sample and the servos' Present registers exist before any packet.
-  simulate(0.0, 0);
+  sense(body.world != nullptr ? body.world->time_ns() : 0);
   for (auto& bus : buses_) {
     bus->before_dispatch();
   }
@@ -224,17 +289,25 @@ void RobotRuntime::join() {
   }
 }
 
-void RobotRuntime::simulate(double dt_s, int64_t sim_time_ns) noexcept {
-  // Standing still, the weight spreads evenly over every load cell (four per foot board).
-  double cell_force_n = foot_boards_ == 0 ? 0.0 : kKinematicRobotMassKg * kGravityM_S2 / (4.0 * static_cast<double>(foot_boards_));
+void RobotRuntime::drive(double dt_s) noexcept {
   for (auto& bus : buses_) {
-    bus->simulate(dt_s, sim_time_ns, cell_force_n);
+    bus->drive(dt_s);
+  }
+}
+
+void RobotRuntime::sense(int64_t sim_time_ns) noexcept {
+  // Without a body, the weight of a robot standing still spreads evenly over its load cells.
+  double cell_force_n = foot_boards_ == 0 ? 0.0
+                                          : kKinematicRobotMassKg * kGravityM_S2 / (4.0 * static_cast<double>(foot_boards_));
+  for (auto& bus : buses_) {
+    bus->sense(sim_time_ns, cell_force_n);
   }
 }
 
 std::string RobotRuntime::describe() const {
   std::ostringstream out;
-  out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << ")\n";
+  out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << "), "
+      << (body_.world != nullptr ? "body simulated" : "no body: joints move kinematically") << "\n";
   for (const auto& bus : buses_) {
     out << bus->describe();
   }

@@ -1,14 +1,14 @@
 #pragma once
 // One robot at run time: for each of its buses the device objects, the pseudo-terminal and the
-// bus server (run on that bus' I/O thread), and the simulated joints and sensors behind them (run
-// on the simulation thread). The two threads share only two snapshots per bus: commands (bus ->
-// simulation) and feedback (simulation -> bus), so neither ever waits for the other.
-// Until the physics engine drives the body, joints move kinematically (kinematic_joint.h), the
-// IMU lies level and the feet carry the robot's weight evenly.
+// bus server (run on that bus' I/O thread), and what drives the devices' registers on the
+// simulation thread: the servo firmware's motor controller and a motor of the physics world, or,
+// for a robot without a body, a kinematic joint. The two threads share only two snapshots per bus:
+// commands (bus -> simulation) and feedback (simulation -> bus), so neither waits for the other.
 
 #include <array>
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -22,14 +22,16 @@
 #include "dynamixel/fumanoid_boards.h"
 #include "dynamixel/protocol1_servo.h"
 #include "dynamixel/protocol2_servo.h"
+#include "dynamixel/servo_controller.h"
 #include "gateway/kinematic_joint.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
+#include "physics/world.h"
 
 namespace doppel::gateway {
 
-// Mass the foot boards carry until the physics issue gives the robot a body (the 2011 KidSize
-// robot: 21 servos of 72-125 g plus frame, electronics and battery).
+// Mass the foot boards of a robot without a body carry (the 2011 KidSize robot: 21 servos of
+// 72-125 g plus frame, electronics and battery).
 inline constexpr double kKinematicRobotMassKg = 4.0;
 inline constexpr double kGravityM_S2 = 9.80665;
 
@@ -38,6 +40,7 @@ inline constexpr std::size_t kMaxBoards = 8;
 
 struct BusCommands {
   std::array<dynamixel::ServoCommand, kMaxServos> servos{};  // by servo index on the bus
+  std::array<dynamixel::PidGains, kMaxServos> x_gains{};      // X series: position gains from their registers
 };
 
 struct BusFeedback {
@@ -46,10 +49,18 @@ struct BusFeedback {
   std::array<dynamixel::FootFeedback, kMaxBoards> feet{};     // by foot-board index on the bus
 };
 
+// Where the simulation finds a robot's body: the world and the robot's index in it.
+struct BodyRef {
+  physics::World* world = nullptr;  // nullptr: the robot moves kinematically
+  std::size_t robot = 0;            // index of the robot in the world
+};
+
 class BusRuntime final : public bus::DeviceSync {
  public:
-  // Builds the devices of `config`, opens the port at `link` and the server. Setup only; throws.
-  BusRuntime(const BusConfig& config, const std::string& link, const Options& options);
+  // Builds the devices of `config` (bus `bus_index` of its robot), links servos and sensors to
+  // `body` where its figure has them, opens the port at `link` and the server. Setup; throws.
+  BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef body, const std::string& link,
+             const Options& options);
   ~BusRuntime() override;
 
   void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
@@ -61,35 +72,51 @@ class BusRuntime final : public bus::DeviceSync {
   // Also without traffic, so that time passes for the devices (Protocol 2.0 Bus Watchdog). rt-safe.
   void on_tick() noexcept override;
 
-  // Simulation thread: one step of dt_s at simulation time sim_time_ns. rt-safe.
-  void simulate(double dt_s, int64_t sim_time_ns, double foot_force_n) noexcept;
-  std::size_t foot_board_count() const noexcept { return feet_.size(); }
+  // Simulation thread, before the world steps: runs every servo's motor controller on the latest
+  // commands and hands the result to the world (or moves the kinematic joints). rt-safe.
+  void drive(double dt_s) noexcept;
+  // Simulation thread, after the world stepped: publishes what the devices measure. rt-safe.
+  void sense(int64_t sim_time_ns, double kinematic_cell_force_n) noexcept;
 
+  std::size_t foot_board_count() const noexcept { return feet_.size(); }
   std::string describe() const;
   std::string summary() const;
 
  private:
-  BusConfig config_;
-  // A servo, IMU or foot board of either protocol (exactly one pointer set).
-  struct ServoRef {
+  // One servo of either protocol (exactly one of p1, p2 set) and what moves it.
+  struct ServoSlot {
+    ServoSlot(const dynamixel::ServoControllerConfig& controller_config, double no_load_speed_rad_s)
+        : controller(controller_config), joint(no_load_speed_rad_s) {}
     dynamixel::Protocol1Servo* p1 = nullptr;
     dynamixel::Protocol2Servo* p2 = nullptr;
+    std::optional<physics::MotorHandle> motor;  // its motor in the world, if the figure has one
+    dynamixel::ServoController controller;      // the firmware's motor controller (physics only)
+    KinematicJoint joint;                        // used when there is no motor
+    double position_rad = 0.0;                   // last measured, for the controller
+    double velocity_rad_s = 0.0;
   };
-  struct ImuRef {
+  struct ImuSlot {
     dynamixel::FumanoidImu* fumanoid = nullptr;
     dynamixel::BitbotsImu* bitbots = nullptr;
+    std::optional<physics::ImuHandle> imu;
   };
-  struct FootRef {
+  struct FootSlot {
     dynamixel::FumanoidFootBoard* fumanoid = nullptr;
     dynamixel::BitFoot* bitbots = nullptr;
+    std::optional<physics::FootHandle> foot;
   };
 
+  void add_servo(dynamixel::Protocol1Servo* p1, dynamixel::Protocol2Servo* p2, const dynamixel::ServoSpec& spec,
+                 const std::string& model, uint8_t id);
+
+  BusConfig config_;
+  std::size_t bus_index_;
+  BodyRef body_;
   std::vector<std::unique_ptr<dynamixel::Device>> devices_;  // owns every device on the bus
-  std::vector<ServoRef> servos_;
-  std::vector<ImuRef> imus_;
-  std::vector<FootRef> feet_;
+  std::vector<ServoSlot> servos_;                             // simulation state: simulation thread only
+  std::vector<ImuSlot> imus_;
+  std::vector<FootSlot> feet_;
   std::vector<dynamixel::BitbotsCore*> cores_;
-  std::vector<KinematicJoint> joints_;                        // one per servo, simulation thread only
   dynamixel::BusDevices bus_devices_;
   std::unique_ptr<bus::PtyPort> port_;
   std::unique_ptr<bus::BusServer> server_;
@@ -100,12 +127,13 @@ class BusRuntime final : public bus::DeviceSync {
 
 class RobotRuntime {
  public:
-  RobotRuntime(const RobotConfig& config, std::size_t robot_index, const Options& options);
+  RobotRuntime(const RobotConfig& config, std::size_t robot_index, BodyRef body, const Options& options);
 
   void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
   void join();
-  // Simulation thread: one step. rt-safe.
-  void simulate(double dt_s, int64_t sim_time_ns) noexcept;
+  // Simulation thread, around one world step (see BusRuntime). rt-safe.
+  void drive(double dt_s) noexcept;
+  void sense(int64_t sim_time_ns) noexcept;
 
   std::string describe() const;
   std::string summary() const;
@@ -113,6 +141,7 @@ class RobotRuntime {
  private:
   RobotConfig config_;
   std::size_t index_;
+  BodyRef body_;
   std::vector<std::unique_ptr<BusRuntime>> buses_;
   std::size_t foot_boards_ = 0;
 };

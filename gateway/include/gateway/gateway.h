@@ -1,7 +1,7 @@
 #pragma once
 // The running double of one or more robots: for every bus a pseudo-terminal with its devices and
-// an I/O thread, and one simulation thread at 1 kHz that moves the joints and produces the sensor
-// readings. Lifecycle as in ros2_control: the constructor configures (loads robots, builds the
+// an I/O thread, and one simulation thread at 1 kHz that runs the servos' motor controllers, steps
+// the physics world of the robots' bodies and produces the sensor readings. Lifecycle as in ros2_control: the constructor configures (loads robots, builds the
 // devices, opens the ports and links: everything that allocates or may fail), start() activates
 // the threads, stop() joins them. The bus threads never wait for the simulation: commands and
 // feedback cross between them as lock-free snapshots.
@@ -13,6 +13,10 @@
 #include <vector>
 
 #include "gateway/options.h"
+
+namespace doppel::physics {
+class World;
+}
 
 namespace doppel::gateway {
 
@@ -37,6 +41,7 @@ class Gateway {
   void simulate() noexcept;
 
   Options options_;
+  std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::atomic<bool> running_{false};  // the simulation thread runs
   std::atomic<bool> stop_{false};     // tells the bus threads to stop

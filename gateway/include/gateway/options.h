@@ -18,6 +18,8 @@ struct Options {
   double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
   uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)
   int rt_priority = 0;                   // SCHED_FIFO priority of the bus threads, 0 = normal scheduling
+  std::string physics = "ode";           // --physics ode|bullet|none: engine of the robots' bodies
+  bool hold = true;                      // a handler holds each robot until its first Torque Enable
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dynamixel/packet.h"
+#include "physics/robot_model.h"
 
 namespace doppel::gateway {
 
@@ -31,6 +32,7 @@ struct RobotConfig {
   std::string name;                              // robot name from the file
   std::string source;                            // file it was read from
   std::vector<BusConfig> buses;                  // in port order
+  std::optional<physics::RobotModel> body;       // the figure, when the file describes one
 };
 
 // The default robots directory: $DOPPEL_ROBOTS_DIR, else the robots/ folder of the source tree.
