@@ -5,6 +5,7 @@
 #include <numbers>
 #include <sstream>
 
+#include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
 #include "physics/engines.h"
 #include "physics/field.h"
@@ -78,6 +79,9 @@ Gateway::Gateway(const Options& options) : options_(options) {
   for (std::size_t r = 0; r < configs.size(); ++r) {
     robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));
   }
+  if (world_ != nullptr && options.camera) {
+    cameras_ = std::make_unique<CameraFeed>(*world_, options_);
+  }
 }
 
 Gateway::~Gateway() { stop(); }
@@ -90,6 +94,9 @@ void Gateway::start() {
   for (auto& robot : robots_) {
     robot->start(stop_, options_.rt_priority);
   }
+  if (cameras_ != nullptr) {
+    cameras_->start();
+  }
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
@@ -101,6 +108,9 @@ void Gateway::stop() {
   stop_ = true;
   if (simulation_thread_.joinable()) {
     simulation_thread_.join();
+  }
+  if (cameras_ != nullptr) {
+    cameras_->stop();
   }
   for (auto& robot : robots_) {
     robot->join();
@@ -118,6 +128,9 @@ void Gateway::simulate() noexcept {
     if (world_ != nullptr) {
       world_->step();
       sim_time_ns = world_->time_ns();
+      if (cameras_ != nullptr) {
+        cameras_->offer(*world_);
+      }
     } else {
       sim_time_ns += kSimulationStepNs;
     }
@@ -134,6 +147,9 @@ std::string Gateway::describe() const {
   for (const auto& robot : robots_) {
     out << robot->describe();
   }
+  if (cameras_ != nullptr) {
+    out << cameras_->describe();
+  }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? options_.physics : std::string("none (kinematic joints)"))
       << (world_ != nullptr && options_.hold ? ", robots held until their first Torque Enable" : "") << "\n";
@@ -147,6 +163,9 @@ std::string Gateway::summary() const {
   std::ostringstream out;
   for (const auto& robot : robots_) {
     out << robot->summary();
+  }
+  if (cameras_ != nullptr) {
+    out << cameras_->summary();
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
   return out.str();

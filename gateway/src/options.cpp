@@ -47,6 +47,12 @@ Options:
   --no-hold              Release every robot at start. By default a robot is held in its initial
                          pose, as a handler holds a real robot while it powers up, until its
                          driver first enables torque on one of its servos.
+  --no-camera            Stream no camera. By default every camera of a simulated robot's description
+                         (the default robot's head camera: 640x480 YUYV, 20 fps, wide lens) streams
+                         through iceoryx shared memory; see doppel-camera.
+  --external-roudi       Use an iceoryx RouDi that is already running (iox-roudi) and fail without one.
+                         By default doppel uses a running RouDi if there is one and otherwise runs
+                         RouDi inside itself.
   --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
                          CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
                          tail on a loaded machine.
@@ -99,6 +105,10 @@ Options parse_options(int argc, const char* const* argv) {
       if (options.physics != "ode" && options.physics != "bullet" && options.physics != "none") {
         throw std::invalid_argument("option --physics: '" + options.physics + "' is not one of ode, bullet, none");
       }
+    } else if (arg == "--no-camera") {
+      options.camera = false;
+    } else if (arg == "--external-roudi") {
+      options.external_roudi = true;
     } else if (arg == "--no-hold") {
       options.hold = false;
     } else if (arg == "--rt-priority") {

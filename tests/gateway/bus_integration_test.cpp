@@ -283,7 +283,7 @@ TEST(Doppel, DefaultRobotServesAll24DevicesAndPrintsThem) {
   }
   // HEAD_YAW (ID 2) is an RX-64 (thesis figure 27b).
   EXPECT_EQ(client.transact(p1_instruction(2, kRead, {0, 2}), 8), status(2, 0, {64, 0}));
-  std::string output = doppel.output();
+  std::string output = doppel.wait_for_output("running until");
   EXPECT_NE(output.find(doppel.link()), std::string::npos) << output;
   EXPECT_NE(output.find("HEAD_YAW"), std::string::npos) << output;
 }

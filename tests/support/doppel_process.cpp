@@ -16,7 +16,7 @@ namespace doppel::testing {
 
 std::string doppel_executable() { return DOPPEL_EXECUTABLE; }
 
-DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& link_name) {
+DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& link_name, bool camera) {
   char dir_template[] = "/tmp/doppel-test-XXXXXX";
   if (mkdtemp(dir_template) == nullptr) {
     throw std::runtime_error("mkdtemp failed");
@@ -26,6 +26,9 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
   args.insert(args.begin(), doppel_executable());
   args.push_back("--link-dir");
   args.push_back(link_dir_);
+  if (!camera) {
+    args.push_back("--no-camera");
+  }
   std::vector<char*> argv;
   for (std::string& arg : args) {
     argv.push_back(arg.data());
@@ -79,6 +82,16 @@ int DoppelProcess::stop(int signal) {
   }
   pid_ = -1;
   return status;
+}
+
+std::string DoppelProcess::wait_for_output(const std::string& text) const {
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  std::string out = output();
+  while (out.find(text) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    out = output();
+  }
+  return out;
 }
 
 std::string DoppelProcess::output() const {

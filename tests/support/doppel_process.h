@@ -11,9 +11,10 @@ namespace doppel::testing {
 
 class DoppelProcess {
  public:
-  // Starts doppel with `args` plus --link-dir (a fresh temporary directory) and waits until
-  // `link_name` (e.g. "ttyDXL0") exists in it. Throws std::runtime_error if it does not start.
-  DoppelProcess(std::vector<std::string> args, const std::string& link_name = "ttyDXL0");
+  // Starts doppel with `args` plus --link-dir (a fresh temporary directory) and, unless `camera`,
+  // --no-camera (only one iceoryx RouDi serves a machine: camera tests hold a CTest lock), and
+  // waits until `link_name` (e.g. "ttyDXL0") exists in it. Throws std::runtime_error if it does not start.
+  DoppelProcess(std::vector<std::string> args, const std::string& link_name = "ttyDXL0", bool camera = false);
   // Stops the process if still running.
   ~DoppelProcess();
   DoppelProcess(const DoppelProcess&) = delete;
@@ -25,6 +26,9 @@ class DoppelProcess {
   int stop(int signal = 15);
   // Everything the process wrote to stdout and stderr so far.
   std::string output() const;
+  // Waits up to 10 s until the output contains `text` (e.g. doppel's "running until" line, printed
+  // once it serves every port); returns the output then.
+  std::string wait_for_output(const std::string& text) const;
   pid_t pid() const { return pid_; }
 
  private:

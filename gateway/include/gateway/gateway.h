@@ -21,6 +21,7 @@ class World;
 namespace doppel::gateway {
 
 class RobotRuntime;
+class CameraFeed;
 
 class Gateway {
  public:
@@ -43,6 +44,7 @@ class Gateway {
   Options options_;
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
+  std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::atomic<bool> running_{false};  // the simulation thread runs
   std::atomic<bool> stop_{false};     // tells the bus threads to stop
   std::thread simulation_thread_;

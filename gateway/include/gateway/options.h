@@ -20,6 +20,8 @@ struct Options {
   int rt_priority = 0;                   // SCHED_FIFO priority of the bus threads, 0 = normal scheduling
   std::string physics = "ode";           // --physics ode|bullet|none: engine of the robots' bodies
   bool hold = true;                      // a handler holds each robot until its first Torque Enable
+  bool camera = true;                    // --no-camera: stream no camera
+  bool external_roudi = false;           // --external-roudi: require an already running iceoryx RouDi
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };
