@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "gateway/robot_config.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
 
@@ -309,6 +310,28 @@ TEST_F(X430RobotWire, SyncReadChainArrivesWhole) {
   ASSERT_TRUE(statuses);
   EXPECT_EQ(statuses->size(), 6u);
   EXPECT_GE(ms, 6 * 0.55);  // never earlier than the wire model
+}
+
+TEST(Protocol2RobotConfig, ProtocolTwoBusesLoadAndAreChecked) {
+  const std::string bus = "name: \"r\" bus { baud_bps: 4000000 protocol: PROTOCOL_2 ";
+  const gateway::RobotConfig ok = gateway::parse_robot(bus + "device { id: 1 model: \"XL430-W250\" } }", "ok.textproto");
+  ASSERT_EQ(ok.buses.size(), 1u);
+  EXPECT_EQ(ok.buses[0].protocol, dynamixel::Protocol::kV2);
+  // IDs stop at 252 on Protocol 2.0 (§2.1); a P1 model on a P2 bus is named as such.
+  EXPECT_THROW(gateway::parse_robot(bus + "device { id: 253 model: \"XM430-W350\" } }", "id.textproto"),
+               std::invalid_argument);
+  try {
+    gateway::parse_robot(bus + "device { id: 1 model: \"MX-28\" } }", "p1.textproto");
+    ADD_FAILURE() << "a Protocol 1.0 model on a PROTOCOL_2 bus must be refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("Protocol 1.0 model"), std::string::npos) << e.what();
+  }
+  // 4.5 Mbps exists on the X series (index 7), 5 Mbps only on the CORE board.
+  EXPECT_NO_THROW(gateway::parse_robot("name: \"r\" bus { baud_bps: 4500000 protocol: PROTOCOL_2 device { id: 1 model: "
+                                       "\"XM430-W350\" } }", "b.textproto"));
+  EXPECT_THROW(gateway::parse_robot("name: \"r\" bus { baud_bps: 5000000 protocol: PROTOCOL_2 device { id: 1 model: "
+                                    "\"XM430-W350\" } }", "c.textproto"),
+               std::invalid_argument);
 }
 
 }  // namespace
