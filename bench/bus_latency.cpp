@@ -75,6 +75,8 @@ double elapsed_us(Clock::time_point start) {
 
 // Alternates one bare-echo round trip with one Doppel transaction, so both see the same machine
 // load; the pty's own round trip (the echo) is the floor under any wire model.
+std::vector<double> echo_samples;  // every echo of the run, for the floor's own tail
+
 Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int samples, bool wire) {
   const Bytes echo_bytes(8, 0x55);
   std::vector<double> round_trips;
@@ -84,6 +86,7 @@ Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int sa
     auto echo_start = Clock::now();
     if (echo.transact(echo_bytes, echo_bytes.size(), 200).size() == echo_bytes.size()) {
       echoes.push_back(elapsed_us(echo_start));
+      echo_samples.push_back(echoes.back());
     }
     auto start = Clock::now();
     Bytes reply = client.transact(c.request, c.reply_bytes, 200);
@@ -167,7 +170,10 @@ int main(int argc, char** argv) {
       ++failures;
     }
   }
-  std::printf("\ntiming error = |round trip - echo p50 - wire model|: what Doppel adds or misses beyond the pty itself\n");
+  Percentiles all_echoes = percentiles(echo_samples);
+  std::printf("\nbare pty echo over all %zu samples of this run: p50 %.1f us, p99 %.1f us, p99.9 %.1f us\n",
+              all_echoes.count, all_echoes.p50, all_echoes.p99, all_echoes.p999);
+  std::printf("timing error = |round trip - echo p50 - wire model|: what Doppel adds or misses beyond the pty itself\n");
   std::printf("failures (timeouts, corrupt replies, unclean exit): %d\n", failures);
   return failures == 0 ? 0 : 1;
 }
