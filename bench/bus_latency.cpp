@@ -4,8 +4,6 @@
 // here from the reference (10 bit times per byte, firmware time, Return Delay Time).
 //
 //   bus_latency [--samples N] [--quick]
-#include <pthread.h>
-#include <sched.h>
 #include <sys/wait.h>
 
 #include <chrono>
@@ -17,6 +15,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "interleaved_latency.h"
 #include "latency_stats.h"
 #include "pty_echo.h"
 #include "reference_client.h"
@@ -62,52 +61,22 @@ double wire_model_us(const Case& c) {
          c.replies * (kProcessingUs + kReturnDelayUs);
 }
 
-struct Measured {
-  Percentiles round_trip_us;
-  Percentiles echo_us;   // bare pty echo, sampled alternately with round_trip_us
-  Percentiles error_us;  // |measured - echo p50 - model|, wire mode only
-  int failures = 0;
-};
-
-double elapsed_us(Clock::time_point start) {
-  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
-}
-
-// Alternates one bare-echo round trip with one Doppel transaction, so both see the same machine
-// load; the pty's own round trip (the echo) is the floor under any wire model.
 std::vector<double> echo_samples;  // every echo of the run, for the floor's own tail
 
-Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int samples, bool wire) {
-  const Bytes echo_bytes(8, 0x55);
-  std::vector<double> round_trips;
-  std::vector<double> echoes;
-  Measured out;
-  for (int i = 0; i < samples; ++i) {
-    auto echo_start = Clock::now();
-    if (echo.transact(echo_bytes, echo_bytes.size(), 200).size() == echo_bytes.size()) {
-      echoes.push_back(elapsed_us(echo_start));
-      echo_samples.push_back(echoes.back());
-    }
-    auto start = Clock::now();
-    Bytes reply = client.transact(c.request, c.reply_bytes, 200);
-    double us = elapsed_us(start);
-    auto statuses = doppel::testing::parse_p1_statuses(reply);
-    if (reply.size() != c.reply_bytes || !statuses || statuses->size() != static_cast<std::size_t>(c.replies)) {
-      ++out.failures;
-      continue;
-    }
-    round_trips.push_back(us);
-  }
-  out.round_trip_us = percentiles(round_trips);
-  out.echo_us = percentiles(echoes);
-  if (wire) {
-    std::vector<double> errors;
-    for (double us : round_trips) {
-      errors.push_back(std::fabs(us - out.echo_us.p50 - wire_model_us(c)));
-    }
-    out.error_us = percentiles(errors);
-  }
-  return out;
+doppel::bench::InterleavedLatency measure(SerialClient& client, SerialClient& echo, const Case& c, int samples,
+                                          bool wire) {
+  return doppel::bench::measure_interleaved(echo, samples, wire ? wire_model_us(c) : 0.0, echo_samples,
+                                            [&]() -> std::optional<double> {
+                                              auto start = Clock::now();
+                                              Bytes reply = client.transact(c.request, c.reply_bytes, 200);
+                                              double us = doppel::bench::elapsed_us(start);
+                                              auto statuses = doppel::testing::parse_p1_statuses(reply);
+                                              if (reply.size() != c.reply_bytes || !statuses ||
+                                                  statuses->size() != static_cast<std::size_t>(c.replies)) {
+                                                return std::nullopt;
+                                              }
+                                              return us;
+                                            });
 }
 
 }  // namespace
@@ -130,13 +99,8 @@ int main(int argc, char** argv) {
   int failures = 0;
   // --rt: client, echo and Doppel's bus threads all run SCHED_FIFO (priority 50), as a tuned
   // control computer would; without it, all use normal scheduling.
-  if (realtime) {
-    sched_param param{};
-    param.sched_priority = 50;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      std::fprintf(stderr, "bus_latency: SCHED_FIFO refused (needs root or CAP_SYS_NICE)\n");
-      return 2;
-    }
+  if (realtime && !doppel::bench::run_realtime("bus_latency")) {
+    return 2;
   }
   doppel::bench::PtyEcho echo_server(realtime ? 50 : 0);
   SerialClient echo(echo_server.path(), kBaud);
@@ -153,7 +117,7 @@ int main(int argc, char** argv) {
     DoppelProcess doppel(args);
     SerialClient client(doppel.link(), kBaud);
     for (const Case& c : cases()) {
-      Measured m = measure(client, echo, c, wire ? std::max(samples / 2, 20) : samples, wire);
+      doppel::bench::InterleavedLatency m = measure(client, echo, c, wire ? std::max(samples / 2, 20) : samples, wire);
       failures += m.failures;
       const Percentiles& rt = m.round_trip_us;
       if (wire) {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "interleaved_latency.h"
 #include "latency_stats.h"
 #include "pty_echo.h"
 #include "reference_client.h"
@@ -104,45 +105,19 @@ bool reply_ok(const Case& c, const Bytes& reply) {
   return true;
 }
 
-struct Measured {
-  Percentiles round_trip_us;
-  Percentiles echo_us;
-  Percentiles error_us;
-  int failures = 0;
-};
+std::vector<double> echo_samples;  // every echo of the run
 
-double elapsed_us(Clock::time_point start) {
-  return std::chrono::duration<double, std::micro>(Clock::now() - start).count();
-}
-
-Measured measure(SerialClient& client, SerialClient& echo, const Case& c, int samples, bool wire) {
-  const Bytes echo_bytes(8, 0x55);
-  std::vector<double> round_trips;
-  std::vector<double> echoes;
-  Measured out;
-  for (int i = 0; i < samples; ++i) {
-    const auto echo_start = Clock::now();
-    if (echo.transact(echo_bytes, echo_bytes.size(), 200).size() == echo_bytes.size()) {
-      echoes.push_back(elapsed_us(echo_start));
-    }
-    if (!c.setup.empty()) client.transact(c.setup, 11, 200);
-    const auto start = Clock::now();
-    const Bytes reply = client.transact(c.request, c.reply_bytes, 200);
-    const double us = elapsed_us(start);
-    if (!reply_ok(c, reply)) {
-      ++out.failures;
-      continue;
-    }
-    round_trips.push_back(us);
-  }
-  out.round_trip_us = percentiles(round_trips);
-  out.echo_us = percentiles(echoes);
-  if (wire) {
-    std::vector<double> errors;
-    for (double us : round_trips) errors.push_back(std::fabs(us - out.echo_us.p50 - wire_model_us(c)));
-    out.error_us = percentiles(errors);
-  }
-  return out;
+doppel::bench::InterleavedLatency measure(SerialClient& client, SerialClient& echo, const Case& c, int samples,
+                                          bool wire) {
+  return doppel::bench::measure_interleaved(echo, samples, wire ? wire_model_us(c) : 0.0, echo_samples,
+                                            [&]() -> std::optional<double> {
+                                              if (!c.setup.empty()) client.transact(c.setup, 11, 200);
+                                              const auto start = Clock::now();
+                                              const Bytes reply = client.transact(c.request, c.reply_bytes, 200);
+                                              const double us = doppel::bench::elapsed_us(start);
+                                              if (!reply_ok(c, reply)) return std::nullopt;
+                                              return us;
+                                            });
 }
 
 }  // namespace
@@ -163,13 +138,8 @@ int main(int argc, char** argv) {
     }
   }
   int failures = 0;
-  if (realtime) {
-    sched_param param{};
-    param.sched_priority = 50;
-    if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
-      std::fprintf(stderr, "p2_bus_latency: SCHED_FIFO refused (needs root or CAP_SYS_NICE)\n");
-      return 2;
-    }
+  if (realtime && !doppel::bench::run_realtime("p2_bus_latency")) {
+    return 2;
   }
   doppel::bench::PtyEcho echo_server(realtime ? 50 : 0);
   SerialClient echo(echo_server.path(), kBaud);
@@ -188,7 +158,7 @@ int main(int argc, char** argv) {
     for (const Case& c : cases()) {
       // Broadcast PING and 6-device chains pay 6 RDTs: fewer samples keep the run short.
       const int n = wire ? std::max(samples / (c.reply_slots > 1 ? 8 : 2), 10) : samples;
-      const Measured m = measure(c.bus == 0 ? bus0 : bus1, echo, c, n, wire);
+      const doppel::bench::InterleavedLatency m = measure(c.bus == 0 ? bus0 : bus1, echo, c, n, wire);
       failures += m.failures;
       const Percentiles& rt = m.round_trip_us;
       if (wire) {
