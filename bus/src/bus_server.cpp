@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <stdexcept>
 
@@ -198,6 +199,8 @@ void BusServer::write_due() noexcept {
     const int64_t written_ns = now_ns();
     const int64_t lateness_ns = written_ns - progress.due_ns;
     if (lateness_ns > options_.late_threshold_ns) add(counters_.late_deliveries);
+    const auto bin = static_cast<std::size_t>(std::clamp<int64_t>(lateness_ns / kLatenessBinNs, 0, kLatenessBins - 1));
+    add(counters_.lateness_bins[bin]);
     if (lateness_ns > counters_.max_lateness_ns.load(std::memory_order_relaxed)) {
       counters_.max_lateness_ns.store(lateness_ns, std::memory_order_relaxed);
     }
@@ -233,6 +236,19 @@ void BusServer::on_hang_up() noexcept {
   counters_.connected.store(false, std::memory_order_relaxed);
 }
 
+int64_t lateness_quantile_ns(const BusDiagnostics& diagnostics, double q) noexcept {
+  uint64_t total = 0;
+  for (uint64_t count : diagnostics.lateness_bins) total += count;
+  if (total == 0) return 0;
+  const auto rank = static_cast<uint64_t>(std::ceil(q * static_cast<double>(total)));
+  uint64_t seen = 0;
+  for (std::size_t i = 0; i < kLatenessBins; ++i) {
+    seen += diagnostics.lateness_bins[i];
+    if (seen >= rank) return static_cast<int64_t>(i + 1) * kLatenessBinNs;
+  }
+  return static_cast<int64_t>(kLatenessBins) * kLatenessBinNs;
+}
+
 BusDiagnostics BusServer::diagnostics() const noexcept {
   const auto load = [](const auto& counter) { return counter.load(std::memory_order_relaxed); };
   BusDiagnostics d;
@@ -249,6 +265,7 @@ BusDiagnostics BusServer::diagnostics() const noexcept {
   d.merged_segments = load(counters_.merged_segments);
   d.discarded_bytes = load(counters_.discarded_bytes);
   d.late_deliveries = load(counters_.late_deliveries);
+  for (std::size_t i = 0; i < kLatenessBins; ++i) d.lateness_bins[i] = load(counters_.lateness_bins[i]);
   d.max_lateness_ns = load(counters_.max_lateness_ns);
   d.line_baud_bps = load(counters_.line_baud_bps);
   d.connected = load(counters_.connected);

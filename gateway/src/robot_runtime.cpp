@@ -259,7 +259,9 @@ std::string BusRuntime::summary() const {
       << devices.broken_chains << "), dropped for a full schedule " << d.dropped_replies
       << ", bytes discarded after a client left " << d.discarded_bytes << "\n"
       << "    late deliveries " << d.late_deliveries << " (worst " << static_cast<double>(d.max_lateness_ns) / 1000.0
-      << " us late)\n";
+      << " us late); delivery time minus due time: p50 <= " << bus::lateness_quantile_ns(d, 0.5) / 1000
+      << " us, p99 <= " << bus::lateness_quantile_ns(d, 0.99) / 1000 << " us, p99.9 <= "
+      << bus::lateness_quantile_ns(d, 0.999) / 1000 << " us\n";
   return out.str();
 }
 

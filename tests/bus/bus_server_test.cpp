@@ -194,6 +194,12 @@ TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
   EXPECT_GE(trace.written_ns, trace.due_ns);
   EXPECT_EQ(trace.bytes, 6u);
   EXPECT_EQ(trace.line_baud_bps, 57'600u);
+  // The delivery is counted in the lateness histogram, in the bin of its written - due time.
+  const BusDiagnostics diagnostics = sut.server().diagnostics();
+  uint64_t counted = 0;
+  for (uint64_t count : diagnostics.lateness_bins) counted += count;
+  EXPECT_EQ(counted, 1u);
+  EXPECT_GE(lateness_quantile_ns(diagnostics, 1.0), trace.written_ns - trace.due_ns);
   ::close(client);
 }
 
@@ -383,6 +389,24 @@ TEST(BusServer, RejectsAdapterLatencyAbove255Ms) {
   options.adapter_latency_ms = 256;
 
   EXPECT_THROW(BusServer(port, devices, options), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace doppel::bus
+
+namespace doppel::bus {
+namespace {
+
+TEST(LatenessQuantile, IsTheUpperEdgeOfTheBinHoldingTheRank) {
+  BusDiagnostics sut;
+  EXPECT_EQ(lateness_quantile_ns(sut, 0.99), 0);
+  sut.lateness_bins[0] = 98;  // 98 deliveries 0..10 µs late
+  sut.lateness_bins[3] = 1;   // one 30..40 µs late
+  sut.lateness_bins[kLatenessBins - 1] = 1;  // one a millisecond or more late
+  EXPECT_EQ(lateness_quantile_ns(sut, 0.5), 10'000);
+  EXPECT_EQ(lateness_quantile_ns(sut, 0.98), 10'000);
+  EXPECT_EQ(lateness_quantile_ns(sut, 0.99), 40'000);
+  EXPECT_EQ(lateness_quantile_ns(sut, 1.0), static_cast<int64_t>(kLatenessBins) * kLatenessBinNs);
 }
 
 }  // namespace

@@ -9,6 +9,7 @@
 // it wrote are still served, a trailing partial packet is dropped, undelivered replies are
 // discarded, and the next client starts on a clean line (see PtyPort).
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -33,6 +34,11 @@ struct BusServerOptions {
   bool record_traces = false;           // push one ReplyTrace per reply into traces()
 };
 
+// Delivery lateness (written - due) is counted in bins of kLatenessBinNs; the last bin also holds
+// everything later. It is Doppel's own timing error, without the pty's transport time.
+inline constexpr std::size_t kLatenessBins = 101;
+inline constexpr int64_t kLatenessBinNs = 10'000;
+
 // Counters of one bus (monotonic since construction unless noted). Read from any thread.
 struct BusDiagnostics {
   uint64_t packets = 0;          // instruction packets framed (good or bad checksum)
@@ -51,7 +57,12 @@ struct BusDiagnostics {
   int64_t max_lateness_ns = 0;   // worst (written - due) seen, ns
   uint32_t line_baud_bps = 0;    // line rate at the last read, bit/s
   bool connected = false;        // a client has the port open
+  std::array<uint64_t, kLatenessBins> lateness_bins{};  // deliveries per lateness bin (see kLatenessBinNs)
 };
+
+// The q-quantile (0 < q <= 1) of the delivery lateness, ns: the upper edge of the bin that holds
+// it (so never below the true value); 0 when nothing was delivered. rt-safe.
+int64_t lateness_quantile_ns(const BusDiagnostics& diagnostics, double q) noexcept;
 
 // Called by the bus thread around every dispatched packet, e.g. to copy the latest simulation
 // snapshot into the control tables and to publish the commands written by the packet. Both run on
@@ -107,6 +118,7 @@ class BusServer {
     std::atomic<int64_t> max_lateness_ns{0};
     std::atomic<uint32_t> line_baud_bps{0};
     std::atomic<bool> connected{false};
+    std::array<std::atomic<uint64_t>, kLatenessBins> lateness_bins{};
   };
 
   void read_input() noexcept;
