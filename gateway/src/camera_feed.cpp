@@ -7,21 +7,20 @@
 #include <cmath>
 #include <sstream>
 
+#include "camera/lens.h"
+#include "camera/pixel_format.h"
+
 namespace doppel::gateway {
 
-CameraFeed::CameraFeed(const physics::World& world, const Options& options) {
+CameraFeed::CameraFeed(const physics::World& world, const std::vector<std::vector<CameraSetup>>& cameras,
+                       const Options& options) {
   std::vector<camera::CameraConfig> configs;
-  for (std::size_t r = 0; r < world.robot_count(); ++r) {
-    for (const physics::CameraModel& model : world.robot(r).cameras) {
+  for (std::size_t r = 0; r < cameras.size() && r < world.robot_count(); ++r) {
+    for (const CameraSetup& setup : cameras[r]) {
       Mount mount;
       mount.robot = r;
-      mount.body = static_cast<std::size_t>(model.body);
-      mount.config = camera::default_head_camera();
-      mount.config.name = r == 0 ? model.name : "robot" + std::to_string(r) + "-" + model.name;
-      mount.config.mount.body = world.robot(r).bodies[mount.body].name;
-      // The description's mount has x along the optical axis; the camera frame has z along it.
-      mount.config.mount.X_BC = model.X_DC * camera::camera_looking_along_x(Eigen::Vector3d::Zero());
-      camera::validate(mount.config);
+      mount.body = setup.body;
+      mount.config = setup.config;
       configs.push_back(mount.config);
       mounts_.push_back(std::move(mount));
     }
@@ -121,8 +120,9 @@ std::string CameraFeed::describe() const {
   }
   for (const Mount& mount : mounts_) {
     out << "  camera '" << mount.config.name << "' on body '" << mount.config.mount.body << "': "
-        << mount.config.width_px << "x" << mount.config.height_px << " YUYV at " << mount.config.fps
-        << " fps (doppel-camera list / save / stats)\n";
+        << mount.config.width_px << "x" << mount.config.height_px << " " << camera::to_string(mount.config.format)
+        << " at " << mount.config.fps << " fps, " << camera::to_string(mount.config.lens.model)
+        << " lens (doppel-camera list / save / stats)\n";
   }
   return out.str();
 }

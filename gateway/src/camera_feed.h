@@ -16,6 +16,7 @@
 #include "camera/camera_config.h"
 #include "camera/streaming.h"
 #include "gateway/options.h"
+#include "gateway/robot_config.h"
 #include "physics/scene_view.h"
 #include "physics/world.h"
 
@@ -23,10 +24,11 @@ namespace doppel::gateway {
 
 class CameraFeed {
  public:
-  // One camera per camera mount of every robot in `world` (robot r > 0 names its cameras
-  // "robot<r>-<name>"), 640x480 YUYV at 20 fps through the default wide lens. Starts or attaches
-  // to RouDi. Setup; throws std::runtime_error when streaming cannot start.
-  CameraFeed(const physics::World& world, const Options& options);
+  // One stream per camera of every simulated robot: `cameras[w]` are the cameras of robot w of the
+  // world, named as they will be published. Starts or attaches to RouDi.
+  // Setup; throws std::runtime_error when streaming cannot start.
+  CameraFeed(const physics::World& world, const std::vector<std::vector<CameraSetup>>& cameras,
+             const Options& options);
   ~CameraFeed();
 
   bool empty() const noexcept { return mounts_.empty(); }

@@ -80,7 +80,18 @@ Gateway::Gateway(const Options& options) : options_(options) {
     robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));
   }
   if (world_ != nullptr && options.camera) {
-    cameras_ = std::make_unique<CameraFeed>(*world_, options_);
+    std::vector<std::vector<CameraSetup>> cameras(world_->robot_count());  // by robot of the world
+    for (std::size_t r = 0; r < configs.size(); ++r) {
+      if (refs[r].world != nullptr) {
+        cameras[refs[r].robot] = configs[r].cameras;
+        for (CameraSetup& setup : cameras[refs[r].robot]) {
+          if (r > 0) {
+            setup.config.name = "robot" + std::to_string(r) + "-" + setup.config.name;  // unique per machine
+          }
+        }
+      }
+    }
+    cameras_ = std::make_unique<CameraFeed>(*world_, cameras, options_);
   }
 }
 

@@ -6,6 +6,8 @@
 #include <set>
 #include <stdexcept>
 
+#include "camera/lens.h"
+#include "camera/pixel_format.h"
 #include "dynamixel/models.h"
 #include "dynamixel/protocol2_models.h"
 #include "proto/robot_file.h"
@@ -107,6 +109,58 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
   return config;
 }
 
+// The figure's camera mounts with their sensor and lens settings (unset fields keep the default
+// head camera's).
+std::vector<CameraSetup> check_cameras(const proto::RobotFile& file, const physics::RobotModel& body) {
+  std::vector<CameraSetup> setups;
+  const proto::Figure& figure = file.description().figure();
+  for (int c = 0; c < figure.camera_size(); ++c) {
+    const proto::CameraMount& mount = figure.camera(c);
+    const physics::CameraModel& model = body.cameras.at(static_cast<std::size_t>(c));
+    CameraSetup setup;
+    setup.body = static_cast<std::size_t>(model.body);
+    camera::CameraConfig& config = setup.config;
+    config = camera::default_head_camera();
+    config.name = model.name;
+    config.mount.body = body.bodies[setup.body].name;
+    // The description's mount has x along the optical axis; the camera frame has z along it.
+    config.mount.X_BC = model.X_DC * camera::camera_looking_along_x(Eigen::Vector3d::Zero());
+    if (mount.width_px() != 0 || mount.height_px() != 0) {
+      config.width_px = static_cast<int>(mount.width_px());
+      config.height_px = static_cast<int>(mount.height_px());
+    }
+    if (mount.fps() != 0.0) {
+      config.fps = mount.fps();
+    }
+    if (!mount.format().empty()) {
+      try {
+        config.format = camera::parse_pixel_format(mount.format());
+      } catch (const std::invalid_argument& e) {
+        file.fail(mount, "format", -1, e.what());
+      }
+    }
+    camera::LensModel lens = config.lens.model;
+    if (!mount.lens().empty()) {
+      try {
+        lens = camera::parse_lens_model(mount.lens());
+      } catch (const std::invalid_argument& e) {
+        file.fail(mount, "lens", -1, e.what());
+      }
+    }
+    const double hfov_deg = mount.hfov_deg() != 0.0 ? mount.hfov_deg() : 120.0;
+    try {
+      config.lens = lens == camera::LensModel::kPinhole
+                        ? camera::pinhole_from_hfov(config.width_px, config.height_px, hfov_deg)
+                        : camera::fisheye_from_hfov(lens, config.width_px, config.height_px, hfov_deg);
+      camera::validate(config);
+    } catch (const std::invalid_argument& e) {
+      file.fail(mount, "name", -1, e.what());
+    }
+    setups.push_back(std::move(setup));
+  }
+  return setups;
+}
+
 RobotConfig check_robot(const proto::RobotFile& file) {
   const proto::RobotDescription& robot = file.description();
   RobotConfig config;
@@ -123,6 +177,7 @@ RobotConfig check_robot(const proto::RobotFile& file) {
   }
   if (robot.has_figure()) {
     config.body = physics::compile_robot(file);
+    config.cameras = check_cameras(file, *config.body);
   }
   return config;
 }

@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -128,6 +130,75 @@ TEST(RobotConfig, MissingPiecesAreNamed) {
             std::string::npos);
   EXPECT_NE(error_of("name: \"r\" bus { baud_bps: 1000000 protocol: PROTOCOL_1 }").find("Bus.device"),
             std::string::npos);
+}
+
+}  // namespace
+}  // namespace doppel::gateway
+
+namespace doppel::gateway {
+namespace {
+
+std::string default_robot_with_camera(const std::string& camera) {
+  std::ifstream in(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string robot = text.str();
+  const std::string head_camera = R"(camera { name: "HEAD_CAMERA" body: "head" mount { position_m { x: 0.03 } } })";
+  std::size_t at = robot.find(head_camera);
+  EXPECT_NE(at, std::string::npos) << "the default robot's camera line changed";
+  return robot.replace(at, head_camera.size(), camera);
+}
+
+TEST(RobotCameras, DefaultRobotHasTheWideHeadCamera) {
+  RobotConfig sut = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);
+  ASSERT_EQ(sut.cameras.size(), 1u);
+  const camera::CameraConfig& head = sut.cameras[0].config;
+  EXPECT_EQ(head.name, "HEAD_CAMERA");
+  EXPECT_EQ(head.mount.body, "head");
+  EXPECT_EQ(sut.body->bodies[sut.cameras[0].body].name, "head");
+  EXPECT_EQ(head.width_px, 640);
+  EXPECT_EQ(head.height_px, 480);
+  EXPECT_DOUBLE_EQ(head.fps, 20.0);  // thesis 4.2.1.1
+  EXPECT_EQ(head.format, camera::PixelFormat::kYuyv);
+  EXPECT_EQ(head.lens.model, camera::LensModel::kEquidistant);
+}
+
+TEST(RobotCameras, SensorAndLensComeFromTheFile) {
+  RobotConfig sut = parse_robot(default_robot_with_camera(
+                                    R"(camera { name: "EYE" body: "head" width_px: 320 height_px: 240 fps: 30
+                                                format: "bayer_rggb" lens: "pinhole" hfov_deg: 90 })"),
+                                "robots/custom.textproto");
+  ASSERT_EQ(sut.cameras.size(), 1u);
+  const camera::CameraConfig& eye = sut.cameras[0].config;
+  EXPECT_EQ(eye.name, "EYE");
+  EXPECT_EQ(eye.width_px, 320);
+  EXPECT_EQ(eye.height_px, 240);
+  EXPECT_DOUBLE_EQ(eye.fps, 30.0);
+  EXPECT_EQ(eye.format, camera::PixelFormat::kBayerRggb);
+  EXPECT_EQ(eye.lens.model, camera::LensModel::kPinhole);
+  // 90 degrees across 320 pixels: focal length 160 px.
+  EXPECT_NEAR(eye.lens.fx_px, 160.0, 1e-6);
+}
+
+TEST(RobotCameras, BadSettingsNameFileLineAndField) {
+  auto error_of = [](const std::string& camera) {
+    try {
+      parse_robot(default_robot_with_camera(camera), "robots/custom.textproto");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::string format = error_of(R"(camera { name: "EYE" body: "head" format: "bayer_xyz" })");
+  EXPECT_EQ(format.rfind("robots/custom.textproto:", 0), 0u) << format;
+  EXPECT_NE(format.find("CameraMount.format"), std::string::npos) << format;
+  EXPECT_NE(format.find("bayer_rggb"), std::string::npos) << format;  // lists the known formats
+  std::string lens = error_of(R"(camera { name: "EYE" body: "head" lens: "anamorphic" })");
+  EXPECT_NE(lens.find("CameraMount.lens"), std::string::npos) << lens;
+  std::string odd = error_of(R"(camera { name: "EYE" body: "head" width_px: 641 height_px: 480 })");
+  EXPECT_NE(odd.find("even width"), std::string::npos) << odd;  // YUV422 pairs pixels
+  std::string fov = error_of(R"(camera { name: "EYE" body: "head" lens: "equidistant" hfov_deg: 190 })");
+  EXPECT_NE(fov.find("robots/custom.textproto:"), std::string::npos) << fov;
 }
 
 }  // namespace

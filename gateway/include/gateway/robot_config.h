@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dynamixel/packet.h"
+#include "camera/camera_config.h"
 #include "physics/robot_model.h"
 
 namespace doppel::gateway {
@@ -28,11 +29,18 @@ struct BusConfig {
   std::vector<DeviceConfig> devices;             // in file order
 };
 
+// A camera of the robot's figure, ready to stream: its settings and the body it moves with.
+struct CameraSetup {
+  camera::CameraConfig config;  // name, sensor, lens, X_BC (mount on the body)
+  std::size_t body = 0;         // index of the body in RobotModel::bodies
+};
+
 struct RobotConfig {
   std::string name;                              // robot name from the file
   std::string source;                            // file it was read from
   std::vector<BusConfig> buses;                  // in port order
   std::optional<physics::RobotModel> body;       // the figure, when the file describes one
+  std::vector<CameraSetup> cameras;              // its cameras (figure camera mounts), in file order
 };
 
 // The default robots directory: $DOPPEL_ROBOTS_DIR, else the robots/ folder of the source tree.
