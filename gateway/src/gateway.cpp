@@ -98,7 +98,7 @@ Gateway::Gateway(const Options& options) : options_(options) {
 Gateway::~Gateway() { stop(); }
 
 void Gateway::start() {
-  if (running_.exchange(true)) {
+  if (simulation_thread_.joinable()) {
     return;
   }
   stop_ = false;
@@ -115,7 +115,6 @@ void Gateway::start() {
 }
 
 void Gateway::stop() {
-  running_ = false;
   stop_ = true;
   if (simulation_thread_.joinable()) {
     simulation_thread_.join();
@@ -132,7 +131,7 @@ void Gateway::simulate() noexcept {
   FixedRateClock clock(kSimulationStepNs);
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
-  while (running_.load(std::memory_order_relaxed)) {
+  while (!stop_.load(std::memory_order_relaxed)) {
     for (auto& robot : robots_) {
       robot->drive(dt_s);
     }

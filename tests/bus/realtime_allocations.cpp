@@ -5,7 +5,6 @@
 
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <memory>
@@ -16,6 +15,7 @@
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device_factory.h"
 #include "pty_test_support.h"
+#include "reference_client.h"
 
 namespace {
 
@@ -44,20 +44,8 @@ using testing::read_bytes;
 using testing::TempDir;
 using testing::write_all;
 
-// Reference §1.1 framing, built here rather than with Doppel's encoder.
-std::vector<uint8_t> packet(uint8_t id, uint8_t instruction, const std::vector<uint8_t>& params) {
-  std::vector<uint8_t> bytes(5 + params.size());
-  bytes[0] = 0xFF;
-  bytes[1] = 0xFF;
-  bytes[2] = id;
-  bytes[3] = static_cast<uint8_t>(params.size() + 2);
-  bytes[4] = instruction;
-  std::copy(params.begin(), params.end(), bytes.begin() + 5);
-  unsigned sum = 0;
-  for (std::size_t i = 2; i < bytes.size(); ++i) sum += bytes[i];
-  bytes.push_back(static_cast<uint8_t>(~sum));
-  return bytes;
-}
+// Packets come from the reference client's framing (tests/support), not from Doppel's encoder.
+using doppel::testing::p1_instruction;
 
 class CountingSync final : public DeviceSync {
  public:
@@ -95,13 +83,13 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   cfsetspeed(&tio, B1000000);  // the servos listen at 1 Mbps
   ASSERT_EQ(tcsetattr(client, TCSANOW, &tio), 0);
   const std::vector<std::vector<uint8_t>> traffic = {
-      packet(1, 0x01, {}),                                         // PING
-      packet(2, 0x02, {36, 2}),                                    // READ
-      packet(3, 0x03, {30, 0x00, 0x08}),                           // WRITE
-      packet(1, 0x04, {30, 0x10, 0x08}),                           // REG_WRITE
-      packet(0xFE, 0x05, {}),                                      // ACTION
-      packet(0xFE, 0x83, {30, 2, 1, 0x00, 0x08, 2, 0x00, 0x08}),   // SYNC WRITE
-      packet(0xFE, 0x92, {0x00, 2, 1, 36, 2, 2, 36, 2, 3, 36}),    // BULK READ
+      p1_instruction(1, 0x01, {}),                                         // PING
+      p1_instruction(2, 0x02, {36, 2}),                                    // READ
+      p1_instruction(3, 0x03, {30, 0x00, 0x08}),                           // WRITE
+      p1_instruction(1, 0x04, {30, 0x10, 0x08}),                           // REG_WRITE
+      p1_instruction(0xFE, 0x05, {}),                                      // ACTION
+      p1_instruction(0xFE, 0x83, {30, 2, 1, 0x00, 0x08, 2, 0x00, 0x08}),   // SYNC WRITE
+      p1_instruction(0xFE, 0x92, {0x00, 2, 1, 36, 2, 2, 36, 2, 3, 36}),    // BULK READ
       {0xFF, 0xFF, 0x01, 0x04, 0x02, 0x24, 0x02, 0x00},            // bad checksum
       {0x00, 0x13, 0xFF, 0x42},                                    // garbage
   };

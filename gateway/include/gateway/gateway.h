@@ -45,8 +45,7 @@ class Gateway {
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
-  std::atomic<bool> running_{false};  // the simulation thread runs
-  std::atomic<bool> stop_{false};     // tells the bus threads to stop
+  std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
   uint64_t missed_ticks_ = 0;
 };
