@@ -12,11 +12,14 @@
 // --rt runs the client threads and Doppel's bus threads SCHED_FIFO (priority 50), as a tuned
 // control computer would (needs root or CAP_SYS_NICE).
 //
-//   p2_bitbots_cycle [--seconds S] [--quick] [--rt]
+// --buses N runs only the rows with N buses (1 or 4).
+//
+//   p2_bitbots_cycle [--seconds S] [--quick] [--rt] [--buses N]
 #include <pthread.h>
 #include <sched.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <atomic>
 #include <barrier>
 #include <chrono>
@@ -97,7 +100,19 @@ struct Result {
   double seconds = 0.0;
   Percentiles cycle_us;
   int exit_failures = 0;
+  int64_t doppel_late_p99_us = -1;  // Doppel's own delivery lateness, worst bus (from its exit summary)
 };
+
+// Doppel prints per bus at exit "delivery time minus due time: p50 <= A us, p99 <= B us, ...":
+// the worst bus' p99 separates Doppel's timing from the pty's and the client's scheduling.
+int64_t worst_p99_us(const std::string& output) {
+  int64_t worst = -1;
+  const std::string key = "p99 <= ";
+  for (std::size_t at = output.find(key); at != std::string::npos; at = output.find(key, at + 1)) {
+    worst = std::max<int64_t>(worst, std::atoll(output.c_str() + at + key.size()));
+  }
+  return worst;
+}
 
 bool set_fifo() {
   sched_param param{};
@@ -182,6 +197,7 @@ Result run(const Config& config, double seconds, bool realtime) {
   result.cycle_us = percentiles(cycle_us);
   const int status = doppel.stop();
   result.exit_failures = (WIFEXITED(status) && WEXITSTATUS(status) == 0) ? 0 : 1;
+  result.doppel_late_p99_us = worst_p99_us(doppel.output());
   return result;
 }
 
@@ -190,6 +206,7 @@ Result run(const Config& config, double seconds, bool realtime) {
 int main(int argc, char** argv) {
   double seconds = 60.0;
   bool realtime = false;
+  int only_buses = 0;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc) {
       seconds = std::atof(argv[++i]);
@@ -197,8 +214,10 @@ int main(int argc, char** argv) {
       seconds = 0.3;
     } else if (std::strcmp(argv[i], "--rt") == 0) {
       realtime = true;
+    } else if (std::strcmp(argv[i], "--buses") == 0 && i + 1 < argc) {
+      only_buses = std::atoi(argv[++i]);
     } else {
-      std::fprintf(stderr, "usage: p2_bitbots_cycle [--seconds S] [--quick] [--rt]\n");
+      std::fprintf(stderr, "usage: p2_bitbots_cycle [--seconds S] [--quick] [--rt] [--buses N]\n");
       return 2;
     }
   }
@@ -215,10 +234,11 @@ int main(int argc, char** argv) {
   std::printf("Real hardware (Bit-Bots): 398 Hz on one bus, 1373 Hz on four.\n\n");
   const Percentiles echo = echo_floor_us(realtime, 2000);
   std::printf("bare pty echo (8 B out, 8 B back): p50 %.1f us, p99 %.1f us\n\n", echo.p50, echo.p99);
-  std::printf("| buses | timing | cycles | rate Hz | wire model Hz | rate / model | mean cycle - echo p50, us | model cycle us | net error | cycle p50 us | cycle p99 us | cycle max us | errors |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf("| buses | timing | cycles | rate Hz | wire model Hz | rate / model | mean cycle - echo p50, us | model cycle us | net error | cycle p50 us | cycle p99 us | cycle max us | Doppel late p99 us | errors |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   uint64_t failures = 0;
   for (const Config& c : configs) {
+    if (only_buses != 0 && c.buses != only_buses) continue;
     const Result r = run(c, seconds, realtime);
     const double rate = r.seconds > 0.0 ? static_cast<double>(r.cycles) / r.seconds : 0.0;
     const bool wire = std::strcmp(c.timing, "wire") == 0;
@@ -226,12 +246,12 @@ int main(int argc, char** argv) {
     if (wire) {
       const double net_us = (rate > 0.0 ? 1e6 / rate : 0.0) - echo.p50;
       const double model_us = 1e6 / model;
-      std::printf("| %d | %s | %llu | %.0f | %.0f | %.3f | %.1f | %.1f | %+.1f %% | %.1f | %.1f | %.1f | %llu |\n", c.buses,
-                  c.label, static_cast<unsigned long long>(r.cycles), rate, model, rate / model, net_us, model_us,
-                  100.0 * (net_us - model_us) / model_us, r.cycle_us.p50, r.cycle_us.p99, r.cycle_us.max,
-                  static_cast<unsigned long long>(r.errors));
+      std::printf("| %d | %s | %llu | %.0f | %.0f | %.3f | %.1f | %.1f | %+.1f %% | %.1f | %.1f | %.1f | %lld | %llu |\n",
+                  c.buses, c.label, static_cast<unsigned long long>(r.cycles), rate, model, rate / model, net_us,
+                  model_us, 100.0 * (net_us - model_us) / model_us, r.cycle_us.p50, r.cycle_us.p99, r.cycle_us.max,
+                  static_cast<long long>(r.doppel_late_p99_us), static_cast<unsigned long long>(r.errors));
     } else {
-      std::printf("| %d | %s | %llu | %.0f | - | - | - | - | - | %.1f | %.1f | %.1f | %llu |\n", c.buses, c.label,
+      std::printf("| %d | %s | %llu | %.0f | - | - | - | - | - | %.1f | %.1f | %.1f | - | %llu |\n", c.buses, c.label,
                   static_cast<unsigned long long>(r.cycles), rate, r.cycle_us.p50, r.cycle_us.p99, r.cycle_us.max,
                   static_cast<unsigned long long>(r.errors));
     }

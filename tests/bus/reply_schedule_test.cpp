@@ -49,6 +49,38 @@ TEST(ReplySchedule, DueTimesNeverGoBackwards) {
   EXPECT_EQ(sut.front_due_ns(), 300);
 }
 
+TEST(ReplySchedule, StatusesOfOneReplyDueTogetherLeaveInOneWrite) {
+  ReplySchedule sut;
+  const uint8_t two_statuses[] = {0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC, 0xFF, 0xFF, 0x02, 0x02, 0x00, 0xFB};
+  sut.push_bytes(two_statuses, sizeof two_statuses);
+  sut.push_segment(100, 6);
+  sut.push_segment(100, 6);
+
+  EXPECT_EQ(sut.front_bytes().size(), sizeof two_statuses);
+}
+
+TEST(ReplySchedule, ReplyEndsStayApartSoEachReplyIsTraced) {
+  ReplySchedule sut;
+  const uint8_t bytes[] = {1, 2};
+  sut.push_bytes(bytes, 2);
+  sut.push_segment(100, 1);
+  ReplyTrace first;
+  first.id = 1;
+  sut.mark_reply_end(first);
+  sut.push_segment(100, 1);
+  ReplyTrace second;
+  second.id = 2;
+  sut.mark_reply_end(second);
+
+  const ReplySchedule::Progress p1 = sut.consume(1);
+  const ReplySchedule::Progress p2 = sut.consume(1);
+
+  EXPECT_TRUE(p1.reply_done);
+  EXPECT_EQ(p1.trace.id, 1);
+  EXPECT_TRUE(p2.reply_done);
+  EXPECT_EQ(p2.trace.id, 2);
+}
+
 TEST(ReplySchedule, PartialWritesKeepTheRestAndReportCompletion) {
   ReplySchedule sut;
   const uint8_t bytes[] = {1, 2, 3, 4, 5};

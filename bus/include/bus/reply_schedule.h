@@ -45,6 +45,7 @@ class ReplySchedule {
   // Appends bytes of the reply being built; the caller checked can_accept. rt-safe.
   void push_bytes(const uint8_t* src, std::size_t n) noexcept;
   // Declares that the next `count` unassigned bytes are due at `due_ns` (made non-decreasing).
+  // Bytes due at the same time as the previous segment of the same reply join it (one write).
   // When the segment ring is full the bytes join the last segment at the later time, so they are
   // late rather than lost; returns false in that case. rt-safe.
   bool push_segment(int64_t due_ns, std::size_t count) noexcept;
