@@ -4,6 +4,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamixel/protocol1.h"
 #include "dynamixel/protocol2.h"
 
 namespace doppel::dynamixel {
@@ -24,6 +25,34 @@ uint16_t le16(const uint8_t* p) noexcept { return static_cast<uint16_t>(p[0] | (
 
 bool magic_matches(const uint8_t* p, const uint8_t (&magic)[4]) noexcept {
   return std::equal(magic, magic + 4, p);
+}
+
+// Protocol 1.0 front end: the first byte past what a one-byte address can reach, and the most data
+// a P1 status can carry (LEN is one byte).
+constexpr std::size_t kP1AddressEnd = x430::kProtocol1LastAddress + 1;
+constexpr std::size_t kP1MaxStatusData = 253;
+
+// The Protocol 1.0 error bit (§1.4) for a Protocol 2.0 error number (§2.5), assumption: a Data
+// Limit on Goal Position is the Angle Limit bit, every other refused value, length or address the
+// Range bit.
+uint8_t p1_bits(uint8_t p2_error_number, bool goal_position_written) noexcept {
+  switch (p2_error_number) {
+    case 0:
+      return 0;
+    case p2_error::kInstruction:
+    case p2_error::kResultFail:
+      return p1_error::kInstruction;
+    case p2_error::kCrc:
+      return p1_error::kChecksum;
+    case p2_error::kDataLimit:
+      return goal_position_written ? p1_error::kAngleLimit : p1_error::kRange;
+    default:
+      return p1_error::kRange;
+  }
+}
+
+bool covers_goal_position(std::size_t start, std::size_t n) noexcept {
+  return start < x430::kGoalPosition + 4u && x430::kGoalPosition < start + n;
 }
 
 }  // namespace
@@ -233,7 +262,12 @@ void Protocol2Device::reply(uint8_t error, const uint8_t* data, std::size_t n, R
 
 void Protocol2Device::handle(const InstructionPacket& packet, Response& response) noexcept {
   response.transmits = false;
-  if (packet.protocol != Protocol::kV2) {
+  // The protocol is fixed when the packet arrives: a write of Protocol Type is answered in the old one.
+  if (packet.protocol != protocol()) {
+    return;
+  }
+  if (packet.protocol == Protocol::kV1) {
+    handle_protocol1(packet, response);
     return;
   }
   const uint8_t own_id = id();
@@ -254,7 +288,8 @@ void Protocol2Device::handle(const InstructionPacket& packet, Response& response
     }
     return;
   }
-  switch (packet.instruction) {
+  const bool fast = packet.instruction == instruction::kFastSyncRead || packet.instruction == instruction::kFastBulkRead;
+  switch (fast && !spec_.fast_read ? instruction::kStatus : packet.instruction) {  // no FAST: undefined
     case instruction::kSyncRead:
     case instruction::kFastSyncRead:
     case instruction::kBulkRead:
@@ -396,6 +431,10 @@ void Protocol2Device::handle_unicast(const InstructionPacket& packet, bool answe
       }
       break;
     case instruction::kControlTableBackup: {
+      if (!spec_.table_backup) {
+        error = p2_error::kInstruction;  // not in this model's firmware
+        break;
+      }
       if (n != 5) {
         error = p2_error::kDataLength;
         break;
@@ -575,6 +614,189 @@ void Protocol2Device::handle_bulk_write(const InstructionPacket& packet) noexcep
     }
     i += 5 + length;
   }
+}
+
+}  // namespace doppel::dynamixel
+
+namespace doppel::dynamixel {
+
+void Protocol2Device::reply_protocol1(uint8_t error_bits, const uint8_t* data, std::size_t n,
+                                      Response& response) noexcept {
+  // Hardware Error Status bits 0 (input voltage), 2 (overheating) and 5 (overload) sit where the P1
+  // error byte has the same conditions (§1.4, §3.7); the encoder and shock bits have no P1 place.
+  constexpr uint8_t kSharedBits = x430::kInputVoltageError | x430::kOverheatingError | x430::kOverloadError;
+  const auto err = static_cast<uint8_t>((error_bits | (hardware_error() & kSharedBits)) & 0x7F);
+  response.transmits = encode_protocol1_status(reply_id_, err, data, n, response.status);
+  response.timing = ReplyTiming::kAfterInstruction;
+  response.chain_position = 0;
+}
+
+void Protocol2Device::handle_protocol1(const InstructionPacket& packet, Response& response) noexcept {
+  const uint8_t own_id = id();
+  reply_id_ = own_id;
+  const bool broadcast = packet.id == kBroadcastId;
+  const bool mine = packet.id == own_id;
+  if (!broadcast && !mine) {
+    return;  // the Secondary ID is a Protocol 2.0 feature (assumption)
+  }
+  if (!packet.checksum_ok) {
+    // As Doppel's Protocol 1.0 firmware: not executed; unicast answered with the Checksum bit,
+    // except PING.
+    ++counters_.handled;
+    ++counters_.bad_checksums;
+    if (mine && packet.instruction != instruction::kPing && answers(packet.instruction)) {
+      reply_protocol1(p1_error::kChecksum, nullptr, 0, response);
+    }
+    return;
+  }
+  if (broadcast && packet.instruction == instruction::kBulkRead) {
+    handle_protocol1_bulk_read(packet, response);
+    return;
+  }
+  if (broadcast && packet.instruction == instruction::kSyncWrite) {
+    handle_protocol1_sync_write(packet);
+    return;
+  }
+  ++counters_.handled;
+  on_communication();
+  const uint8_t* p = packet.params.data();
+  const std::size_t n = packet.param_count;
+  const bool answer = mine && answers(packet.instruction);
+  uint8_t bits = 0;
+  switch (packet.instruction) {
+    case instruction::kPing:
+      reply_protocol1(0, nullptr, 0, response);  // broadcast too: several devices collide (§1.3)
+      return;
+    case instruction::kRead: {
+      if (broadcast) {
+        return;
+      }
+      if (n != 2) {
+        bits = p1_error::kInstruction;
+      } else if (p[1] == 0 || p[1] > kP1MaxStatusData || p[0] + std::size_t{p[1]} > kP1AddressEnd ||
+                 !read(p[0], p[1], scratch_.data())) {
+        bits = p1_error::kRange;
+      } else if (answer) {
+        reply_protocol1(0, scratch_.data(), p[1], response);
+        return;
+      }
+      break;
+    }
+    case instruction::kWrite:
+    case instruction::kRegWrite: {
+      const bool commit = packet.instruction == instruction::kWrite;
+      if (n < 2) {
+        bits = p1_error::kInstruction;
+      } else if (p[0] + (n - 1) > kP1AddressEnd) {
+        bits = p1_error::kRange;
+      } else {
+        bits = p1_bits(write(p[0], p + 1, n - 1, commit, false), covers_goal_position(p[0], n - 1));
+      }
+      if (bits == 0 && !commit) {
+        has_pending_ = true;
+        pending_address_ = p[0];
+        pending_size_ = static_cast<uint16_t>(n - 1);
+        std::copy_n(p + 1, n - 1, pending_data_.begin());
+        table_[x430::kRegisteredInstruction] = 1;
+      }
+      break;
+    }
+    case instruction::kAction:
+      if (!has_pending_) {
+        bits = p1_error::kInstruction;
+      } else {
+        has_pending_ = false;
+        table_[x430::kRegisteredInstruction] = 0;
+        bits = p1_bits(write(pending_address_, pending_data_.data(), pending_size_, true, false),
+                       covers_goal_position(pending_address_, pending_size_));
+      }
+      break;
+    case instruction::kFactoryReset:
+      // P1 RESET has no option: everything to factory values, Protocol Type 2 included; the status
+      // goes out first, in Protocol 1.0 with the old ID.
+      if (answer) {
+        reply_protocol1(0, nullptr, 0, response);
+      }
+      load_defaults(false);
+      reboot();
+      return;
+    default:
+      // REBOOT, CLEAR, BACKUP, SYNC READ, the FAST reads, BULK WRITE are not Protocol 1.0
+      // instructions (§1.2); SYNC WRITE / BULK READ only for the broadcast ID.
+      bits = p1_error::kInstruction;
+      break;
+  }
+  if (bits != 0) {
+    ++counters_.errors;
+  }
+  if (answer) {
+    reply_protocol1(bits, nullptr, 0, response);
+  }
+}
+
+void Protocol2Device::handle_protocol1_sync_write(const InstructionPacket& packet) noexcept {
+  const std::size_t n = packet.param_count;
+  if (n < 2) {
+    return;
+  }
+  const uint8_t* p = packet.params.data();
+  const std::size_t length = p[1];
+  if (length == 0 || (n - 2) % (length + 1) != 0) {
+    return;  // malformed: no device can find its block
+  }
+  const uint8_t own_id = id();
+  for (std::size_t block = 2; block < n; block += length + 1) {
+    if (p[block] == own_id) {
+      ++counters_.handled;
+      on_communication();
+      if (p[0] + length > kP1AddressEnd || write(p[0], p + block + 1, length, true, false) != 0) {
+        ++counters_.errors;
+      }
+      return;
+    }
+  }
+}
+
+void Protocol2Device::handle_protocol1_bulk_read(const InstructionPacket& packet, Response& response) noexcept {
+  const std::size_t n = packet.param_count;
+  if (n < 1 || (n - 1) % 3 != 0) {
+    return;  // malformed list
+  }
+  // Blocks are [length, ID, address] (§1.2); only an ID's first block counts.
+  const uint8_t* p = packet.params.data();
+  const uint8_t own_id = id();
+  std::bitset<256> seen;
+  uint16_t position = 0;
+  const uint8_t* block = nullptr;
+  for (std::size_t i = 1; i < n; i += 3) {
+    if (seen.test(p[i + 1])) {
+      continue;
+    }
+    seen.set(p[i + 1]);
+    if (p[i + 1] == own_id) {
+      block = p + i;
+      break;
+    }
+    ++position;
+  }
+  if (block == nullptr) {
+    return;
+  }
+  ++counters_.handled;
+  on_communication();
+  if (!answers(instruction::kBulkRead)) {
+    return;
+  }
+  const uint8_t length = block[0];
+  const uint8_t start = block[2];
+  const bool ok = length != 0 && length <= kP1MaxStatusData && start + std::size_t{length} <= kP1AddressEnd &&
+                  read(start, length, scratch_.data());
+  if (!ok) {
+    ++counters_.errors;
+  }
+  reply_protocol1(ok ? 0 : p1_error::kRange, ok ? scratch_.data() : nullptr, ok ? length : 0, response);
+  response.timing = position == 0 ? ReplyTiming::kAfterInstruction : ReplyTiming::kAfterPrevious;
+  response.chain_position = position;
 }
 
 }  // namespace doppel::dynamixel

@@ -16,10 +16,9 @@ constexpr double kVelocityUnitRadS = kX430VelocityUnitRpm * kTwoPi / 60.0;
 constexpr double kAccelerationUnitRadS2 = kX430AccelerationUnitRpm2 * kTwoPi / 3600.0;
 constexpr int64_t kExtendedLimit = 1048575;  // Goal Position in modes 4 and 5, pulses
 constexpr double kSaturationMargin = 0.01;
-constexpr uint8_t kDriveReverse = 0x01;
-constexpr uint8_t kDriveTimeBased = 0x04;
-constexpr uint8_t kDriveTorqueOnByGoal = 0x08;
-constexpr uint8_t kDriveModeBits = kDriveReverse | kDriveTimeBased | kDriveTorqueOnByGoal;
+constexpr uint8_t kDriveReverse = x430::kDriveReverse;
+constexpr uint8_t kDriveTimeBased = x430::kDriveTimeBased;
+constexpr uint8_t kDriveTorqueOnByGoal = x430::kDriveTorqueOnByGoal;
 constexpr uint8_t kStartupTorqueOn = 0x01;
 
 int64_t clamp_round(double v, int64_t lo, int64_t hi) noexcept {
@@ -118,7 +117,7 @@ uint8_t Protocol2Servo::check_write(const Table& candidate, const ItemSet& touch
   if (touches(touched, x430::kOperatingMode) && (mode > 31 || ((spec().operating_modes >> mode) & 1u) == 0)) {
     return p2_error::kDataRange;
   }
-  if (touches(touched, x430::kDriveMode) && (value_in(candidate, x430::kDriveMode) & ~kDriveModeBits) != 0) {
+  if (touches(touched, x430::kDriveMode) && (value_in(candidate, x430::kDriveMode) & ~spec().drive_mode_bits) != 0) {
     return p2_error::kDataRange;
   }
   const bool goal_written = touches(touched, x430::kGoalPosition) || touches(touched, x430::kGoalVelocity) ||
@@ -233,10 +232,10 @@ ServoCommand Protocol2Servo::command() const noexcept {
   c.torque_limit_ratio = std::clamp(static_cast<double>(register_value(x430::kPwmLimit)) / kX430PwmFull, 0.0, 1.0);
   if (spec().has_current && s.stall_current_a > 0.0) {
     const double current_limit_ratio =
-        static_cast<double>(register_value(x430::kCurrentLimit)) * kX430CurrentUnitA / s.stall_current_a;
+        static_cast<double>(register_value(x430::kCurrentLimit)) * spec().current_unit_a / s.stall_current_a;
     c.torque_limit_ratio = std::min(c.torque_limit_ratio, current_limit_ratio);
     const double goal_current_ratio =
-        static_cast<double>(register_value(x430::kGoalCurrent)) * kX430CurrentUnitA / s.stall_current_a;
+        static_cast<double>(register_value(x430::kGoalCurrent)) * spec().current_unit_a / s.stall_current_a;
     if (mode == x430::kCurrentBasedPositionMode) {
       c.torque_limit_ratio = std::min(c.torque_limit_ratio, std::abs(goal_current_ratio));
     } else if (mode == x430::kCurrentMode) {
@@ -276,7 +275,7 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
   set_register(x430::kPresentVelocity, velocity_raw);
   const double ratio = std::isfinite(feedback.torque_ratio) ? std::clamp(feedback.torque_ratio, -1.0, 1.0) : 0.0;
   if (spec().has_current) {
-    set_register(x430::kPresentCurrent, clamp_round(dir * ratio * s.stall_current_a / kX430CurrentUnitA, -32768, 32767));
+    set_register(x430::kPresentCurrent, clamp_round(dir * ratio * s.stall_current_a / spec().current_unit_a, -32768, 32767));
   } else {
     set_register(x430::kPresentLoad, clamp_round(dir * ratio * 1000.0, -1000, 1000));
   }

@@ -4,6 +4,11 @@
 // reference §2.4 - PING, READ, WRITE, REG WRITE, ACTION, FACTORY RESET, REBOOT, CLEAR, CONTROL TABLE
 // BACKUP, SYNC READ/WRITE, FAST SYNC READ, BULK READ/WRITE, FAST BULK READ - with broadcast,
 // Secondary ID, Status Return Level, error numbers 1..7 and the Alert bit (§2.5, §3.7).
+// Protocol Type (13) = 1 switches the firmware to Protocol 1.0: it then answers Protocol 1.0
+// packets (the instruction set of §1.2, one-byte addresses 0..255, the P1 error bits of §1.4) on
+// the same control table and ignores Protocol 2.0 packets, until 13 = 2 is written over P1 or a
+// FACTORY RESET restores the default. The status of the write that switches goes out in the old
+// protocol. FAST reads and CONTROL TABLE BACKUP exist only where the model's firmware has them.
 // It is not a servo: Protocol2Servo adds the value rules that depend on the operating mode and the
 // link to the simulation. Every behaviour choice is listed in docs/devices.md (Protocol 2.0 part).
 
@@ -28,7 +33,10 @@ class Protocol2Device : public Device {
   using Table = std::array<uint8_t, kTableCapacity>;
   using ItemSet = std::bitset<kMaxItems>;              // indexes into spec().registers
 
-  Protocol protocol() const noexcept override { return Protocol::kV2; }
+  // The protocol it speaks now: Protocol Type (13) 1 = Protocol 1.0, else 2.0.
+  Protocol protocol() const noexcept override {
+    return table_[x430::kProtocolType] == x430::kProtocolType1 ? Protocol::kV1 : Protocol::kV2;
+  }
   uint8_t id() const noexcept override { return table_[x430::kId]; }
   // From the Baud Rate register (reference §3.3).
   uint32_t baud_bps() const noexcept override;
@@ -91,6 +99,11 @@ class Protocol2Device : public Device {
   uint8_t error_byte(uint8_t error) const noexcept;
   void reply(uint8_t error, const uint8_t* data, std::size_t n, Response& response) noexcept;
   void handle_unicast(const InstructionPacket& packet, bool answer, bool via_secondary, Response& response) noexcept;
+  // Protocol Type 1: the packet as the firmware's Protocol 1.0 front end executes it.
+  void handle_protocol1(const InstructionPacket& packet, Response& response) noexcept;
+  void reply_protocol1(uint8_t error_bits, const uint8_t* data, std::size_t n, Response& response) noexcept;
+  void handle_protocol1_bulk_read(const InstructionPacket& packet, Response& response) noexcept;
+  void handle_protocol1_sync_write(const InstructionPacket& packet) noexcept;
   void handle_sync_read(const InstructionPacket& packet, bool fast, Response& response) noexcept;
   void handle_bulk_read(const InstructionPacket& packet, bool fast, Response& response) noexcept;
   void handle_sync_write(const InstructionPacket& packet) noexcept;

@@ -1,8 +1,9 @@
 #pragma once
 // What Doppel knows about each Protocol 2.0 device model: the X-series control table of reference
-// §3.7 (XM430-W350, XL430-W250: 16-bit addresses, 1/2/4-byte items, EEPROM below 64) with
-// defaults, ranges and access, the operating modes each model has, the physical data the
-// simulation needs, and the identity of the Bit-Bots boards of §8. Static data with a lookup by
+// §3.7 (XM430-W350, XL430-W250: 16-bit addresses, 1/2/4-byte items, EEPROM below 64) and the
+// MX(2.0) firmware tables of §3.6 (MX-28(2.0), MX-64(2.0), MX-106(2.0): the same layout with their
+// own items and defaults) with defaults, ranges and access, the operating modes and instructions
+// each model has, the physical data the simulation needs, and the identity of the Bit-Bots boards of §8. Static data with a lookup by
 // model name; not a device (see protocol2_servo.h, bitbots_boards.h). Register names follow the
 // ROBOTIS e-Manual.
 
@@ -33,8 +34,8 @@ inline constexpr uint16_t kTemperatureLimit = 31;
 inline constexpr uint16_t kMaxVoltageLimit = 32;
 inline constexpr uint16_t kMinVoltageLimit = 34;
 inline constexpr uint16_t kPwmLimit = 36;
-inline constexpr uint16_t kCurrentLimit = 38;       // XM only
-inline constexpr uint16_t kAccelerationLimit = 40;  // XL only (older tables)
+inline constexpr uint16_t kCurrentLimit = 38;       // XM, MX-64(2.0), MX-106(2.0)
+inline constexpr uint16_t kAccelerationLimit = 40;  // XL and MX(2.0) (older X tables)
 inline constexpr uint16_t kVelocityLimit = 44;
 inline constexpr uint16_t kMaxPositionLimit = 48;
 inline constexpr uint16_t kMinPositionLimit = 52;
@@ -54,7 +55,7 @@ inline constexpr uint16_t kFeedforward2ndGain = 88;
 inline constexpr uint16_t kFeedforward1stGain = 90;
 inline constexpr uint16_t kBusWatchdog = 98;
 inline constexpr uint16_t kGoalPwm = 100;
-inline constexpr uint16_t kGoalCurrent = 102;  // XM only
+inline constexpr uint16_t kGoalCurrent = 102;  // XM, MX-64(2.0), MX-106(2.0)
 inline constexpr uint16_t kGoalVelocity = 104;
 inline constexpr uint16_t kProfileAcceleration = 108;
 inline constexpr uint16_t kProfileVelocity = 112;
@@ -63,7 +64,7 @@ inline constexpr uint16_t kRealtimeTick = 120;
 inline constexpr uint16_t kMoving = 122;
 inline constexpr uint16_t kMovingStatus = 123;
 inline constexpr uint16_t kPresentPwm = 124;
-inline constexpr uint16_t kPresentCurrent = 126;  // XM: current; XL: Present Load
+inline constexpr uint16_t kPresentCurrent = 126;  // XM, MX-64/106(2.0): current; XL, MX-28(2.0): Present Load
 inline constexpr uint16_t kPresentLoad = 126;
 inline constexpr uint16_t kPresentVelocity = 128;
 inline constexpr uint16_t kPresentPosition = 132;
@@ -80,6 +81,12 @@ inline constexpr uint16_t kIndirectSlots = 28;       // per block
 inline constexpr uint16_t kEepromEnd = 64;  // addresses below are EEPROM (locked while torque is on)
 inline constexpr uint16_t kTableBytes = 662;
 
+// Protocol Type (13) values: the protocol the servo speaks (reference §3.7).
+inline constexpr uint8_t kProtocolType1 = 1;
+inline constexpr uint8_t kProtocolType2 = 2;
+// Protocol 1.0 addresses are one byte: items above this are out of reach while Protocol Type = 1.
+inline constexpr uint16_t kProtocol1LastAddress = 255;
+
 // Operating Mode (11) values.
 inline constexpr uint8_t kCurrentMode = 0;
 inline constexpr uint8_t kVelocityMode = 1;
@@ -94,6 +101,12 @@ inline constexpr uint8_t kOverheatingError = 0x04;
 inline constexpr uint8_t kEncoderError = 0x08;
 inline constexpr uint8_t kElectricalShockError = 0x10;
 inline constexpr uint8_t kOverloadError = 0x20;
+
+// Drive Mode (10) bits.
+inline constexpr uint8_t kDriveReverse = 0x01;
+inline constexpr uint8_t kDriveMasterSlave = 0x02;     // MX-106(2.0) dual joint: stored only
+inline constexpr uint8_t kDriveTimeBased = 0x04;
+inline constexpr uint8_t kDriveTorqueOnByGoal = 0x08;  // X fw >= 45
 
 // Moving Status (123) bits.
 inline constexpr uint8_t kInPosition = 0x01;
@@ -118,7 +131,7 @@ struct P2RegisterSpec {
 };
 
 enum class P2DeviceKind : uint8_t {
-  kServo,        // X series (protocol2_servo.h)
+  kServo,        // X series and MX(2.0) (protocol2_servo.h)
   kBitbotsImu,   // Bit-Bots IMU DXL module (bitbots_boards.h)
   kBitFoot,      // Bit-Bots BitFoot foot pressure board
   kBitbotsCore,  // Bit-Bots CORE board
@@ -132,14 +145,19 @@ struct P2ModelSpec {
   std::span<const P2RegisterSpec> registers;  // servos: every item, ascending address; boards: empty
   uint16_t table_bytes = 0;       // servos: addresses 0..table_bytes-1 exist; beyond -> Access Error
   uint32_t operating_modes = 0;   // servos: bit m set = Operating Mode m allowed
-  bool has_current = false;       // servos: Current Limit / Goal Current / Present Current (XM)
+  bool has_current = false;       // servos: Current Limit / Goal Current / Present Current (XM, MX-64/106(2.0))
   bool baud7_is_5m = false;       // Baud Rate 7 = 5 Mbps (Bit-Bots CORE) instead of 4.5 Mbps
   uint8_t default_id = 1;         // factory ID
   uint8_t default_baud_raw = 1;   // factory Baud Rate index (reference §3.3 / §8.1)
   ServoSpec servo;                // kind == kServo only (family kNone: the X series has its own units)
+  double current_unit_a = 0.0;    // servos with has_current: A per Current Limit / Goal / Present Current unit
+  uint8_t drive_mode_bits = 0;    // servos: Drive Mode (10) bits the firmware accepts (others: Data Range)
+  bool fast_read = false;         // servos: FAST SYNC READ / FAST BULK READ (X430 fw >= 45, §2.4)
+  bool table_backup = false;      // servos: CONTROL TABLE BACKUP (X430 fw >= 45, §2.4)
 };
 
-// The spec of `name` ("XM430-W350", "XL430-W250", "BITBOTS-IMU", "BITFOOT", "BITBOTS-CORE").
+// The spec of `name` ("XM430-W350", "XL430-W250", "MX-28(2.0)", "MX-64(2.0)", "MX-106(2.0)",
+// "BITBOTS-IMU", "BITFOOT", "BITBOTS-CORE").
 // Throws std::invalid_argument naming the known Protocol 2.0 models. Setup only.
 const P2ModelSpec& p2_model_spec(std::string_view name);
 // nullptr when `name` is not a Protocol 2.0 model. Setup only.
@@ -162,6 +180,7 @@ inline constexpr double kX430PulsesPerRev = 4096.0;       // Present/Goal Positi
 inline constexpr double kX430VelocityUnitRpm = 0.229;     // Goal/Present Velocity, Profile Velocity
 inline constexpr double kX430AccelerationUnitRpm2 = 214.577;  // Profile Acceleration, rev/min^2
 inline constexpr double kX430CurrentUnitA = 0.00269;      // XM Goal/Present Current, Current Limit
+inline constexpr double kMx2CurrentUnitA = 0.00336;       // MX-64/106(2.0) Goal/Present Current, Current Limit
 inline constexpr double kX430PwmFull = 885.0;             // PWM 100 %
 inline constexpr double kX430VoltageUnitV = 0.1;          // Present Input Voltage, voltage limits
 inline constexpr int64_t kX430WatchdogUnitNs = 20'000'000;  // Bus Watchdog: 20 ms per unit
