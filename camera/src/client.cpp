@@ -3,6 +3,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <new>
+#include <sstream>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -10,6 +13,7 @@
 
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
+#include "iceoryx_posh/popo/untyped_publisher.hpp"
 #include "iceoryx_posh/popo/untyped_subscriber.hpp"
 #include "iceoryx_posh/popo/wait_set.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
@@ -17,6 +21,15 @@
 #include "iox_support.h"
 
 namespace doppel::camera {
+namespace {
+
+std::string seconds_text(double s) {
+  std::ostringstream out;
+  out << s;
+  return out.str();
+}
+
+}  // namespace
 
 bool roudi_running() { return detail::roudi_lock_held(); }
 
@@ -75,6 +88,68 @@ std::vector<CameraInfo> list_cameras(double timeout_s) {
     }
   }
   return out;
+}
+
+CameraInfo set_camera_noise(const std::string& camera, const NoiseConfig& noise, double timeout_s) {
+  validate(noise);
+  if (!detail::g_host_alive.load() && !detail::g_client_runtime.load()) {
+    throw std::logic_error("set_camera_noise: call connect_client() first");
+  }
+  if (!detail::service_offered(camera, detail::kInfoEvent)) {
+    // Discovery may lag a freshly started camera: look once more after a short wait.
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    if (!detail::service_offered(camera, detail::kInfoEvent)) {
+      throw std::runtime_error("no camera '" + camera + "' is published on this machine (doppel-camera list)");
+    }
+  }
+  const auto deadline = std::chrono::steady_clock::now() +
+                        std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                            std::chrono::duration<double>(timeout_s));
+  static std::atomic<uint32_t> counter{0};
+  NoiseRequest request;
+  request.request_id = (static_cast<uint64_t>(::getpid()) << 32) | (counter.fetch_add(1) + 1);
+  request.noise = noise;
+
+  // Watch the info topic first, so that the confirmation cannot pass unseen.
+  iox::popo::SubscriberOptions info_options;
+  info_options.queueCapacity = 16;
+  info_options.historyRequest = 1;
+  iox::popo::UntypedSubscriber info(detail::service(camera, detail::kInfoEvent), info_options);
+  iox::popo::PublisherOptions options;
+  options.historyCapacity = 1;  // delivered even if the camera's subscription completes after publish
+  iox::popo::UntypedPublisher settings(detail::service(camera, detail::kSettingsEvent), options);
+  while (!settings.hasSubscribers() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  if (!settings.hasSubscribers()) {
+    throw std::runtime_error("camera '" + camera + "' did not connect to the settings topic within " +
+                             seconds_text(timeout_s) + " s");
+  }
+  auto loaned = settings.loan(sizeof(NoiseRequest), alignof(NoiseRequest));
+  if (loaned.has_error()) throw std::runtime_error("no shared memory chunk free for a settings message");
+  new (loaned.value()) NoiseRequest(request);
+  settings.publish(loaned.value());
+
+  while (std::chrono::steady_clock::now() < deadline) {
+    std::optional<CameraInfo> confirmed;
+    for (auto taken = info.take(); !taken.has_error(); taken = info.take()) {
+      const void* payload = taken.value();
+      if (iox::mepoo::ChunkHeader::fromUserPayload(payload)->userPayloadSize() >= sizeof(CameraInfo)) {
+        CameraInfo record;
+        std::memcpy(&record, payload, sizeof(CameraInfo));
+        if (record.noise_request_id == request.request_id) confirmed = record;
+      }
+      info.release(payload);
+    }
+    if (confirmed) {
+      confirmed->name[sizeof(confirmed->name) - 1] = '\0';
+      confirmed->body[sizeof(confirmed->body) - 1] = '\0';
+      return *confirmed;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  throw std::runtime_error("camera '" + camera + "' did not confirm the new settings within " +
+                           seconds_text(timeout_s) + " s (is doppel's simulation running?)");
 }
 
 Frame::Frame(std::shared_ptr<void> port, const FrameHeader* header) noexcept

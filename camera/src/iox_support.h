@@ -12,6 +12,7 @@ namespace doppel::camera::detail {
 inline constexpr const char kServiceId[] = "DoppelCamera";
 inline constexpr const char kFramesEvent[] = "frames";
 inline constexpr const char kInfoEvent[] = "info";
+inline constexpr const char kSettingsEvent[] = "settings";
 
 iox::capro::ServiceDescription service(const std::string& camera, const char* event);
 // An iceoryx id string, truncated to its capacity.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -27,11 +28,27 @@ inline double normal(uint64_t& state) noexcept {
   return std::sqrt(-2.0 * std::log(u1)) * std::cos(6.283185307179586 * u2);
 }
 
-void check_range(double v, double lo, double hi, const char* name) {
-  if (!(v >= lo && v <= hi)) {
-    throw std::invalid_argument(std::string("NoiseConfig.") + name + " must lie in [" + std::to_string(lo) + ", " +
-                                std::to_string(hi) + "], got " + std::to_string(v));
-  }
+struct Range {
+  const char* field;
+  double NoiseConfig::*member;
+  double lo;
+  double hi;
+};
+
+constexpr Range kRanges[] = {
+    {"gaussian_sigma", &NoiseConfig::gaussian_sigma, 0.0, 255.0},
+    {"shot_noise_gain", &NoiseConfig::shot_noise_gain, 0.0, 255.0},
+    {"salt_pepper_fraction", &NoiseConfig::salt_pepper_fraction, 0.0, 1.0},
+    {"vignetting", &NoiseConfig::vignetting, 0.0, 1.0},
+    {"wb_red_gain", &NoiseConfig::wb_red_gain, 1e-3, 100.0},
+    {"wb_green_gain", &NoiseConfig::wb_green_gain, 1e-3, 100.0},
+    {"wb_blue_gain", &NoiseConfig::wb_blue_gain, 1e-3, 100.0},
+};
+
+std::string number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
 }
 
 }  // namespace
@@ -41,14 +58,37 @@ bool NoiseConfig::active() const noexcept {
          wb_red_gain != 1.0 || wb_green_gain != 1.0 || wb_blue_gain != 1.0;
 }
 
+std::string_view invalid_noise_field(const NoiseConfig& c) noexcept {
+  for (const Range& r : kRanges) {
+    const double v = c.*r.member;
+    if (!(v >= r.lo && v <= r.hi)) return r.field;
+  }
+  return {};
+}
+
 void validate(const NoiseConfig& c) {
-  check_range(c.gaussian_sigma, 0.0, 255.0, "gaussian_sigma");
-  check_range(c.shot_noise_gain, 0.0, 255.0, "shot_noise_gain");
-  check_range(c.salt_pepper_fraction, 0.0, 1.0, "salt_pepper_fraction");
-  check_range(c.vignetting, 0.0, 1.0, "vignetting");
-  check_range(c.wb_red_gain, 1e-3, 100.0, "wb_red_gain");
-  check_range(c.wb_green_gain, 1e-3, 100.0, "wb_green_gain");
-  check_range(c.wb_blue_gain, 1e-3, 100.0, "wb_blue_gain");
+  for (const Range& r : kRanges) {
+    const double v = c.*r.member;
+    if (!(v >= r.lo && v <= r.hi)) {
+      throw std::invalid_argument(std::string("NoiseConfig.") + r.field + " must lie in [" + number(r.lo) + ", " +
+                                  number(r.hi) + "], got " + number(v));
+    }
+  }
+}
+
+std::string describe(const NoiseConfig& c) {
+  if (!c.active()) return "off";
+  std::string out;
+  auto add = [&out](const std::string& part) { out += (out.empty() ? "" : ", ") + part; };
+  if (c.gaussian_sigma > 0.0) add("gaussian " + number(c.gaussian_sigma));
+  if (c.shot_noise_gain > 0.0) add("shot " + number(c.shot_noise_gain));
+  if (c.salt_pepper_fraction > 0.0) add("salt-pepper " + number(c.salt_pepper_fraction));
+  if (c.vignetting > 0.0) add("vignetting " + number(c.vignetting));
+  if (c.wb_red_gain != 1.0 || c.wb_green_gain != 1.0 || c.wb_blue_gain != 1.0) {
+    add("white-balance " + number(c.wb_red_gain) + "," + number(c.wb_green_gain) + "," + number(c.wb_blue_gain));
+  }
+  add("seed " + std::to_string(c.seed));
+  return out;
 }
 
 NoiseFilter::NoiseFilter(int width_px, int height_px) : width_px_(width_px), height_px_(height_px) {}

@@ -25,6 +25,7 @@
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
 #include "iceoryx_posh/popo/subscriber.hpp"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
+#include "iceoryx_posh/popo/untyped_subscriber.hpp"
 #include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
 #include "iceoryx_posh/roudi/introspection_types.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
@@ -236,10 +237,14 @@ struct CameraStream::Impl {
   Renderer renderer;
   iox::popo::UntypedPublisher frames;
   iox::popo::UntypedPublisher info;
+  iox::popo::UntypedSubscriber settings;
+  CameraInfo info_record;  // what the info topic says; camera thread after construction
   uint64_t sequence = 0;
   std::atomic<uint64_t> published{0};
   std::atomic<uint64_t> dropped{0};
   std::atomic<uint64_t> skipped{0};
+  std::atomic<uint64_t> settings_applied{0};
+  std::atomic<uint64_t> settings_rejected{0};
   std::atomic<double> last_render_ms{0.0};
   std::mutex noise_mutex;
   NoiseConfig pending_noise;
@@ -256,14 +261,31 @@ struct CameraStream::Impl {
     o.historyCapacity = 1;
     return o;
   }
+  static iox::popo::SubscriberOptions settings_options() {
+    iox::popo::SubscriberOptions o;
+    o.queueCapacity = 8;
+    o.historyRequest = 1;
+    o.queueFullPolicy = iox::popo::QueueFullPolicy::DISCARD_OLDEST_DATA;
+    return o;
+  }
 
   explicit Impl(const CameraConfig& c)
       : config(c),
         payload_bytes(static_cast<uint32_t>(frame_payload_bytes(c))),
         renderer(c.lens, c.width_px, c.height_px, c.format, c.render_threads),
         frames(detail::service(c.name, detail::kFramesEvent), frame_options()),
-        info(detail::service(c.name, detail::kInfoEvent), info_options()) {
+        info(detail::service(c.name, detail::kInfoEvent), info_options()),
+        settings(detail::service(c.name, detail::kSettingsEvent), settings_options()) {
     renderer.set_noise(c.noise);
+  }
+
+  // Publishes info_record (history 1: what late subscribers and `doppel-camera list` see). Does not
+  // allocate; a record that finds no free chunk is skipped (the next change publishes again).
+  void publish_info() noexcept {
+    info.loan(sizeof(CameraInfo), alignof(CameraInfo)).and_then([this](void* chunk) {
+      new (chunk) CameraInfo(info_record);
+      info.publish(chunk);
+    });
   }
 };
 
@@ -280,21 +302,20 @@ CameraStream::CameraStream(StreamingHost& host, const CameraConfig& config) {
   }
   impl_ = std::make_unique<Impl>(config);
   // Discovery record, kept by the publisher's history for late subscribers.
-  impl_->info.loan(sizeof(CameraInfo), alignof(CameraInfo)).and_then([&](void* chunk) {
-    auto* info = new (chunk) CameraInfo();
-    std::strncpy(info->name, config.name.c_str(), sizeof(info->name) - 1);
-    if (config.mount.kind == CameraMount::Kind::kBody) {
-      std::strncpy(info->body, config.mount.body.c_str(), sizeof(info->body) - 1);
-    }
-    info->format = static_cast<uint32_t>(config.format);
-    info->width_px = config.width_px;
-    info->height_px = config.height_px;
-    info->fps = config.fps;
-    info->lens = config.lens;
-    info->payload_bytes = impl_->payload_bytes;
-    info->pid = static_cast<int32_t>(::getpid());
-    impl_->info.publish(chunk);
-  });
+  CameraInfo& info = impl_->info_record;
+  std::strncpy(info.name, config.name.c_str(), sizeof(info.name) - 1);
+  if (config.mount.kind == CameraMount::Kind::kBody) {
+    std::strncpy(info.body, config.mount.body.c_str(), sizeof(info.body) - 1);
+  }
+  info.format = static_cast<uint32_t>(config.format);
+  info.width_px = config.width_px;
+  info.height_px = config.height_px;
+  info.fps = config.fps;
+  info.lens = config.lens;
+  info.payload_bytes = impl_->payload_bytes;
+  info.pid = static_cast<int32_t>(::getpid());
+  info.noise = config.noise;
+  impl_->publish_info();
 }
 
 CameraStream::~CameraStream() = default;
@@ -358,13 +379,7 @@ void CameraStream::publish_frame(FrameHeader* frame) noexcept {
 bool CameraStream::render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC,
                                       double sim_time_s) {
   Impl& s = *impl_;
-  if (s.noise_pending.load(std::memory_order_acquire)) {
-    std::unique_lock<std::mutex> lock(s.noise_mutex, std::try_to_lock);
-    if (lock.owns_lock()) {
-      s.renderer.set_noise(s.pending_noise);
-      s.noise_pending.store(false, std::memory_order_release);
-    }
-  }
+  poll_settings();
   if (!s.frames.hasSubscribers()) {
     ++s.sequence;
     s.skipped.fetch_add(1, std::memory_order_relaxed);
@@ -385,6 +400,51 @@ void CameraStream::set_noise(const NoiseConfig& noise) {
   impl_->noise_pending.store(true, std::memory_order_release);
 }
 
+bool CameraStream::poll_settings() noexcept {
+  Impl& s = *impl_;
+  bool changed = false;
+  NoiseConfig next;
+  uint64_t request_id = 0;
+  if (s.noise_pending.load(std::memory_order_acquire)) {
+    std::unique_lock<std::mutex> lock(s.noise_mutex, std::try_to_lock);
+    if (lock.owns_lock()) {
+      next = s.pending_noise;  // validated by set_noise()
+      changed = true;
+      s.noise_pending.store(false, std::memory_order_release);
+    }
+  }
+  bool rejected = false;
+  for (auto taken = s.settings.take(); !taken.has_error(); taken = s.settings.take()) {
+    const void* payload = taken.value();
+    const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
+    NoiseRequest request;
+    const bool complete = chunk->userPayloadSize() >= sizeof(NoiseRequest);
+    if (complete) std::memcpy(&request, payload, sizeof(NoiseRequest));
+    s.settings.release(payload);
+    if (!complete || invalid_noise_field(request.noise).size() > 0) {
+      s.settings_rejected.fetch_add(1, std::memory_order_relaxed);
+      rejected = true;
+      continue;
+    }
+    next = request.noise;  // the last valid request wins
+    request_id = request.request_id;
+    changed = true;
+  }
+  if (!changed && !rejected) return false;
+  if (changed) {
+    s.renderer.set_noise(next);  // valid: cannot throw
+    s.info_record.noise = next;
+    s.info_record.noise_request_id = request_id;
+    s.info_record.noise_from_sequence = s.sequence;
+    s.settings_applied.fetch_add(1, std::memory_order_relaxed);
+  }
+  s.info_record.settings_rejected = s.settings_rejected.load(std::memory_order_relaxed);
+  s.publish_info();
+  return changed;
+}
+
+const NoiseConfig& CameraStream::noise() const noexcept { return impl_->info_record.noise; }
+
 bool CameraStream::has_subscribers() const noexcept { return impl_->frames.hasSubscribers(); }
 
 StreamStats CameraStream::stats() const noexcept {
@@ -392,6 +452,8 @@ StreamStats CameraStream::stats() const noexcept {
   s.published = impl_->published.load(std::memory_order_relaxed);
   s.dropped = impl_->dropped.load(std::memory_order_relaxed);
   s.skipped_idle = impl_->skipped.load(std::memory_order_relaxed);
+  s.settings_applied = impl_->settings_applied.load(std::memory_order_relaxed);
+  s.settings_rejected = impl_->settings_rejected.load(std::memory_order_relaxed);
   s.last_render_ms = impl_->last_render_ms.load(std::memory_order_relaxed);
   return s;
 }

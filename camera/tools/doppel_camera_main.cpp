@@ -2,6 +2,7 @@
 //   doppel-camera list                                   cameras and their formats
 //   doppel-camera save [--camera NAME] --count N --out DIR  next N frames as PNG + JSON ground truth
 //   doppel-camera stats [--camera NAME] [--seconds S] [--poll]  rate, drops and delivery latency
+//   doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] ...  change the noise while running
 // Exit codes: 0 done, 1 runtime error (no RouDi, no camera, timeout), 2 usage error.
 
 #include <time.h>
@@ -15,6 +16,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "camera/client.h"
@@ -31,7 +33,13 @@ struct UsageError : std::runtime_error {
 constexpr const char* kUsage =
     "usage: doppel-camera list [--timeout S]\n"
     "       doppel-camera save [--camera NAME] --count N --out DIR [--timeout S]\n"
-    "       doppel-camera stats [--camera NAME] [--seconds S] [--poll]\n";
+    "       doppel-camera stats [--camera NAME] [--seconds S] [--poll]\n"
+    "       doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] [--shot GAIN]\n"
+    "                           [--salt-pepper FRACTION] [--vignetting V] [--white-balance R,G,B]\n"
+    "                           [--seed N] [--timeout S]\n"
+    "  noise: settings not given keep their current values; --off first turns every filter off.\n"
+    "  Ranges: gaussian 0..255 (levels), shot 0..255 (variance per level), salt-pepper 0..1,\n"
+    "  vignetting 0..1, white-balance gains 0.001..100 (1 = neutral).\n";
 
 struct Args {
   std::string command;
@@ -41,7 +49,13 @@ struct Args {
   double timeout_s = 10.0;
   double seconds = 5.0;
   bool poll = false;
+  // noise: the options given, applied in this order on top of the current settings
+  bool noise_off = false;
+  std::vector<std::pair<std::string, std::string>> noise_options;  // flag, value
 };
+
+constexpr const char* kNoiseFlags[] = {"--gaussian", "--shot", "--salt-pepper", "--vignetting", "--white-balance",
+                                       "--seed"};
 
 double parse_number(const std::string& flag, const std::string& value) {
   try {
@@ -58,7 +72,7 @@ Args parse(int argc, char** argv) {
   if (argc < 2) throw UsageError("missing command");
   Args a;
   a.command = argv[1];
-  if (a.command != "list" && a.command != "save" && a.command != "stats") {
+  if (a.command != "list" && a.command != "save" && a.command != "stats" && a.command != "noise") {
     throw UsageError("unknown command '" + a.command + "'");
   }
   for (int i = 2; i < argc; ++i) {
@@ -79,11 +93,20 @@ Args parse(int argc, char** argv) {
       a.seconds = parse_number(flag, value());
     } else if (flag == "--poll") {
       a.poll = true;
+    } else if (a.command == "noise" && flag == "--off") {
+      a.noise_off = true;
+    } else if (a.command == "noise" &&
+               std::find(std::begin(kNoiseFlags), std::end(kNoiseFlags), flag) != std::end(kNoiseFlags)) {
+      a.noise_options.emplace_back(flag, value());
     } else {
       throw UsageError("unknown option '" + flag + "'");
     }
   }
   if (a.command == "save" && (a.count <= 0 || a.out.empty())) throw UsageError("save needs --count N and --out DIR");
+  if (a.command == "noise" && a.camera.empty()) throw UsageError("noise needs --camera NAME");
+  if (a.command == "noise" && !a.noise_off && a.noise_options.empty()) {
+    throw UsageError("noise needs --off or at least one setting");
+  }
   return a;
 }
 
@@ -100,19 +123,88 @@ std::string pick_camera(const Args& a) {
   return cameras.front().name;
 }
 
+// A finite or non-finite number as written (range checks follow in validate()).
+double parse_double(const std::string& flag, const std::string& text) {
+  try {
+    size_t used = 0;
+    const double v = std::stod(text, &used);
+    if (used == text.size()) return v;
+  } catch (const std::exception&) {
+  }
+  throw UsageError(flag + " needs a number, got '" + text + "'");
+}
+
+// The camera's current settings with the command line's changes on top. Throws UsageError naming
+// the option when a value does not parse or is out of range.
+NoiseConfig noise_from_args(const Args& a, const NoiseConfig& current) {
+  NoiseConfig noise = a.noise_off ? NoiseConfig{} : current;
+  if (a.noise_off) noise.seed = current.seed;
+  for (const auto& [flag, text] : a.noise_options) {
+    if (flag == "--gaussian") {
+      noise.gaussian_sigma = parse_double(flag, text);
+    } else if (flag == "--shot") {
+      noise.shot_noise_gain = parse_double(flag, text);
+    } else if (flag == "--salt-pepper") {
+      noise.salt_pepper_fraction = parse_double(flag, text);
+    } else if (flag == "--vignetting") {
+      noise.vignetting = parse_double(flag, text);
+    } else if (flag == "--white-balance") {
+      const size_t c1 = text.find(',');
+      const size_t c2 = c1 == std::string::npos ? c1 : text.find(',', c1 + 1);
+      if (c2 == std::string::npos || text.find(',', c2 + 1) != std::string::npos) {
+        throw UsageError("--white-balance needs three gains R,G,B (1 = neutral), got '" + text + "'");
+      }
+      noise.wb_red_gain = parse_double(flag, text.substr(0, c1));
+      noise.wb_green_gain = parse_double(flag, text.substr(c1 + 1, c2 - c1 - 1));
+      noise.wb_blue_gain = parse_double(flag, text.substr(c2 + 1));
+    } else if (flag == "--seed") {
+      size_t used = 0;
+      unsigned long long seed = 0;
+      try {
+        seed = std::stoull(text, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != text.size() || text.empty() || text[0] == '-') {
+        throw UsageError("--seed needs a non-negative integer, got '" + text + "'");
+      }
+      noise.seed = seed;
+    }
+    try {
+      validate(noise);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(flag + " " + text + ": " + e.what());
+    }
+  }
+  return noise;
+}
+
+int cmd_noise(const Args& a) {
+  const auto cameras = list_cameras(std::min(a.timeout_s, 3.0));
+  const auto it = std::find_if(cameras.begin(), cameras.end(),
+                               [&](const CameraInfo& c) { return a.camera == c.name; });
+  if (it == cameras.end()) throw std::runtime_error("no camera '" + a.camera + "' is published on this machine");
+  const NoiseConfig noise = noise_from_args(a, it->noise);
+  const CameraInfo confirmed = set_camera_noise(a.camera, noise, a.timeout_s);
+  std::cout << "camera " << confirmed.name << ": noise " << describe(confirmed.noise) << " from frame "
+            << confirmed.noise_from_sequence << "\n";
+  return 0;
+}
+
 int cmd_list(const Args& a) {
   const auto cameras = list_cameras(std::min(a.timeout_s, 3.0));
   if (cameras.empty()) {
     std::cout << "no cameras\n";
     return 0;
   }
-  std::printf("%-20s %-11s %-11s %6s  %-14s %-12s %s\n", "camera", "size", "format", "fps", "lens", "body", "pid");
+  std::printf("%-20s %-11s %-11s %6s  %-14s %-12s %-8s %s\n", "camera", "size", "format", "fps", "lens", "body",
+              "pid", "noise");
   for (const CameraInfo& c : cameras) {
     const std::string size = std::to_string(c.width_px) + "x" + std::to_string(c.height_px);
     const std::string format(to_string(static_cast<PixelFormat>(c.format)));
     const std::string lens(to_string(c.lens.model));
-    std::printf("%-20s %-11s %-11s %6.1f  %-14s %-12s %d\n", c.name, size.c_str(), format.c_str(), c.fps,
-                lens.c_str(), c.body[0] ? c.body : "(world)", c.pid);
+    std::printf("%-20s %-11s %-11s %6.1f  %-14s %-12s %-8d %s\n", c.name, size.c_str(), format.c_str(), c.fps,
+                lens.c_str(), c.body[0] ? c.body : "(world)", c.pid, describe(c.noise).c_str());
   }
   return 0;
 }
@@ -212,9 +304,11 @@ int cmd_stats(const Args& a) {
 int main(int argc, char** argv) {
   try {
     const Args a = parse(argc, argv);
+    if (a.command == "noise") (void)noise_from_args(a, NoiseConfig{});  // bad values: usage error, before any RouDi
     connect_client("doppel-camera");
     if (a.command == "list") return cmd_list(a);
     if (a.command == "save") return cmd_save(a);
+    if (a.command == "noise") return cmd_noise(a);
     return cmd_stats(a);
   } catch (const UsageError& e) {
     std::cerr << "doppel-camera: " << e.what() << "\n" << kUsage;

@@ -5,25 +5,44 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include "camera/lens.h"
+#include "camera/noise.h"
 #include "camera/pixel_format.h"
+#include "physics/field.h"
 
 namespace doppel::gateway {
 
-CameraFeed::CameraFeed(const physics::World& world, const std::vector<std::vector<CameraSetup>>& cameras,
-                       const Options& options) {
+CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vector<CameraSetup>>& robot_cameras,
+                       const std::vector<WorldCameraSetup>& world_cameras, const Options& options) {
   std::vector<camera::CameraConfig> configs;
-  for (std::size_t r = 0; r < cameras.size() && r < world.robot_count(); ++r) {
-    for (const CameraSetup& setup : cameras[r]) {
+  std::set<std::string> names;
+  auto add = [&](Mount mount, const std::string& where) {
+    if (!names.insert(mount.config.name).second) {
+      throw std::invalid_argument(where + ": camera name '" + mount.config.name +
+                                  "' is already used by another camera of this run");
+    }
+    configs.push_back(mount.config);
+    mounts_.push_back(std::move(mount));
+  };
+  const std::size_t robots = world != nullptr ? world->robot_count() : 0;
+  for (std::size_t r = 0; r < robot_cameras.size() && r < robots; ++r) {
+    for (const CameraSetup& setup : robot_cameras[r]) {
       Mount mount;
       mount.robot = r;
       mount.body = setup.body;
       mount.config = setup.config;
-      configs.push_back(mount.config);
-      mounts_.push_back(std::move(mount));
+      add(std::move(mount), "robot camera");
     }
+  }
+  for (const WorldCameraSetup& setup : world_cameras) {
+    Mount mount;
+    mount.fixed = true;
+    mount.config = setup.config;
+    add(std::move(mount), setup.location);
   }
   if (mounts_.empty()) {
     return;
@@ -37,9 +56,14 @@ CameraFeed::CameraFeed(const physics::World& world, const std::vector<std::vecto
     fastest_fps = std::max(fastest_fps, mount.config.fps);
   }
   offer_period_ns_ = static_cast<int64_t>(1e9 / fastest_fps);
-  offered_X_WB_.resize(mounts_.size());
+  offered_X_WB_.assign(mounts_.size(), Eigen::Isometry3d::Identity());
   // Size the hand-over scene now, so that offer() never allocates.
-  world.fill_scene(offered_scene_);
+  if (world != nullptr) {
+    world->fill_scene(offered_scene_);
+  } else {
+    offered_scene_.shapes = physics::field_shapes();
+    offered_scene_.shapes.push_back(physics::ball_shape(Eigen::Vector3d(0.0, 0.0, 0.5 * physics::FieldSpec{}.ball_diameter_m)));
+  }
 }
 
 CameraFeed::~CameraFeed() {
@@ -49,21 +73,26 @@ CameraFeed::~CameraFeed() {
   }
 }
 
-void CameraFeed::offer(const physics::World& world) noexcept {
-  if (mounts_.empty() || world.time_ns() < next_offer_ns_) {
+void CameraFeed::offer(const physics::World* world, int64_t sim_time_ns) noexcept {
+  if (mounts_.empty() || sim_time_ns < next_offer_ns_) {
     return;
   }
   std::unique_lock lock(handover_, std::try_to_lock);
   if (!lock.owns_lock()) {
     return;  // the camera thread is copying: offer again next step
   }
-  world.fill_scene(offered_scene_);
-  for (std::size_t i = 0; i < mounts_.size(); ++i) {
-    offered_X_WB_[i] = world.body_pose(mounts_[i].robot, mounts_[i].body);
+  if (world != nullptr) {
+    world->fill_scene(offered_scene_);
+    for (std::size_t i = 0; i < mounts_.size(); ++i) {
+      if (!mounts_[i].fixed) {
+        offered_X_WB_[i] = world->body_pose(mounts_[i].robot, mounts_[i].body);
+      }
+    }
   }
-  offered_time_s_ = static_cast<double>(world.time_ns()) * 1e-9;
+  offered_time_s_ = static_cast<double>(sim_time_ns) * 1e-9;
+  offered_scene_.sim_time_s = offered_time_s_;
   fresh_ = true;
-  next_offer_ns_ = world.time_ns() + offer_period_ns_;
+  next_offer_ns_ = sim_time_ns + offer_period_ns_;
 }
 
 void CameraFeed::start() {
@@ -119,10 +148,17 @@ std::string CameraFeed::describe() const {
     out << "doppel: " << host_->description() << "\n";
   }
   for (const Mount& mount : mounts_) {
-    out << "  camera '" << mount.config.name << "' on body '" << mount.config.mount.body << "': "
-        << mount.config.width_px << "x" << mount.config.height_px << " " << camera::to_string(mount.config.format)
-        << " at " << mount.config.fps << " fps, " << camera::to_string(mount.config.lens.model)
-        << " lens (doppel-camera list / save / stats)\n";
+    const camera::CameraConfig& c = mount.config;
+    out << "  camera '" << c.name << "' ";
+    if (mount.fixed) {
+      const Eigen::Vector3d p = c.mount.X_WC.translation();
+      out << "fixed in the field at (" << p.x() << ", " << p.y() << ", " << p.z() << ") m";
+    } else {
+      out << "on body '" << c.mount.body << "'";
+    }
+    out << ": " << c.width_px << "x" << c.height_px << " " << camera::to_string(c.format) << " at " << c.fps
+        << " fps, " << camera::to_string(c.lens.model) << " lens, noise " << camera::describe(c.noise)
+        << " (doppel-camera list / save / stats / noise)\n";
   }
   return out.str();
 }
@@ -132,7 +168,8 @@ std::string CameraFeed::summary() const {
   for (const Mount& mount : mounts_) {
     const auto stats = mount.stream->stats();
     out << "  camera '" << mount.config.name << "': " << stats.published << " frames published, " << stats.dropped
-        << " dropped, " << stats.skipped_idle << " skipped with no subscriber\n";
+        << " dropped, " << stats.skipped_idle << " skipped with no subscriber, " << stats.settings_applied
+        << " settings changes applied, " << stats.settings_rejected << " refused\n";
   }
   return out.str();
 }

@@ -1,12 +1,16 @@
 #pragma once
-// The robots' cameras inside doppel: every camera mount of a simulated robot's description streams
-// through iceoryx (camera/). The simulation thread offers a copy of the scene at the cameras' frame
-// period and never waits: it takes the hand-over lock only if it is free (try_lock) and otherwise
-// offers again next step. A camera thread renders and publishes at the cameras' rates of simulation
-// time; rendering never runs on the simulation thread.
+// The cameras inside doppel: every camera mount of a simulated robot's description (a linked
+// viewpoint that moves with its body) and every camera of the session file (fixed in the field)
+// streams through iceoryx (camera/). The simulation thread offers a copy of the scene at the
+// cameras' frame period and never waits: it takes the hand-over lock only if it is free (try_lock)
+// and otherwise offers again next step. A camera thread renders and publishes at the cameras' rates
+// of simulation time; rendering never runs on the simulation thread. Between frames the camera
+// thread takes settings sent over iceoryx (doppel-camera noise); nothing on either thread allocates
+// per frame.
 
 #include <Eigen/Geometry>
 #include <atomic>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -24,18 +28,21 @@ namespace doppel::gateway {
 
 class CameraFeed {
  public:
-  // One stream per camera of every simulated robot: `cameras[w]` are the cameras of robot w of the
-  // world, named as they will be published. Starts or attaches to RouDi.
-  // Setup; throws std::runtime_error when streaming cannot start.
-  CameraFeed(const physics::World& world, const std::vector<std::vector<CameraSetup>>& cameras,
-             const Options& options);
+  // One stream per camera: `robot_cameras[w]` are the cameras of robot w of `world`, named as they
+  // will be published, and `world_cameras` are fixed in the field. Without a world (`world` null:
+  // no simulated body) the cameras see the field alone, with the ball on the centre spot. Starts or
+  // attaches to RouDi. Setup; throws std::invalid_argument when two cameras share a name and
+  // std::runtime_error when streaming cannot start.
+  CameraFeed(const physics::World* world, const std::vector<std::vector<CameraSetup>>& robot_cameras,
+             const std::vector<WorldCameraSetup>& world_cameras, const Options& options);
   ~CameraFeed();
 
   bool empty() const noexcept { return mounts_.empty(); }
 
-  // Simulation thread, after every step: hands over the scene when a frame is due. rt-safe
-  // (try_lock, and fill_scene reuses the same storage after the first call).
-  void offer(const physics::World& world) noexcept;
+  // Simulation thread, after every step (`world` as given to the constructor, `sim_time_ns` its
+  // time): hands over the scene when a frame is due. rt-safe (try_lock, and fill_scene reuses the
+  // same storage after the first call).
+  void offer(const physics::World* world, int64_t sim_time_ns) noexcept;
 
   void start();
   void stop();
@@ -45,9 +52,10 @@ class CameraFeed {
 
  private:
   struct Mount {
-    std::size_t robot = 0;                                  // robot index in the world
-    std::size_t body = 0;                                   // body the camera is mounted on
-    camera::CameraConfig config;                            // resolution, lens, X_BC
+    bool fixed = false;                                     // fixed in the field (session camera)
+    std::size_t robot = 0;                                  // robot index in the world (robot camera)
+    std::size_t body = 0;                                   // body the camera is mounted on (robot camera)
+    camera::CameraConfig config;                            // resolution, lens, noise, X_BC or X_WC
     std::unique_ptr<camera::CameraStream> stream;           // its iceoryx publisher
     double next_frame_s = 0.0;                              // simulation time of its next frame
   };
@@ -59,8 +67,8 @@ class CameraFeed {
   int64_t next_offer_ns_ = 0;             // simulation thread only
 
   std::mutex handover_;                    // guards the four members below
-  physics::SceneView offered_scene_;
-  std::vector<Eigen::Isometry3d> offered_X_WB_;  // per mount: pose of its body
+  physics::SceneView offered_scene_;       // without a world: the static field, filled once
+  std::vector<Eigen::Isometry3d> offered_X_WB_;  // per mount: pose of its body (identity when fixed)
   double offered_time_s_ = 0.0;
   bool fresh_ = false;
 

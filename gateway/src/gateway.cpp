@@ -43,6 +43,7 @@ Gateway::Gateway(const Options& options) : options_(options) {
   for (const std::string& robot : options.robots) {
     configs.push_back(load_robot(robot, robots_dir));
   }
+  const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
   // One world holds the bodies of every robot that has one.
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;
@@ -79,8 +80,8 @@ Gateway::Gateway(const Options& options) : options_(options) {
   for (std::size_t r = 0; r < configs.size(); ++r) {
     robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));
   }
-  if (world_ != nullptr && options.camera) {
-    std::vector<std::vector<CameraSetup>> cameras(world_->robot_count());  // by robot of the world
+  if (options.camera && (world_ != nullptr || !session.world_cameras.empty())) {
+    std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by robot
     for (std::size_t r = 0; r < configs.size(); ++r) {
       if (refs[r].world != nullptr) {
         cameras[refs[r].robot] = configs[r].cameras;
@@ -91,7 +92,7 @@ Gateway::Gateway(const Options& options) : options_(options) {
         }
       }
     }
-    cameras_ = std::make_unique<CameraFeed>(*world_, cameras, options_);
+    cameras_ = std::make_unique<CameraFeed>(world_.get(), cameras, session.world_cameras, options_);
   }
 }
 
@@ -138,11 +139,11 @@ void Gateway::simulate() noexcept {
     if (world_ != nullptr) {
       world_->step();
       sim_time_ns = world_->time_ns();
-      if (cameras_ != nullptr) {
-        cameras_->offer(*world_);
-      }
     } else {
       sim_time_ns += kSimulationStepNs;
+    }
+    if (cameras_ != nullptr) {
+      cameras_->offer(world_.get(), sim_time_ns);
     }
     for (auto& robot : robots_) {
       robot->sense(sim_time_ns);

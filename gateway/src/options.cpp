@@ -47,6 +47,9 @@ Options:
   --no-hold              Release every robot at start. By default a robot is held in its initial
                          pose, as a handler holds a real robot while it powers up, until its
                          driver first enables torque on one of its servos.
+  --session FILE         Session file (protobuf text, proto/session.proto): cameras fixed in the
+                         field, such as sessions/sideline-camera.textproto (a TV view from the touch
+                         line). They stream like the robots' cameras, also with --physics none.
   --no-camera            Stream no camera. By default every camera of a simulated robot's description
                          (the default robot's head camera: 640x480 YUYV, 20 fps, wide lens) streams
                          through iceoryx shared memory; see doppel-camera.
@@ -89,6 +92,11 @@ Options parse_options(int argc, const char* const* argv) {
       }
     } else if (arg == "--robots-dir") {
       options.robots_dir = value();
+    } else if (arg == "--session") {
+      options.session = value();
+      if (options.session.empty()) {
+        throw std::invalid_argument("option --session: the file name must not be empty");
+      }
     } else if (arg == "--timing") {
       std::string_view mode = value();
       if (mode == "wire") {

@@ -1,6 +1,7 @@
 #include "gateway/robot_config.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <set>
@@ -10,7 +11,9 @@
 #include "camera/pixel_format.h"
 #include "dynamixel/models.h"
 #include "dynamixel/protocol2_models.h"
+#include "physics/robot_model.h"
 #include "proto/robot_file.h"
+#include "proto/session_file.h"
 
 #ifndef DOPPEL_SOURCE_ROBOTS_DIR
 #define DOPPEL_SOURCE_ROBOTS_DIR "robots"
@@ -109,8 +112,71 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
   return config;
 }
 
-// The figure's camera mounts with their sensor and lens settings (unset fields keep the default
-// head camera's).
+// A camera's noise filters; every field is checked against camera::validate's ranges.
+camera::NoiseConfig check_noise(const proto::TextFile& file, const proto::CameraNoise& noise) {
+  camera::NoiseConfig config;
+  config.gaussian_sigma = noise.gaussian_sigma();
+  config.shot_noise_gain = noise.shot_noise_gain();
+  config.salt_pepper_fraction = noise.salt_pepper_fraction();
+  config.vignetting = noise.vignetting();
+  config.wb_red_gain = noise.has_wb_red_gain() ? noise.wb_red_gain() : 1.0;
+  config.wb_green_gain = noise.has_wb_green_gain() ? noise.wb_green_gain() : 1.0;
+  config.wb_blue_gain = noise.has_wb_blue_gain() ? noise.wb_blue_gain() : 1.0;
+  config.seed = noise.seed();
+  const std::string_view bad = camera::invalid_noise_field(config);
+  if (!bad.empty()) {
+    try {
+      camera::validate(config);
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();  // "NoiseConfig.<field> must lie in ..."
+      const std::size_t verb = what.find(" must");
+      file.fail(noise, bad, -1, verb == std::string::npos ? what : what.substr(verb + 1));
+    }
+  }
+  return config;
+}
+
+// Sensor, lens and noise settings, written alike in a robot's CameraMount and a session's
+// WorldCamera; unset fields keep the default head camera's.
+template <typename CameraMessage>
+void check_camera_settings(const proto::TextFile& file, const CameraMessage& message, camera::CameraConfig& config) {
+  if (message.width_px() != 0 || message.height_px() != 0) {
+    config.width_px = static_cast<int>(message.width_px());
+    config.height_px = static_cast<int>(message.height_px());
+  }
+  if (message.fps() != 0.0) {
+    config.fps = message.fps();
+  }
+  if (!message.format().empty()) {
+    try {
+      config.format = camera::parse_pixel_format(message.format());
+    } catch (const std::invalid_argument& e) {
+      file.fail(message, "format", -1, e.what());
+    }
+  }
+  camera::LensModel lens = config.lens.model;
+  if (!message.lens().empty()) {
+    try {
+      lens = camera::parse_lens_model(message.lens());
+    } catch (const std::invalid_argument& e) {
+      file.fail(message, "lens", -1, e.what());
+    }
+  }
+  if (message.has_noise()) {
+    config.noise = check_noise(file, message.noise());
+  }
+  const double hfov_deg = message.hfov_deg() != 0.0 ? message.hfov_deg() : 120.0;
+  try {
+    config.lens = lens == camera::LensModel::kPinhole
+                      ? camera::pinhole_from_hfov(config.width_px, config.height_px, hfov_deg)
+                      : camera::fisheye_from_hfov(lens, config.width_px, config.height_px, hfov_deg);
+    camera::validate(config);
+  } catch (const std::invalid_argument& e) {
+    file.fail(message, "name", -1, e.what());
+  }
+}
+
+// The figure's camera mounts with their sensor, lens and noise settings.
 std::vector<CameraSetup> check_cameras(const proto::RobotFile& file, const physics::RobotModel& body) {
   std::vector<CameraSetup> setups;
   const proto::Figure& figure = file.description().figure();
@@ -125,40 +191,53 @@ std::vector<CameraSetup> check_cameras(const proto::RobotFile& file, const physi
     config.mount.body = body.bodies[setup.body].name;
     // The description's mount has x along the optical axis; the camera frame has z along it.
     config.mount.X_BC = model.X_DC * camera::camera_looking_along_x(Eigen::Vector3d::Zero());
-    if (mount.width_px() != 0 || mount.height_px() != 0) {
-      config.width_px = static_cast<int>(mount.width_px());
-      config.height_px = static_cast<int>(mount.height_px());
-    }
-    if (mount.fps() != 0.0) {
-      config.fps = mount.fps();
-    }
-    if (!mount.format().empty()) {
-      try {
-        config.format = camera::parse_pixel_format(mount.format());
-      } catch (const std::invalid_argument& e) {
-        file.fail(mount, "format", -1, e.what());
-      }
-    }
-    camera::LensModel lens = config.lens.model;
-    if (!mount.lens().empty()) {
-      try {
-        lens = camera::parse_lens_model(mount.lens());
-      } catch (const std::invalid_argument& e) {
-        file.fail(mount, "lens", -1, e.what());
-      }
-    }
-    const double hfov_deg = mount.hfov_deg() != 0.0 ? mount.hfov_deg() : 120.0;
-    try {
-      config.lens = lens == camera::LensModel::kPinhole
-                        ? camera::pinhole_from_hfov(config.width_px, config.height_px, hfov_deg)
-                        : camera::fisheye_from_hfov(lens, config.width_px, config.height_px, hfov_deg);
-      camera::validate(config);
-    } catch (const std::invalid_argument& e) {
-      file.fail(mount, "name", -1, e.what());
-    }
+    check_camera_settings(file, mount, config);
     setups.push_back(std::move(setup));
   }
   return setups;
+}
+
+bool finite(const proto::Vector3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+
+SessionConfig check_session(const proto::SessionFile& file) {
+  const proto::Session& session = file.session();
+  SessionConfig config;
+  config.source = file.path();
+  std::set<std::string> names;
+  for (int c = 0; c < session.camera_size(); ++c) {
+    const proto::WorldCamera& world_camera = session.camera(c);
+    if (world_camera.name().empty()) {
+      file.fail(world_camera, "name", -1, "missing camera name");
+    }
+    if (!names.insert(world_camera.name()).second) {
+      file.fail(world_camera, "name", -1, "camera '" + world_camera.name() + "' is named twice");
+    }
+    if (!world_camera.has_pose()) {
+      file.fail(world_camera, "pose", -1, "missing pose (camera position_m and rpy_deg in the field frame)");
+    }
+    const proto::Pose& pose = world_camera.pose();
+    if (!finite(pose.position_m())) {
+      file.fail(pose, "position_m", -1, "must be finite");
+    }
+    if (!finite(pose.rpy_deg())) {
+      file.fail(pose, "rpy_deg", -1, "must be finite");
+    }
+    WorldCameraSetup setup;
+    setup.location = file.location(session, "camera", c);
+    camera::CameraConfig& camera_config = setup.config;
+    camera_config = camera::default_head_camera();
+    camera_config.name = world_camera.name();
+    camera_config.mount.kind = camera::CameraMount::Kind::kWorld;
+    camera_config.mount.body.clear();
+    // Written like a body mount (x along the optical axis); the camera frame has z along it.
+    Eigen::Isometry3d X_WM = Eigen::Isometry3d::Identity();
+    X_WM.linear() = physics::rotation_from_rpy_deg(pose.rpy_deg().x(), pose.rpy_deg().y(), pose.rpy_deg().z());
+    X_WM.translation() = Eigen::Vector3d(pose.position_m().x(), pose.position_m().y(), pose.position_m().z());
+    camera_config.mount.X_WC = X_WM * camera::camera_looking_along_x(Eigen::Vector3d::Zero());
+    check_camera_settings(file, world_camera, camera_config);
+    config.world_cameras.push_back(std::move(setup));
+  }
+  return config;
 }
 
 RobotConfig check_robot(const proto::RobotFile& file) {
@@ -225,6 +304,12 @@ RobotConfig load_robot(const std::string& name_or_file, const std::string& robot
 
 RobotConfig parse_robot(const std::string& text, const std::string& path) {
   return check_robot(proto::RobotFile::parse(text, path));
+}
+
+SessionConfig load_session(const std::string& path) { return check_session(proto::SessionFile::load(path)); }
+
+SessionConfig parse_session(const std::string& text, const std::string& path) {
+  return check_session(proto::SessionFile::parse(text, path));
 }
 
 }  // namespace doppel::gateway

@@ -1,114 +1,15 @@
 #include "proto/robot_file.h"
 
-#include <google/protobuf/io/tokenizer.h>
-
-#include <fstream>
-#include <sstream>
-#include <stdexcept>
+#include <memory>
 
 namespace doppel::proto {
-namespace {
 
-using google::protobuf::Descriptor;
-using google::protobuf::FieldDescriptor;
-using google::protobuf::Message;
-using google::protobuf::Reflection;
-using google::protobuf::TextFormat;
-
-// Collects the first syntax error with its position (protobuf lines and columns are 0-based).
-class FirstError : public google::protobuf::io::ErrorCollector {
- public:
-  void AddError(int line, int column, const std::string& message) override {
-    if (message_.empty()) {
-      message_ = std::to_string(line + 1) + ":" + std::to_string(column + 1) + ": " + message;
-    }
-  }
-  void AddWarning(int, int, const std::string&) override {}
-  const std::string& message() const { return message_; }
-
- private:
-  std::string message_;
-};
-
-std::string position_text(const TextFormat::ParseLocation& where) {
-  return std::to_string(where.line + 1) + ":" + std::to_string(where.column + 1);
-}
-
-}  // namespace
-
-RobotFile RobotFile::load(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
-    throw std::runtime_error(path + ": cannot read robot description file");
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse(text.str(), path);
-}
+RobotFile RobotFile::load(const std::string& path) { return parse(read(path, "robot description file"), path); }
 
 RobotFile RobotFile::parse(std::string_view text, const std::string& path) {
   RobotFile file;
-  file.path_ = path;
-  file.description_ = std::make_unique<RobotDescription>();
-  file.tree_ = std::make_unique<TextFormat::ParseInfoTree>();
-  FirstError errors;
-  TextFormat::Parser parser;
-  parser.RecordErrorsTo(&errors);
-  parser.WriteLocationsTo(file.tree_.get());
-  if (!parser.ParseFromString(std::string(text), file.description_.get())) {
-    throw std::runtime_error(path + ":" + errors.message());
-  }
-  file.index_locations(*file.description_, file.tree_.get(), "1:1");
+  file.parse_into(std::make_unique<RobotDescription>(), text, path);
   return file;
-}
-
-void RobotFile::index_locations(const Message& message, const TextFormat::ParseInfoTree* tree,
-                                std::string position) {
-  nodes_[&message] = Node{tree, std::move(position)};
-  const Descriptor* descriptor = message.GetDescriptor();
-  const Reflection* reflection = message.GetReflection();
-  for (int f = 0; f < descriptor->field_count(); ++f) {
-    const FieldDescriptor* field = descriptor->field(f);
-    if (field->cpp_type() != FieldDescriptor::CPPTYPE_MESSAGE) {
-      continue;
-    }
-    if (field->is_repeated()) {
-      for (int i = 0; i < reflection->FieldSize(message, field); ++i) {
-        index_locations(reflection->GetRepeatedMessage(message, field, i), tree->GetTreeForNested(field, i),
-                        position_text(tree->GetLocation(field, i)));
-      }
-    } else if (reflection->HasField(message, field)) {
-      index_locations(reflection->GetMessage(message, field), tree->GetTreeForNested(field, -1),
-                      position_text(tree->GetLocation(field, -1)));
-    }
-  }
-}
-
-std::string RobotFile::location(const Message& message, std::string_view field, int index) const {
-  auto node = nodes_.find(&message);
-  if (node == nodes_.end()) {
-    return path_;
-  }
-  const FieldDescriptor* descriptor = message.GetDescriptor()->FindFieldByName(std::string(field));
-  bool present = descriptor != nullptr &&
-                 (descriptor->is_repeated()
-                      ? index >= 0 && index < message.GetReflection()->FieldSize(message, descriptor)
-                      : index < 0);
-  if (present && node->second.tree != nullptr) {
-    TextFormat::ParseLocation where = node->second.tree->GetLocation(descriptor, index);
-    if (where.line >= 0) {
-      return path_ + ":" + position_text(where);
-    }
-  }
-  return path_ + ":" + node->second.position;
-}
-
-void RobotFile::fail(const Message& message, std::string_view field, int index, std::string_view what) const {
-  std::string field_path = message.GetDescriptor()->name() + "." + std::string(field);
-  if (index >= 0) {
-    field_path += "[" + std::to_string(index) + "]";
-  }
-  throw std::invalid_argument(location(message, field, index) + ": " + field_path + ": " + std::string(what));
 }
 
 }  // namespace doppel::proto

@@ -26,6 +26,14 @@ void connect_client(const std::string& app_name);
 // Cameras whose info topic can be found within `timeout_s`. Requires connect_client() or a host.
 std::vector<CameraInfo> list_cameras(double timeout_s = 1.0);
 
+// Changes the noise filters of camera `camera` in the process that publishes it (a running doppel)
+// through its settings topic, and waits until the camera confirms. Returns the camera's CameraInfo
+// as confirmed: `noise` in use and `noise_from_sequence`, the first frame rendered with it.
+// Requires connect_client() or a host. Throws std::invalid_argument for out-of-range values (the
+// message names the field and its range), std::runtime_error when the camera is not published or
+// does not confirm within `timeout_s` (its camera thread renders no frames). Setup code.
+CameraInfo set_camera_noise(const std::string& camera, const NoiseConfig& noise, double timeout_s = 3.0);
+
 class FrameSubscriber;
 
 // A frame held in shared memory. Move-only; the chunk goes back to the publisher's pool on

@@ -5,6 +5,8 @@
 // same whatever the thread count, and with every filter off the frame is untouched.
 
 #include <cstdint>
+#include <string>
+#include <string_view>
 
 namespace doppel::camera {
 
@@ -22,8 +24,16 @@ struct NoiseConfig {
   bool active() const noexcept;
 };
 
-// Throws std::invalid_argument naming the field that is out of range.
+// Throws std::invalid_argument naming the field that is out of range and its range, e.g.
+// "NoiseConfig.gaussian_sigma must lie in [0, 255], got -1". NaN is out of every range.
 void validate(const NoiseConfig& config);
+
+// The first field out of range ("gaussian_sigma", ...), or "" when `config` is valid. rt-safe, for
+// settings that arrive while streaming.
+std::string_view invalid_noise_field(const NoiseConfig& config) noexcept;
+
+// One line for users: "off", or the active filters, e.g. "gaussian 2, salt-pepper 0.001, seed 7".
+std::string describe(const NoiseConfig& config);
 
 class NoiseFilter {
  public:

@@ -6,7 +6,9 @@
 // so. CameraStream is one camera's publisher. iceoryx types stay out of this header.
 //
 // Services: ("DoppelCamera", <camera name>, "frames") carries frames, ("DoppelCamera", <name>,
-// "info") a CameraInfo with history 1 for discovery.
+// "info") a CameraInfo with history 1 for discovery and the current settings, and ("DoppelCamera",
+// <name>, "settings") takes NoiseRequests from other processes (doppel-camera noise), which the
+// camera thread polls between frames.
 
 #include <Eigen/Geometry>
 
@@ -47,6 +49,19 @@ struct CameraInfo {
   LensConfig lens;              // intrinsics
   uint32_t payload_bytes = 0;   // chunk payload per frame
   int32_t pid = 0;              // publishing process
+  NoiseConfig noise;            // noise filters in use (republished whenever they change)
+  uint64_t noise_request_id = 0;      // NoiseRequest::request_id that set them; 0 = configuration
+  uint64_t noise_from_sequence = 0;   // first frame sequence number rendered with them
+  uint64_t settings_rejected = 0;     // NoiseRequests refused (out of range), since start
+};
+
+// A settings change sent to a running camera on ("DoppelCamera", <name>, "settings"). The camera
+// applies it before its next frame and republishes its CameraInfo with `request_id`, which is how
+// the sender learns that (and from which frame) it took effect. Out-of-range values are refused and
+// counted in CameraInfo::settings_rejected.
+struct NoiseRequest {
+  uint64_t request_id = 0;  // chosen by the sender, non-zero, echoed in CameraInfo::noise_request_id
+  NoiseConfig noise;        // the complete new settings
 };
 
 class StreamingHost {
@@ -78,6 +93,8 @@ struct StreamStats {
   uint64_t published = 0;        // frames handed to iceoryx
   uint64_t dropped = 0;          // frames due but not delivered: no free chunk
   uint64_t skipped_idle = 0;     // frames not rendered because nobody subscribed
+  uint64_t settings_applied = 0;   // noise changes taken over (set_noise() or a NoiseRequest)
+  uint64_t settings_rejected = 0;  // NoiseRequests refused because a value was out of range
   double last_render_ms = 0.0;   // wall time of the last render
 };
 
@@ -94,8 +111,8 @@ class CameraStream {
   // Loans a chunk, renders `scene` seen from X_WC into it and publishes it, stamped with
   // `sim_time_s`. Returns true when a frame was published; false when nobody subscribes (nothing is
   // rendered) or no chunk was free (the frame is dropped for everyone and counted). Never blocks on
-  // subscribers. Called by the camera thread at the camera's rate; allocates nothing after the
-  // first frame.
+  // subscribers. Calls poll_settings() first. Called by the camera thread at the camera's rate;
+  // allocates nothing after the first frame.
   bool render_and_publish(const physics::SceneView& scene, const Eigen::Isometry3d& X_WC, double sim_time_s);
 
   // The two halves of render_and_publish, for callers that fill frames themselves (benchmarks,
@@ -109,6 +126,13 @@ class CameraStream {
   // Changes the noise filters from any thread; the next frame uses them. Throws
   // std::invalid_argument for out-of-range values.
   void set_noise(const NoiseConfig& noise);
+
+  // Takes pending settings (set_noise() and NoiseRequests on the settings topic), applies the last
+  // valid one and republishes the CameraInfo. Returns true when the settings changed. Camera thread,
+  // between frames; never blocks (the set_noise() hand-over is a try_lock), allocates nothing.
+  bool poll_settings() noexcept;
+  // The noise filters in use. Camera thread.
+  const NoiseConfig& noise() const noexcept;
 
   bool has_subscribers() const noexcept;
   StreamStats stats() const noexcept;

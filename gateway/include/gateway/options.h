@@ -14,6 +14,7 @@ struct Options {
   std::vector<std::string> robots;       // robot names (robots/NAME.textproto) or files; empty = default robot
   std::string link_dir = "/tmp/doppel";  // where the stable ttyDXL links go
   std::string robots_dir;                // where robot names are looked up; empty = built-in default
+  std::string session;                   // --session FILE: cameras fixed in the field; empty = none
   bus::TimingMode timing = bus::TimingMode::kWire;  // --timing wire|fast
   double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
   uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)

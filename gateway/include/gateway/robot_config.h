@@ -43,6 +43,18 @@ struct RobotConfig {
   std::vector<CameraSetup> cameras;              // its cameras (figure camera mounts), in file order
 };
 
+// A camera fixed in the field, from a session file.
+struct WorldCameraSetup {
+  camera::CameraConfig config;  // name, sensor, lens, noise; mount kWorld with X_WC
+  std::string location;         // "file:line:column" of its entry, for messages about it
+};
+
+// What a session file (--session, proto/session.proto) adds to the run.
+struct SessionConfig {
+  std::string source;                          // file it was read from
+  std::vector<WorldCameraSetup> world_cameras;  // cameras fixed in the field, in file order
+};
+
 // The default robots directory: $DOPPEL_ROBOTS_DIR, else the robots/ folder of the source tree.
 std::string default_robots_dir();
 
@@ -59,5 +71,13 @@ RobotConfig load_robot(const std::string& name_or_file, const std::string& robot
 
 // Parses robot text (for tests); `path` names it in error messages.
 RobotConfig parse_robot(const std::string& text, const std::string& path);
+
+// Loads and checks a session file. Throws std::runtime_error (unreadable, syntax) or
+// std::invalid_argument ("file:line:col: Type.field: what") for semantic errors (missing name or
+// pose, duplicate name, a setting out of range).
+SessionConfig load_session(const std::string& path);
+
+// Parses session text (for tests); `path` names it in error messages.
+SessionConfig parse_session(const std::string& text, const std::string& path);
 
 }  // namespace doppel::gateway
