@@ -50,10 +50,20 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
   }
 }
 
+TEST(Options, SessionFileIsTakenAndMustBeNamed) {
+  Options sut = parse({"--session", "sessions/sideline-camera.textproto"});
+
+  EXPECT_EQ(sut.session, "sessions/sideline-camera.textproto");
+  EXPECT_TRUE(parse({}).session.empty());
+  EXPECT_THROW(parse({"--session"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--session", ""}), std::invalid_argument);
+}
+
 TEST(Options, HelpDocumentsEveryOption) {
   std::string text = usage();
   for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
-                             "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>"}) {
+                             "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>",
+                             "--session", "--no-camera", "--external-roudi"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
   }
 }
