@@ -43,6 +43,7 @@ BusServer::BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusSer
       devices_(devices),
       sync_(sync),
       options_(validated(options)),
+      spin_budget_(options.spin_budget != nullptr ? *options.spin_budget : SpinBudget::process()),
       timing_(options.timing_mode, options.processing_ns),
       adapter_(options.timing_mode == TimingMode::kFast ? 0 : options.adapter_latency_ms) {
   if (options.adapter_latency_ms > AdapterLatency::kMaxLatencyMs) {
@@ -75,10 +76,11 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
   if (sync_ != nullptr) max_wait_ns = std::min(max_wait_ns, kTickNs);
   write_due();
 
-  // Sleep until input arrives or shortly before the next delivery is due.
+  // Sleep until input arrives or the next delivery is due (shortly before, if it can spin the rest).
   int64_t wait_ns = std::max<int64_t>(max_wait_ns, 0);
   if (!schedule_.empty() && !write_blocked_) {
-    wait_ns = std::clamp(schedule_.front_due_ns() - now_ns() - options_.spin_ns, int64_t{0}, wait_ns);
+    const int64_t lead_ns = spin_budget_.has_free_slot() ? options_.spin_ns : 0;
+    wait_ns = std::clamp(schedule_.front_due_ns() - now_ns() - lead_ns, int64_t{0}, wait_ns);
   }
   if (write_blocked_) wait_ns = std::min(wait_ns, kWriteRetryNs);
   const PortWait woke = port_.wait(wait_ns, write_blocked_);
@@ -91,15 +93,24 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
     return;
   }
 
-  // Close to the due time: spin the rest for accuracy, then write.
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t due_ns = schedule_.front_due_ns();
-    if (due_ns - now_ns() <= options_.spin_ns) {
-      while (now_ns() < due_ns) {
-      }
-    }
+    if (due_ns - now_ns() <= options_.spin_ns) await_due(due_ns);
     write_due();
   }
+}
+
+void BusServer::await_due(int64_t due_ns) noexcept {
+  // Close to the due time: spin the rest for accuracy if a core is free for it, else sleep to the
+  // due time itself. Input that wakes the sleep early is read on the next pass.
+  if (spin_budget_.try_acquire()) {
+    while (now_ns() < due_ns) {
+    }
+    spin_budget_.release();
+    return;
+  }
+  const int64_t left_ns = due_ns - now_ns();
+  if (left_ns > 0) port_.wait(left_ns, false);
 }
 
 void BusServer::read_input() noexcept {

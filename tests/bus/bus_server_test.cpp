@@ -203,6 +203,27 @@ TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
   ::close(client);
 }
 
+TEST(BusServer, WithoutASpinSlotItSleepsToTheDueTimeAndIsStillNeverEarly) {
+  FakeDevice servo(1, kPing1Status, {}, 57'600, 500);
+  SpinBudget no_spinning(0);
+  BusServerOptions options;
+  options.spin_budget = &no_spinning;
+  options.record_traces = true;
+  ServedBus sut(options, {&servo});
+  const int client = open_sdk_client(sut.path(), B57600);
+  ASSERT_GE(client, 0);
+
+  ASSERT_TRUE(write_all(client, kPing1));
+  const Bytes reply = read_bytes(client, 6, 1s);
+  ReplyTrace trace;
+  const bool traced = sut.eventually([&](const BusDiagnostics&) { return sut.server().traces().try_pop(trace); });
+
+  EXPECT_EQ(reply, kPing1Status);
+  ASSERT_TRUE(traced);
+  EXPECT_GE(trace.written_ns, trace.due_ns);
+  ::close(client);
+}
+
 TEST(BusServer, AdapterLatencyHoldsReplyUntilATimerExpiry) {
   FakeDevice servo(1, kPing1Status, {});
   BusServerOptions options;

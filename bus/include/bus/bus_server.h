@@ -17,6 +17,7 @@
 #include "bus/adapter_latency.h"
 #include "bus/pty_port.h"
 #include "bus/reply_schedule.h"
+#include "bus/spin_budget.h"
 #include "bus/spsc_queue.h"
 #include "bus/wire_timing.h"
 #include "dynamixel/bus_devices.h"
@@ -29,6 +30,7 @@ struct BusServerOptions {
   int64_t processing_ns = WireTiming::kDefaultProcessingNs;  // device firmware time before RDT, ns
   uint32_t adapter_latency_ms = 0;   // USB adapter latency timer, ms (0 = none, FTDI default 16); wire mode only
   int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
+  SpinBudget* spin_budget = nullptr; // who may busy-wait at once; nullptr = SpinBudget::process()
   int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
   int64_t idle_wait_ns = 10'000'000;    // longest single wait: bounds how soon run() notices stop
   bool record_traces = false;           // push one ReplyTrace per reply into traces()
@@ -126,6 +128,7 @@ class BusServer {
   void dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
                 uint32_t baud_bps) noexcept;
   void write_due() noexcept;
+  void await_due(int64_t due_ns) noexcept;
   void on_connect() noexcept;
   void on_hang_up() noexcept;
 
@@ -133,6 +136,7 @@ class BusServer {
   dynamixel::BusDevices& devices_;
   DeviceSync* sync_;
   BusServerOptions options_;
+  SpinBudget& spin_budget_;
   WireTiming timing_;
   AdapterLatency adapter_;
   void tick() noexcept;
