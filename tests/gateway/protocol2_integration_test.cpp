@@ -44,9 +44,12 @@ Bytes cat(Bytes a, const Bytes& b) {
 
 Bytes read_params(uint16_t address, uint16_t length) { return cat(le16(address), le16(length)); }
 
+// The bus, not the body: the servos move kinematically from 0 rad (Present Position 2048), as
+// --physics none runs them (x430_physics_test.cpp drives the simulated body).
 class X430Robot : public ::testing::Test {
  protected:
-  explicit X430Robot(const char* timing = "fast") : doppel_({"--robot", "fumanoid-x430", "--timing", timing}, "ttyDXL3") {
+  explicit X430Robot(const char* timing = "fast")
+      : doppel_({"--robot", "fumanoid-x430", "--physics", "none", "--timing", timing}, "ttyDXL3") {
     for (int bus = 0; bus < 4; ++bus) {
       clients_.push_back(std::make_unique<SerialClient>(doppel_.link("ttyDXL" + std::to_string(bus)), kBaud));
     }
