@@ -315,6 +315,20 @@ TEST_F(X430RobotWire, SyncReadChainArrivesWhole) {
   EXPECT_GE(ms, 6 * 0.55);  // never earlier than the wire model
 }
 
+TEST_F(X430Robot, ProtocolTypeSwitchesAServoToProtocol1OverTheWire) {
+  // WRITE Protocol Type (13) := 1 to ID 3 on the arms bus: answered in Protocol 2.0 (§2.2's empty status).
+  EXPECT_EQ(write(1, 3, 13, {1}), p2_status(3, 0));
+  // Now ID 3 answers Protocol 1.0 (§1.1 framing and checksum) and no longer Protocol 2.0.
+  EXPECT_EQ(bus(1).transact(p1_instruction(3, 0x01), 6), (Bytes{0xFF, 0xFF, 0x03, 0x02, 0x00, 0xFA}));
+  EXPECT_TRUE(bus(1).transact(p2_instruction(3, kPing), 14, 50).empty());
+  // READ 0, 2 over P1: model number 1020 (0x03FC); the other servos on the bus still speak P2.
+  EXPECT_EQ(bus(1).transact(p1_instruction(3, kRead, {0, 2}), 8), (Bytes{0xFF, 0xFF, 0x03, 0x04, 0x00, 0xFC, 0x03, 0xF9}));
+  EXPECT_EQ(bus(1).transact(p2_instruction(4, kPing), 14), p2_status(4, 0, kXmPing));
+  // WRITE 13 := 2 over P1, answered in P1; then P2 again.
+  EXPECT_EQ(bus(1).transact(p1_instruction(3, kWrite, {13, 2}), 6), (Bytes{0xFF, 0xFF, 0x03, 0x02, 0x00, 0xFA}));
+  EXPECT_EQ(bus(1).transact(p2_instruction(3, kPing), 14), p2_status(3, 0, kXmPing));
+}
+
 TEST(Protocol2RobotConfig, ProtocolTwoBusesLoadAndAreChecked) {
   const std::string bus = "name: \"r\" bus { baud_bps: 4000000 protocol: PROTOCOL_2 ";
   const gateway::RobotConfig ok = gateway::parse_robot(bus + "device { id: 1 model: \"XL430-W250\" } }", "ok.textproto");
@@ -329,6 +343,13 @@ TEST(Protocol2RobotConfig, ProtocolTwoBusesLoadAndAreChecked) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("Protocol 1.0 model"), std::string::npos) << e.what();
   }
+  // MX servos with the Protocol 2.0 firmware by their e-Manual names; on a P1 bus they are named as P2 models.
+  EXPECT_NO_THROW(gateway::parse_robot(bus + "device { id: 1 model: \"MX-28(2.0)\" } device { id: 2 model: "
+                                             "\"MX-64(2.0)\" } device { id: 3 model: \"MX-106(2.0)\" } }",
+                                       "mx2.textproto"));
+  EXPECT_THROW(gateway::parse_robot("name: \"r\" bus { baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "
+                                    "\"MX-64(2.0)\" } }", "mx2p1.textproto"),
+               std::invalid_argument);
   // 4.5 Mbps exists on the X series (index 7), 5 Mbps only on the CORE board.
   EXPECT_NO_THROW(gateway::parse_robot("name: \"r\" bus { baud_bps: 4500000 protocol: PROTOCOL_2 device { id: 1 model: "
                                        "\"XM430-W350\" } }", "b.textproto"));
