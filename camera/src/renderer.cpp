@@ -42,6 +42,7 @@ struct Prim {
   float bound_r = 0.0f;       // bounding-sphere radius about centre_C
   float near_t = 0.0f;        // no hit can be nearer than this along any ray
   float colour[3] = {0, 0, 0};
+  uint32_t order = 0;         // position in the scene: ties in near_t keep scene order
 };
 
 struct Cone {
@@ -513,6 +514,7 @@ struct Renderer::Impl {
       p.colour[0] = s.colour.r;
       p.colour[1] = s.colour.g;
       p.colour[2] = s.colour.b;
+      p.order = static_cast<uint32_t>(prims.size());
       prims.push_back(p);
     }
     for (Group& g : groups) {
@@ -521,7 +523,10 @@ struct Renderer::Impl {
         g.ref_W = {c.x(), c.y(), g.box_W.min().z()};
       }
     }
-    std::stable_sort(prims.begin(), prims.end(), [](const Prim& a, const Prim& b) { return a.near_t < b.near_t; });
+    // std::sort with a tie-break instead of std::stable_sort, whose temporary buffer allocates per frame.
+    std::sort(prims.begin(), prims.end(), [](const Prim& a, const Prim& b) {
+      return a.near_t < b.near_t || (a.near_t == b.near_t && a.order < b.order);
+    });
     stats.primitives = static_cast<uint32_t>(prims.size());
   }
 
