@@ -204,6 +204,9 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
     desc.X_WB = X_WR * body.X_RB;
     desc.material = body.material;
     desc.group = static_cast<uint32_t>(index);
+    // A limb turning at servo speed (5 rad/s) with 1e-4 kg m^2 feels a gyroscopic torque of
+    // milli-newton-metres against servo torques of newton-metres: not worth integrating.
+    desc.gyroscopic = false;
     desc.report_contacts = std::any_of(model.feet.begin(), model.feet.end(),
                                        [&](const FootModel& f) { return f.body == static_cast<int>(b); });
     const int id = backend_->add_body(desc);

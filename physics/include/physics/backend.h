@@ -36,6 +36,7 @@ struct BodyDesc {
   MaterialSpec material;
   uint32_t group = kGroupBall;         // collision group, 0..7
   bool report_contacts = false;        // contacts() will be asked for this body
+  bool gyroscopic = true;              // integrate the gyroscopic torque w x (I w)
 };
 
 struct JointDesc {

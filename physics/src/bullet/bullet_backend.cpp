@@ -140,7 +140,9 @@ struct Joint {
   int child = -1;
   int parent = -1;                 // -1 = world
   Eigen::Vector3d axis_P;          // axis in the parent's frame (world if no parent)
-  Eigen::Quaterniond q_rel0;       // parent-to-child rotation at creation
+  btVector3 ref_C;                 // a unit vector normal to the axis, fixed in the child
+  btVector3 ref_P0;                // the same vector at creation, in the parent's frame
+  btVector3 ref_P0_normal;         // axis x ref_P0, parent's frame
   Eigen::Vector3d anchor_C;        // anchor in the child's frame
   Eigen::Vector3d anchor_P;        // anchor in the parent's frame
   std::unique_ptr<btTypedConstraint> constraint;
@@ -150,6 +152,37 @@ struct Joint {
 struct Reported {
   int body = -1;
   ContactForce force;
+};
+
+// The dynamics world with two passes skipped that do nothing for Doppel. Without continuous
+// collision detection (no body sets a CCD threshold) the predictive-contact pass only integrates
+// every body once more; and with sleeping disabled, simulation islands only sort the constraints
+// every step: one solver call over all bodies, contacts and constraints gives the same answer.
+class BulletWorld final : public btDiscreteDynamicsWorld {
+ public:
+  using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
+
+  void add_solver_body(btRigidBody* body) { solver_bodies_.push_back(body); }
+
+ protected:
+  void createPredictiveContacts(btScalar) override {}
+
+  void calculateSimulationIslands() override {}
+
+  void solveConstraints(btContactSolverInfo& info) override {
+    const int bodies = solver_bodies_.size();
+    const int manifolds = m_dispatcher1->getNumManifolds();
+    const int constraints = m_constraints.size();
+    m_constraintSolver->prepareSolve(bodies, manifolds);
+    m_constraintSolver->solveGroup(bodies > 0 ? &solver_bodies_[0] : nullptr, bodies,
+                                   manifolds > 0 ? m_dispatcher1->getInternalManifoldPointer() : nullptr, manifolds,
+                                   constraints > 0 ? &m_constraints[0] : nullptr, constraints, info, m_debugDrawer,
+                                   m_dispatcher1);
+    m_constraintSolver->allSolved(info, m_debugDrawer);
+  }
+
+ private:
+  btAlignedObjectArray<btCollisionObject*> solver_bodies_;
 };
 
 class BulletBackend final : public Backend {
@@ -176,7 +209,7 @@ class BulletBackend final : public Backend {
     dispatcher_ = std::make_unique<btCollisionDispatcher>(configuration_.get());
     broadphase_ = std::make_unique<btDbvtBroadphase>();
     solver_ = std::make_unique<btSequentialImpulseConstraintSolver>();
-    world_ = std::make_unique<btDiscreteDynamicsWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(),
+    world_ = std::make_unique<BulletWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(),
                                                        configuration_.get());
     world_->setGravity(btVector3(0.0, 0.0, -options.gravity_m_s2));
     btContactSolverInfo& info = world_->getSolverInfo();
@@ -198,10 +231,12 @@ class BulletBackend final : public Backend {
     info.m_angularSleepingThreshold = 0.0;
     auto body = std::make_unique<btRigidBody>(info);
     body->setActivationState(DISABLE_DEACTIVATION);
+    if (!desc.gyroscopic) body->setFlags(body->getFlags() & ~BT_ENABLE_GYROSCOPIC_FORCE_IMPLICIT_BODY);
     const int index = static_cast<int>(bodies_.size());
     body->setUserIndex(index);
     const int bit = 1 << desc.group;
     world_->addRigidBody(body.get(), bit, desc.group == kGroupBall ? ~0 : ~bit);
+    world_->add_solver_body(body.get());
     bodies_.push_back(std::move(body));
     report_.push_back(desc.report_contacts);
     pins_.emplace_back();
@@ -248,12 +283,16 @@ class BulletBackend final : public Backend {
     joint.child = desc.child;
     joint.parent = desc.parent;
     joint.axis_P = X_WP.linear().transpose() * desc.axis_W;
-    joint.q_rel0 = Eigen::Quaterniond(X_WP.linear().transpose() * X_WC.linear());
+    const Eigen::Vector3d ref_W = X_WJ.linear().col(0);
+    joint.ref_C = bt(Eigen::Vector3d(X_WC.linear().transpose() * ref_W));
+    joint.ref_P0 = bt(Eigen::Vector3d(X_WP.linear().transpose() * ref_W));
+    joint.ref_P0_normal = bt(Eigen::Vector3d(joint.axis_P.cross(X_WP.linear().transpose() * ref_W)));
     joint.anchor_C = X_WC.inverse() * desc.anchor_W;
     joint.anchor_P = X_WP.inverse() * desc.anchor_W;
     switch (desc.type) {
       case JointType::kRevolute: {
         auto hinge = std::make_unique<btHingeConstraint>(child, parent, frame_C, frame_P);
+        hinge->setUseFrameOffset(false);  // the classic rows: as stable here, fewer operations
         if (desc.limited) {
           // Find the hinge's sign convention relative to ours (child about +axis relative to parent).
           Eigen::Isometry3d turned = Eigen::Translation3d(desc.anchor_W) * Eigen::AngleAxisd(0.1, desc.axis_W) *
@@ -355,25 +394,28 @@ class BulletBackend final : public Backend {
   JointReading joint(int index) const noexcept override {
     const Joint& j = joints_[static_cast<size_t>(index)];
     const btRigidBody& child = *bodies_[static_cast<size_t>(j.child)];
-    const Eigen::Isometry3d X_WC = eig(child.getWorldTransform());
-    Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
-    Eigen::Vector3d v_P = Eigen::Vector3d::Zero(), w_P = Eigen::Vector3d::Zero();
-    if (j.parent >= 0) {
-      const btRigidBody& parent = *bodies_[static_cast<size_t>(j.parent)];
-      X_WP = eig(parent.getWorldTransform());
-      v_P = eig(parent.getLinearVelocity());
-      w_P = eig(parent.getAngularVelocity());
-    }
-    const Eigen::Vector3d axis_W = X_WP.linear() * j.axis_P;
-    const Eigen::Vector3d w_C = eig(child.getAngularVelocity());
+    const btRigidBody* parent = j.parent >= 0 ? bodies_[static_cast<size_t>(j.parent)].get() : nullptr;
     if (j.type == JointType::kRevolute) {
-      const Eigen::Quaterniond q_rel(X_WP.linear().transpose() * X_WC.linear());
-      Eigen::Quaterniond motion = q_rel * j.q_rel0.conjugate();
-      if (motion.w() < 0.0) motion.coeffs() = -motion.coeffs();
-      const double angle = 2.0 * std::atan2(motion.vec().dot(j.axis_P), motion.w());
-      return JointReading{angle, axis_W.dot(w_C - w_P)};
+      // The angle turns the child's reference vector, seen from the parent, about the axis.
+      const btVector3 ref_W = child.getWorldTransform().getBasis() * j.ref_C;
+      const btVector3 ref_P = parent != nullptr ? parent->getWorldTransform().getBasis().transpose() * ref_W : ref_W;
+      const btVector3 axis_W =
+          parent != nullptr ? parent->getWorldTransform().getBasis() * bt(j.axis_P) : bt(j.axis_P);
+      const btVector3 w_rel =
+          child.getAngularVelocity() - (parent != nullptr ? parent->getAngularVelocity() : btVector3(0.0, 0.0, 0.0));
+      return JointReading{std::atan2(ref_P.dot(j.ref_P0_normal), ref_P.dot(j.ref_P0)), axis_W.dot(w_rel)};
     }
     if (j.type == JointType::kPrismatic) {
+      const Eigen::Isometry3d X_WC = eig(child.getWorldTransform());
+      Eigen::Isometry3d X_WP = Eigen::Isometry3d::Identity();
+      Eigen::Vector3d v_P = Eigen::Vector3d::Zero(), w_P = Eigen::Vector3d::Zero();
+      if (parent != nullptr) {
+        X_WP = eig(parent->getWorldTransform());
+        v_P = eig(parent->getLinearVelocity());
+        w_P = eig(parent->getAngularVelocity());
+      }
+      const Eigen::Vector3d axis_W = X_WP.linear() * j.axis_P;
+      const Eigen::Vector3d w_C = eig(child.getAngularVelocity());
       const Eigen::Vector3d p_C = X_WC * j.anchor_C;
       const Eigen::Vector3d p_P = X_WP * j.anchor_P;
       const Eigen::Vector3d v_C = eig(child.getLinearVelocity()) + w_C.cross(p_C - X_WC.translation());
@@ -481,7 +523,7 @@ class BulletBackend final : public Backend {
   std::unique_ptr<btCollisionDispatcher> dispatcher_;
   std::unique_ptr<btBroadphaseInterface> broadphase_;
   std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
-  std::unique_ptr<btDiscreteDynamicsWorld> world_;
+  std::unique_ptr<BulletWorld> world_;
   std::vector<std::unique_ptr<btCollisionShape>> shapes_;
   std::vector<std::unique_ptr<btRigidBody>> bodies_;
   std::vector<std::unique_ptr<btCollisionObject>> statics_;

@@ -107,6 +107,7 @@ class OdeBackend final : public Backend {
     dMassSetParameters(&mass, desc.mass_kg, 0.0, 0.0, 0.0, desc.inertia_kg_m2.x(), desc.inertia_kg_m2.y(),
                        desc.inertia_kg_m2.z(), 0.0, 0.0, 0.0);
     dBodySetMass(body, &mass);
+    dBodySetGyroscopicMode(body, desc.gyroscopic ? 1 : 0);
     const int index = static_cast<int>(bodies_.size());
     auto info = std::make_unique<GeomInfo>(GeomInfo{index, desc.material, desc.report_contacts});
     for (size_t s = 0; s < desc.shape_count; ++s) {
