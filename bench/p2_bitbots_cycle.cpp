@@ -7,7 +7,8 @@
 //
 // Timings: "wire, 0 us fw" is the wire-limited case (Doppel's firmware time set to 0, so only bytes
 // at 10 bit times count); "wire, 50 us fw" is Doppel's default firmware time per status; "fast"
-// answers as soon as possible.
+// answers as soon as possible. Before the rows of each bus count, the same client threads and
+// barrier run against bare pty echoes: that floor is subtracted before comparing with the model.
 //
 // --rt runs the client threads and Doppel's bus threads SCHED_FIFO (priority 50), as a tuned
 // control computer would (needs root or CAP_SYS_NICE).
@@ -78,22 +79,6 @@ struct Config {
   const char* label;
 };
 
-// Round trip of the bare pty (8 B out, 8 B back through an echo thread): the floor that any
-// pty-served bus adds to a transaction, measured with the same client code.
-Percentiles echo_floor_us(bool realtime, int samples) {
-  doppel::bench::PtyEcho echo(realtime ? kRtPriority : 0);
-  SerialClient client(echo.path(), kBaud);
-  const Bytes bytes(8, 0x55);
-  std::vector<double> round_trips;
-  for (int i = 0; i < samples; ++i) {
-    const auto start = Clock::now();
-    if (client.transact(bytes, bytes.size(), 200).size() == bytes.size()) {
-      round_trips.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
-    }
-  }
-  return percentiles(round_trips);
-}
-
 struct Result {
   uint64_t cycles = 0;
   uint64_t errors = 0;
@@ -120,26 +105,10 @@ bool set_fifo() {
   return pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) == 0;
 }
 
-Result run(const Config& config, double seconds, bool realtime) {
-  const int per_bus = kServos / config.buses;
-  const std::string robot = std::string(DOPPEL_BENCH_DIR) + (config.buses == 1 ? "/p2_bitbots_1bus.textproto"
-                                                                                : "/p2_bitbots_4bus.textproto");
-  char firmware[32];
-  std::snprintf(firmware, sizeof firmware, "%g", config.firmware_us);
-  std::vector<std::string> args{"--robot", robot, "--timing", config.timing, "--processing-us", firmware};
-  if (realtime) args.insert(args.end(), {"--rt-priority", std::to_string(kRtPriority)});
-  DoppelProcess doppel(args, "ttyDXL" + std::to_string(config.buses - 1));
-  std::vector<std::unique_ptr<SerialClient>> clients;
-  std::vector<Bytes> ids(static_cast<std::size_t>(config.buses));
-  for (int b = 0; b < config.buses; ++b) {
-    clients.push_back(std::make_unique<SerialClient>(doppel.link("ttyDXL" + std::to_string(b)), kBaud));
-    for (int k = 0; k < per_bus; ++k) ids[static_cast<std::size_t>(b)].push_back(static_cast<uint8_t>(b * per_bus + k + 1));
-    // Torque on for every servo of the bus (SYNC WRITE, no reply).
-    Bytes torque = cat(le16(kTorqueEnable), le16(1));
-    for (uint8_t id : ids[static_cast<std::size_t>(b)]) torque = cat(torque, {id, 1});
-    clients.back()->send(p2_instruction(0xFE, 0x83, torque));
-  }
-
+// Runs `bus_cycle(b)` (true = the cycle was right) on one client thread per bus, cycles aligned by
+// a barrier as a control loop that waits for all buses, for `seconds`.
+template <class BusCycle>
+Result run_cycles(int buses, double seconds, bool realtime, BusCycle&& bus_cycle) {
   Result result;
   std::atomic<uint64_t> errors{0};
   std::atomic<bool> stop{false};
@@ -162,31 +131,15 @@ Result run(const Config& config, double seconds, bool realtime) {
     last = now;
     if (std::chrono::duration<double>(now - start).count() >= seconds) stop = true;
   };
-  std::barrier sync(config.buses, on_cycle);
+  std::barrier sync(buses, on_cycle);
   std::vector<std::thread> threads;
-  for (int b = 0; b < config.buses; ++b) {
+  for (int b = 0; b < buses; ++b) {
     threads.emplace_back([&, b] {
       if (realtime) set_fifo();
-      SerialClient& client = *clients[static_cast<std::size_t>(b)];
-      const Bytes& bus_ids = ids[static_cast<std::size_t>(b)];
-      const std::size_t reply_bytes = bus_ids.size() * (11 + kReadBytes);
-      Bytes read_request = cat(le16(kPresentCurrent), le16(kReadBytes));
-      read_request = p2_instruction(0xFE, 0x82, cat(read_request, bus_ids));
-      uint32_t k = 0;
       for (;;) {
         sync.arrive_and_wait();
         if (stop) break;
-        Bytes goals = cat(le16(kGoalPosition), le16(4));
-        for (uint8_t id : bus_ids) goals = cat(cat(goals, {id}), le32(2048 + static_cast<int32_t>(k % 64)));
-        ++k;
-        client.send(p2_instruction(0xFE, 0x83, goals));
-        const Bytes reply = client.transact(read_request, reply_bytes, 100);
-        const auto statuses = doppel::testing::parse_p2_statuses(reply);
-        bool ok = statuses && statuses->size() == bus_ids.size();
-        for (std::size_t i = 0; ok && i < bus_ids.size(); ++i) {
-          ok = (*statuses)[i].id == bus_ids[i] && (*statuses)[i].error == 0 && (*statuses)[i].params.size() == kReadBytes;
-        }
-        if (!ok) errors.fetch_add(1);
+        if (!bus_cycle(b)) errors.fetch_add(1);
       }
     });
   }
@@ -195,6 +148,66 @@ Result run(const Config& config, double seconds, bool realtime) {
   result.errors = errors.load();
   result.seconds = std::chrono::duration<double>(last - start).count();
   result.cycle_us = percentiles(cycle_us);
+  return result;
+}
+
+// The same cycle structure against bare pty echoes, one per bus (8 B out, 8 B back per cycle):
+// what the pty, the client threads and their barrier cost on this machine with no bus behind them.
+// Wire time overlaps none of it, so it is the floor to subtract from a wire-mode cycle.
+Result echo_cycles(int buses, double seconds, bool realtime) {
+  std::vector<std::unique_ptr<doppel::bench::PtyEcho>> echoes;
+  std::vector<std::unique_ptr<SerialClient>> clients;
+  for (int b = 0; b < buses; ++b) {
+    echoes.push_back(std::make_unique<doppel::bench::PtyEcho>(realtime ? kRtPriority : 0));
+    clients.push_back(std::make_unique<SerialClient>(echoes.back()->path(), kBaud));
+  }
+  const Bytes bytes(8, 0x55);
+  return run_cycles(buses, seconds, realtime, [&](int b) {
+    return clients[static_cast<std::size_t>(b)]->transact(bytes, bytes.size(), 100).size() == bytes.size();
+  });
+}
+
+Result run(const Config& config, double seconds, bool realtime) {
+  const int per_bus = kServos / config.buses;
+  const std::string robot = std::string(DOPPEL_BENCH_DIR) + (config.buses == 1 ? "/p2_bitbots_1bus.textproto"
+                                                                                : "/p2_bitbots_4bus.textproto");
+  char firmware[32];
+  std::snprintf(firmware, sizeof firmware, "%g", config.firmware_us);
+  std::vector<std::string> args{"--robot", robot, "--timing", config.timing, "--processing-us", firmware};
+  if (realtime) args.insert(args.end(), {"--rt-priority", std::to_string(kRtPriority)});
+  DoppelProcess doppel(args, "ttyDXL" + std::to_string(config.buses - 1));
+  std::vector<std::unique_ptr<SerialClient>> clients;
+  std::vector<Bytes> ids(static_cast<std::size_t>(config.buses));
+  for (int b = 0; b < config.buses; ++b) {
+    clients.push_back(std::make_unique<SerialClient>(doppel.link("ttyDXL" + std::to_string(b)), kBaud));
+    for (int k = 0; k < per_bus; ++k) ids[static_cast<std::size_t>(b)].push_back(static_cast<uint8_t>(b * per_bus + k + 1));
+    // Torque on for every servo of the bus (SYNC WRITE, no reply).
+    Bytes torque = cat(le16(kTorqueEnable), le16(1));
+    for (uint8_t id : ids[static_cast<std::size_t>(b)]) torque = cat(torque, {id, 1});
+    clients.back()->send(p2_instruction(0xFE, 0x83, torque));
+  }
+
+  std::vector<Bytes> read_requests;
+  for (const Bytes& bus_ids : ids) {
+    read_requests.push_back(p2_instruction(0xFE, 0x82, cat(cat(le16(kPresentCurrent), le16(kReadBytes)), bus_ids)));
+  }
+  std::vector<uint32_t> step(static_cast<std::size_t>(config.buses), 0);
+  Result result = run_cycles(config.buses, seconds, realtime, [&](int b) {
+    const auto bus = static_cast<std::size_t>(b);
+    SerialClient& client = *clients[bus];
+    const Bytes& bus_ids = ids[bus];
+    Bytes goals = cat(le16(kGoalPosition), le16(4));
+    for (uint8_t id : bus_ids) goals = cat(cat(goals, {id}), le32(2048 + static_cast<int32_t>(step[bus] % 64)));
+    ++step[bus];
+    client.send(p2_instruction(0xFE, 0x83, goals));
+    const Bytes reply = client.transact(read_requests[bus], bus_ids.size() * (11 + kReadBytes), 100);
+    const auto statuses = doppel::testing::parse_p2_statuses(reply);
+    bool ok = statuses && statuses->size() == bus_ids.size();
+    for (std::size_t i = 0; ok && i < bus_ids.size(); ++i) {
+      ok = (*statuses)[i].id == bus_ids[i] && (*statuses)[i].error == 0 && (*statuses)[i].params.size() == kReadBytes;
+    }
+    return ok;
+  });
   const int status = doppel.stop();
   result.exit_failures = (WIFEXITED(status) && WEXITSTATUS(status) == 0) ? 0 : 1;
   result.doppel_late_p99_us = worst_p99_us(doppel.output());
@@ -232,19 +245,28 @@ int main(int argc, char** argv) {
   std::printf("Bit-Bots cycle: 20 XM430-W350, 4 Mbps, RDT 0, per cycle SYNC WRITE 4 B + SYNC READ 10 B; %.0f s per row, "
               "%s scheduling.\n", seconds, realtime ? "SCHED_FIFO" : "normal");
   std::printf("Real hardware (Bit-Bots): 398 Hz on one bus, 1373 Hz on four.\n\n");
-  const Percentiles echo = echo_floor_us(realtime, 2000);
-  std::printf("bare pty echo (8 B out, 8 B back): p50 %.1f us, p99 %.1f us\n\n", echo.p50, echo.p99);
-  std::printf("| buses | timing | cycles | rate Hz | wire model Hz | rate / model | mean cycle - echo p50, us | model cycle us | net error | cycle p50 us | cycle p99 us | cycle max us | Doppel late p99 us | errors |\n");
+  std::printf("| buses | timing | cycles | rate Hz | wire model Hz | rate / model | mean cycle - floor, us | model cycle us | net error | cycle p50 us | cycle p99 us | cycle max us | Doppel late p99 us | errors |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   uint64_t failures = 0;
+  int floor_buses = 0;
+  double floor_us = 0.0;
   for (const Config& c : configs) {
     if (only_buses != 0 && c.buses != only_buses) continue;
+    if (c.buses != floor_buses) {
+      const Result e = echo_cycles(c.buses, std::min(seconds, 10.0), realtime);
+      floor_buses = c.buses;
+      floor_us = e.cycles > 0 ? 1e6 * e.seconds / static_cast<double>(e.cycles) : 0.0;
+      std::printf("| %d | pty echo floor | %llu | %.0f | - | - | %.1f (mean) | - | - | %.1f | %.1f | %.1f | - | %llu |\n",
+                  c.buses, static_cast<unsigned long long>(e.cycles), floor_us > 0.0 ? 1e6 / floor_us : 0.0, floor_us,
+                  e.cycle_us.p50, e.cycle_us.p99, e.cycle_us.max, static_cast<unsigned long long>(e.errors));
+      failures += e.errors + (e.cycles == 0 ? 1 : 0);
+    }
     const Result r = run(c, seconds, realtime);
     const double rate = r.seconds > 0.0 ? static_cast<double>(r.cycles) / r.seconds : 0.0;
     const bool wire = std::strcmp(c.timing, "wire") == 0;
     const double model = theory_hz(kServos / c.buses, c.firmware_us);
     if (wire) {
-      const double net_us = (rate > 0.0 ? 1e6 / rate : 0.0) - echo.p50;
+      const double net_us = (rate > 0.0 ? 1e6 / rate : 0.0) - floor_us;
       const double model_us = 1e6 / model;
       std::printf("| %d | %s | %llu | %.0f | %.0f | %.3f | %.1f | %.1f | %+.1f %% | %.1f | %.1f | %.1f | %lld | %llu |\n",
                   c.buses, c.label, static_cast<unsigned long long>(r.cycles), rate, model, rate / model, net_us,
@@ -257,7 +279,9 @@ int main(int argc, char** argv) {
     }
     failures += r.errors + static_cast<uint64_t>(r.exit_failures) + (r.cycles == 0 ? 1 : 0);
   }
-  std::printf("\nnet error = (mean cycle - echo p50 - model cycle) / model cycle: Doppel's timing beyond the pty's own round trip\n");
+  std::printf("\nfloor = mean cycle of the same client threads and barrier against one bare pty echo per bus (8 B out,\n"
+              "8 B back): the pty and scheduling cost of this machine, which no wire time overlaps.\n"
+              "net error = (mean cycle - floor - model cycle) / model cycle: Doppel's timing beyond that floor.\n");
   std::printf("wire model: bytes per cycle on one bus x 2.5 us (+ firmware time per status): %zu B (1 bus), %zu B (4 buses)\n",
               cycle_bytes(20), cycle_bytes(5));
   std::printf("failures (error cycles, unclean exits, empty rows): %llu\n", static_cast<unsigned long long>(failures));
