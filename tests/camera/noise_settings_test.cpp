@@ -112,6 +112,13 @@ TEST(NoiseSettings, SettingsSentToARunningCameraApplyFromTheConfirmedFrame) {
   noisy.gaussian_sigma = 6.0;
   noisy.salt_pepper_fraction = 0.01;
   noisy.seed = 3;
+  std::map<uint64_t, std::vector<uint8_t>> frames;
+  for (int i = 0; i < 50 && frames.empty(); ++i) {  // frames flow before the change
+    if (auto f = sub.wait_take(0.1)) {
+      frames[f->header().sequence].assign(f->pixels(), f->pixels() + f->header().pixel_bytes);
+    }
+  }
+  ASSERT_FALSE(frames.empty());
 
   const CameraInfo confirmed = set_camera_noise("settings_cam", noisy, 5.0);
 
@@ -121,7 +128,6 @@ TEST(NoiseSettings, SettingsSentToARunningCameraApplyFromTheConfirmedFrame) {
   EXPECT_EQ(confirmed.noise.seed, 3u);
   EXPECT_NE(confirmed.noise_request_id, 0u);
   // Frames before the confirmed one are clean and equal; from it on they carry the noise.
-  std::map<uint64_t, std::vector<uint8_t>> frames;
   const auto end = std::chrono::steady_clock::now() + 5s;
   while (std::chrono::steady_clock::now() < end &&
          (frames.empty() || frames.rbegin()->first < confirmed.noise_from_sequence + 2)) {
