@@ -1,4 +1,5 @@
 #include "dynamixel/protocol1_servo.h"
+#include "dynamixel/servo_controller.h"
 
 #include <algorithm>
 #include <cmath>
@@ -170,9 +171,8 @@ ServoCommand Protocol1Servo::command() const noexcept {
   c.torque_limit_ratio = std::min(1.0, register_raw(p1::kTorqueLimit) / kLoadFull);
   c.punch_raw = register_raw(p1::kPunch);
   if (is_mx()) {
-    c.d_gain_raw = static_cast<uint8_t>(register_raw(p1::kDGain));
-    c.i_gain_raw = static_cast<uint8_t>(register_raw(p1::kIGain));
-    c.p_gain_raw = static_cast<uint8_t>(register_raw(p1::kPGain));
+    c.pid = mx_pid_gains(static_cast<uint8_t>(register_raw(p1::kPGain)), static_cast<uint8_t>(register_raw(p1::kIGain)),
+                         static_cast<uint8_t>(register_raw(p1::kDGain)));
     c.goal_acceleration_rad_s2 = register_raw(p1::kGoalAcceleration) * kMxAccelerationUnitRadS2;
     if (has_register(p1::kTorqueCtrlModeEnable)) {
       c.torque_control = register_raw(p1::kTorqueCtrlModeEnable) != 0;

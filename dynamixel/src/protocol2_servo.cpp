@@ -1,4 +1,5 @@
 #include "dynamixel/protocol2_servo.h"
+#include "dynamixel/servo_controller.h"
 
 #include <algorithm>
 #include <cmath>
@@ -53,18 +54,6 @@ Protocol2Servo::Protocol2Servo(const P2ModelSpec& spec, uint8_t id, uint8_t baud
 }
 
 bool Protocol2Servo::position_mode() const noexcept { return is_position_mode(operating_mode()); }
-
-XGains Protocol2Servo::gains() const noexcept {
-  XGains g;
-  g.position_p = static_cast<uint16_t>(register_value(x430::kPositionPGain));
-  g.position_i = static_cast<uint16_t>(register_value(x430::kPositionIGain));
-  g.position_d = static_cast<uint16_t>(register_value(x430::kPositionDGain));
-  g.velocity_p = static_cast<uint16_t>(register_value(x430::kVelocityPGain));
-  g.velocity_i = static_cast<uint16_t>(register_value(x430::kVelocityIGain));
-  g.feedforward_1st = static_cast<uint16_t>(register_value(x430::kFeedforward1stGain));
-  g.feedforward_2nd = static_cast<uint16_t>(register_value(x430::kFeedforward2ndGain));
-  return g;
-}
 
 int64_t Protocol2Servo::present_raw_from_rad(double position_rad) const noexcept {
   const int64_t counts = clamp_round(position_rad * kUnitsPerRad, -(int64_t{1} << 40), int64_t{1} << 40);
@@ -248,6 +237,9 @@ ServoCommand Protocol2Servo::command() const noexcept {
     c.goal_torque_ratio = std::clamp(dir * static_cast<double>(register_value(x430::kGoalPwm)) / kX430PwmFull, -1.0, 1.0);
   }
   c.torque_limit_ratio = std::clamp(c.torque_limit_ratio, 0.0, 1.0);
+  c.pid = x_pid_gains(static_cast<uint16_t>(register_value(x430::kPositionPGain)),
+                      static_cast<uint16_t>(register_value(x430::kPositionIGain)),
+                      static_cast<uint16_t>(register_value(x430::kPositionDGain)));
 
   if (watchdog_tripped()) {
     // Bus Watchdog error: the servo stops where it was, profiles as 0.

@@ -70,12 +70,7 @@ void ServoController::reset(double position_rad) noexcept {
 
 ControllerOutput ServoController::update(const ServoCommand& command, double position_rad, double velocity_rad_s,
                                          double dt_s, double supply_v) noexcept {
-  return update(command, mx_pid_gains(command.p_gain_raw, command.i_gain_raw, command.d_gain_raw), position_rad,
-                velocity_rad_s, dt_s, supply_v);
-}
-
-ControllerOutput ServoController::update(const ServoCommand& command, const PidGains& gains, double position_rad,
-                                         double velocity_rad_s, double dt_s, double supply_v) noexcept {
+  const PidGains& gains = command.pid;
   ControllerOutput out;
   if (!command.torque_enabled) {
     // H-bridge off; the profile restarts from wherever the joint is when torque returns.

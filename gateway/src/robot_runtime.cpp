@@ -51,18 +51,15 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef b
       imu_handle = body_.world->find_imu(body_.robot, bus, device.id);
       foot_handle = body_.world->find_foot(body_.robot, bus, device.id);
     }
-    if (auto* p1 = dynamic_cast<dynamixel::Protocol1Servo*>(created)) {
-      add_servo(p1, nullptr, dynamixel::model_spec(device.model).servo, device.model, device.id);
-    } else if (auto* p2 = dynamic_cast<dynamixel::Protocol2Servo*>(created)) {
-      add_servo(nullptr, p2, dynamixel::p2_model_spec(device.model).servo, device.model, device.id);
-    } else if (auto* imu = dynamic_cast<dynamixel::FumanoidImu*>(created)) {
-      imus_.push_back({imu, nullptr, imu_handle});
-    } else if (auto* bitbots_imu = dynamic_cast<dynamixel::BitbotsImu*>(created)) {
-      imus_.push_back({nullptr, bitbots_imu, imu_handle});
-    } else if (auto* foot = dynamic_cast<dynamixel::FumanoidFootBoard*>(created)) {
-      feet_.push_back({foot, nullptr, foot_handle});
-    } else if (auto* bitfoot = dynamic_cast<dynamixel::BitFoot*>(created)) {
-      feet_.push_back({nullptr, bitfoot, foot_handle});
+    if (auto* servo = dynamic_cast<dynamixel::SimulatedServo*>(created)) {
+      const dynamixel::ServoSpec& spec = config.protocol == dynamixel::Protocol::kV2
+                                             ? dynamixel::p2_model_spec(device.model).servo
+                                             : dynamixel::model_spec(device.model).servo;
+      add_servo(*servo, spec, device.model, device.id);
+    } else if (auto* imu = dynamic_cast<dynamixel::SimulatedImu*>(created)) {
+      imus_.push_back({imu, imu_handle});
+    } else if (auto* foot = dynamic_cast<dynamixel::SimulatedFootBoard*>(created)) {
+      feet_.push_back({foot, foot_handle});
     } else if (auto* core = dynamic_cast<dynamixel::BitbotsCore*>(created)) {
       cores_.push_back(core);
     }
@@ -80,12 +77,10 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef b
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
 }
 
-void BusRuntime::add_servo(dynamixel::Protocol1Servo* p1, dynamixel::Protocol2Servo* p2,
-                           const dynamixel::ServoSpec& spec, const std::string& model, uint8_t id) {
-  ServoSlot& slot = servos_.emplace_back(dynamixel::servo_controller_config(model),
+void BusRuntime::add_servo(dynamixel::SimulatedServo& servo, const dynamixel::ServoSpec& spec,
+                           const std::string& model, uint8_t id) {
+  ServoSlot& slot = servos_.emplace_back(servo, dynamixel::servo_controller_config(model),
                                          no_load_speed_rad_s(spec, config_.supply_voltage_v));
-  slot.p1 = p1;
-  slot.p2 = p2;
   if (body_.world != nullptr) {
     slot.motor = body_.world->find_motor(body_.robot, static_cast<uint32_t>(bus_index_), id);
   }
@@ -120,27 +115,9 @@ void BusRuntime::before_dispatch() noexcept {
     return;
   }
   const BusFeedback& feedback = feedback_.latest();
-  for (std::size_t i = 0; i < servos_.size(); ++i) {
-    if (servos_[i].p1 != nullptr) {
-      servos_[i].p1->apply(feedback.servos[i]);
-    } else {
-      servos_[i].p2->apply(feedback.servos[i]);
-    }
-  }
-  for (std::size_t i = 0; i < imus_.size(); ++i) {
-    if (imus_[i].fumanoid != nullptr) {
-      imus_[i].fumanoid->apply(feedback.imus[i]);
-    } else {
-      imus_[i].bitbots->apply(feedback.imus[i]);
-    }
-  }
-  for (std::size_t i = 0; i < feet_.size(); ++i) {
-    if (feet_[i].fumanoid != nullptr) {
-      feet_[i].fumanoid->apply(feedback.feet[i]);
-    } else {
-      feet_[i].bitbots->apply(feedback.feet[i]);
-    }
-  }
+  for (std::size_t i = 0; i < servos_.size(); ++i) servos_[i].device->apply(feedback.servos[i]);
+  for (std::size_t i = 0; i < imus_.size(); ++i) imus_[i].device->apply(feedback.imus[i]);
+  for (std::size_t i = 0; i < feet_.size(); ++i) feet_[i].device->apply(feedback.feet[i]);
   for (dynamixel::BitbotsCore* core : cores_) {
     core->apply(config_.supply_voltage_v, 0.0);
   }
@@ -148,16 +125,7 @@ void BusRuntime::before_dispatch() noexcept {
 
 void BusRuntime::after_dispatch() noexcept {
   BusCommands& commands = commands_.back();
-  for (std::size_t i = 0; i < servos_.size(); ++i) {
-    const ServoSlot& slot = servos_[i];
-    if (slot.p1 != nullptr) {
-      commands.servos[i] = slot.p1->command();
-    } else {
-      commands.servos[i] = slot.p2->command();
-      const dynamixel::XGains gains = slot.p2->gains();
-      commands.x_gains[i] = dynamixel::x_pid_gains(gains.position_p, gains.position_i, gains.position_d);
-    }
-  }
+  for (std::size_t i = 0; i < servos_.size(); ++i) commands.servos[i] = servos_[i].device->command();
   commands_.publish();
 }
 
@@ -176,10 +144,7 @@ void BusRuntime::drive(double dt_s) noexcept {
       continue;
     }
     const dynamixel::ControllerOutput out =
-        slot.p2 != nullptr ? slot.controller.update(command, commands.x_gains[i], slot.position_rad,
-                                                    slot.velocity_rad_s, dt_s, config_.supply_voltage_v)
-                           : slot.controller.update(command, slot.position_rad, slot.velocity_rad_s, dt_s,
-                                                    config_.supply_voltage_v);
+        slot.controller.update(command, slot.position_rad, slot.velocity_rad_s, dt_s, config_.supply_voltage_v);
     body_.world->set_motor(*slot.motor, physics::MotorCommand{command.torque_enabled, out.pwm_ratio,
                                                               command.torque_limit_ratio});
   }

@@ -40,7 +40,6 @@ inline constexpr std::size_t kMaxBoards = 8;
 
 struct BusCommands {
   std::array<dynamixel::ServoCommand, kMaxServos> servos{};  // by servo index on the bus
-  std::array<dynamixel::PidGains, kMaxServos> x_gains{};      // X series: position gains from their registers
 };
 
 struct BusFeedback {
@@ -83,12 +82,12 @@ class BusRuntime final : public bus::DeviceSync {
   std::string summary() const;
 
  private:
-  // One servo of either protocol (exactly one of p1, p2 set) and what moves it.
+  // One servo (any protocol) and what moves it.
   struct ServoSlot {
-    ServoSlot(const dynamixel::ServoControllerConfig& controller_config, double no_load_speed_rad_s)
-        : controller(controller_config), joint(no_load_speed_rad_s) {}
-    dynamixel::Protocol1Servo* p1 = nullptr;
-    dynamixel::Protocol2Servo* p2 = nullptr;
+    ServoSlot(dynamixel::SimulatedServo& servo, const dynamixel::ServoControllerConfig& controller_config,
+              double no_load_speed_rad_s)
+        : device(&servo), controller(controller_config), joint(no_load_speed_rad_s) {}
+    dynamixel::SimulatedServo* device;
     std::optional<physics::MotorHandle> motor;  // its motor in the world, if the figure has one
     dynamixel::ServoController controller;      // the firmware's motor controller (physics only)
     KinematicJoint joint;                        // used when there is no motor
@@ -96,18 +95,16 @@ class BusRuntime final : public bus::DeviceSync {
     double velocity_rad_s = 0.0;
   };
   struct ImuSlot {
-    dynamixel::FumanoidImu* fumanoid = nullptr;
-    dynamixel::BitbotsImu* bitbots = nullptr;
+    dynamixel::SimulatedImu* device = nullptr;
     std::optional<physics::ImuHandle> imu;
   };
   struct FootSlot {
-    dynamixel::FumanoidFootBoard* fumanoid = nullptr;
-    dynamixel::BitFoot* bitbots = nullptr;
+    dynamixel::SimulatedFootBoard* device = nullptr;
     std::optional<physics::FootHandle> foot;
   };
 
-  void add_servo(dynamixel::Protocol1Servo* p1, dynamixel::Protocol2Servo* p2, const dynamixel::ServoSpec& spec,
-                 const std::string& model, uint8_t id);
+  void add_servo(dynamixel::SimulatedServo& servo, const dynamixel::ServoSpec& spec, const std::string& model,
+                 uint8_t id);
 
   BusConfig config_;
   std::size_t bus_index_;

@@ -579,7 +579,7 @@ TEST(Protocol1ServoCommand, JointModeConversions) {
 TEST(Protocol1ServoCommand, MovingSpeedZeroMeansNoLimit) {
   auto sut = make_servo("MX-28");
   EXPECT_EQ(sut.command().moving_speed_rad_s, 0.0);
-  EXPECT_EQ(sut.command().p_gain_raw, 32);
+  EXPECT_DOUBLE_EQ(sut.command().pid.kp, 32.0 / 8.0);  // default P Gain 32, Kp = P / 8
 }
 
 TEST(Protocol1ServoCommand, MxMultiTurn) {

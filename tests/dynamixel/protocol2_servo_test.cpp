@@ -361,6 +361,19 @@ TEST_F(XmServo, CommandFollowsTheOperatingMode) {
   EXPECT_NEAR(c.goal_position_rad, 4 * std::numbers::pi, 1e-9);
 }
 
+TEST_F(XmServo, CommandCarriesThePositionGainsInControllerUnits) {
+  ASSERT_EQ(write(x430::kPositionPGain, 1600, 2), status(1, 0));
+  ASSERT_EQ(write(x430::kPositionIGain, 64, 2), status(1, 0));
+  ASSERT_EQ(write(x430::kPositionDGain, 32, 2), status(1, 0));
+
+  const ServoCommand c = sut.command();
+
+  // e-Manual: Kp = P / 128, Ki = I / 65536, Kd = D / 16.
+  EXPECT_DOUBLE_EQ(c.pid.kp, 1600.0 / 128.0);
+  EXPECT_DOUBLE_EQ(c.pid.ki, 64.0 / 65536.0);
+  EXPECT_DOUBLE_EQ(c.pid.kd, 32.0 / 16.0);
+}
+
 TEST_F(XmServo, ApplyFillsPresentItemsInXUnits) {
   ServoFeedback f;
   f.position_rad = std::numbers::pi / 2.0;

@@ -98,7 +98,7 @@ TEST(ServoControllerTest, MxProportionalGainAsInTheManual) {
   ServoCommand command;
   command.torque_enabled = true;
   command.goal_position_rad = 100.0 * kMxUnit;
-  command.p_gain_raw = 32;  // Kp = 32 / 8 = 4 output units per position unit
+  command.pid = mx_pid_gains(32, 0, 0);  // Kp = 32 / 8 = 4 output units per position unit
 
   const ControllerOutput out = sut.update(command, 0.0, 0.0, kDt);
 
@@ -110,7 +110,7 @@ TEST(ServoControllerTest, MxIntegralGainAccumulatesTheError) {
   ServoCommand command;
   command.torque_enabled = true;
   command.goal_position_rad = 10.0 * kMxUnit;
-  command.i_gain_raw = 2;  // Ki = 2 * 1000 / 2048
+  command.pid = mx_pid_gains(0, 2, 0);  // Ki = 2 * 1000 / 2048
 
   ControllerOutput out;
   for (int i = 0; i < 100; ++i) {
@@ -124,7 +124,7 @@ TEST(ServoControllerTest, MxDerivativeGainDampsTheSpeed) {
   ServoController sut(servo_controller_config("MX-106"));
   ServoCommand command;
   command.torque_enabled = true;
-  command.d_gain_raw = 250;  // Kd = 1.0 output unit per position unit / s
+  command.pid = mx_pid_gains(0, 0, 250);  // Kd = 1.0 output unit per position unit / s
 
   const ControllerOutput out = sut.update(command, 0.0, 1.0, kDt);
 

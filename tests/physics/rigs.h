@@ -69,7 +69,7 @@ class Firmware {
       servo.command.cw_compliance_slope_raw = 32;
       servo.command.ccw_compliance_slope_raw = 32;
       servo.command.punch_raw = 32;
-      servo.command.p_gain_raw = 32;
+      servo.command.pid = dynamixel::mx_pid_gains(32, 0, 0);
       servo.command.min_position_rad = -2.6;
       servo.command.max_position_rad = 2.6;
       servos_.push_back(servo);

@@ -111,12 +111,12 @@ class BitbotsBoard : public Device {
 
 // "BITBOTS-IMU": gyro, accelerometer and orientation quaternion of the current (BMI088) firmware,
 // latched at every apply().
-class BitbotsImu final : public BitbotsBoard {
+class BitbotsImu final : public BitbotsBoard, public SimulatedImu {
  public:
   // Throws std::invalid_argument for an ID above 252 or a bad baud index. Setup only.
   BitbotsImu(uint8_t id, uint8_t baud_raw);
   // Gyro = w_WS_S, accel = a_WS_S, quaternion of roll/pitch/yaw (ZYX) as x, y, z, w. rt-safe.
-  void apply(const ImuFeedback& feedback) noexcept;
+  void apply(const ImuFeedback& feedback) noexcept override;
 };
 
 // How a BitFoot reports force: raw = zero_counts + force / newton_per_count (the inverse of the
@@ -128,12 +128,12 @@ struct BitFootCalibration {
 };
 
 // "BITFOOT": four load cells (front left, front right, back left, back right), latched at every apply().
-class BitFoot final : public BitbotsBoard {
+class BitFoot final : public BitbotsBoard, public SimulatedFootBoard {
  public:
   // Throws std::invalid_argument for an ID above 252, a bad baud index or a zero scale. Setup only.
   BitFoot(uint8_t id, uint8_t baud_raw, const BitFootCalibration& calibration = {});
   // Counts saturate at the int32 range. rt-safe.
-  void apply(const FootFeedback& feedback) noexcept;
+  void apply(const FootFeedback& feedback) noexcept override;
   const BitFootCalibration& calibration() const noexcept { return calibration_; }
 
  private:

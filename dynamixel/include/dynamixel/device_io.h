@@ -10,6 +10,14 @@
 
 namespace doppel::dynamixel {
 
+// PID gains in register units: output (PWM units of the controller's full scale) per position unit,
+// per position unit x s, per position unit / s. Each servo model converts its own gain registers.
+struct PidGains {
+  double kp = 0.0;
+  double ki = 0.0;
+  double kd = 0.0;
+};
+
 // Register values that the servo firmware's motor controller acts on.
 struct ServoCommand {
   bool torque_enabled = false;      // Torque Enable, and no shutdown active
@@ -25,9 +33,7 @@ struct ServoCommand {
   uint8_t cw_compliance_slope_raw = 0;    // AX/RX
   uint8_t ccw_compliance_slope_raw = 0;   // AX/RX
   uint16_t punch_raw = 0;                 // AX/RX/MX: minimum drive
-  uint8_t p_gain_raw = 0;                 // MX: Kp = P / 8
-  uint8_t i_gain_raw = 0;                 // MX: Ki = I * 1000 / 2048
-  uint8_t d_gain_raw = 0;                 // MX: Kd = D * 4 / 1000
+  PidGains pid{};                         // MX and X series: position PID from the gain registers
   bool multi_turn = false;                // MX: both angle limits 4095; goal may span several turns
   bool torque_control = false;            // MX-64/106 Torque Ctrl Mode Enable: follow goal_torque_ratio
   double goal_torque_ratio = 0.0;         // MX-64/106 Goal Torque as a fraction of the stall torque, + = CCW
@@ -58,6 +64,36 @@ struct ImuFeedback {
 struct FootFeedback {
   std::array<double, 4> force_n{};  // front-left, front-right, back-left, back-right
   int64_t sim_time_ns = 0;          // simulation time of the measurement
+};
+
+// The simulation's side of a device, whatever protocol and model it is: the gateway reads what
+// the firmware asks of the motor and writes back what the world measured, through these alone.
+// All calls rt-safe.
+class SimulatedServo {
+ public:
+  // Registers -> what the motor controller should do (SI, conventions above).
+  virtual ServoCommand command() const noexcept = 0;
+  // Measured values -> Present registers, Moving, error conditions.
+  virtual void apply(const ServoFeedback& feedback) noexcept = 0;
+
+ protected:
+  ~SimulatedServo() = default;
+};
+
+class SimulatedImu {
+ public:
+  virtual void apply(const ImuFeedback& feedback) noexcept = 0;
+
+ protected:
+  ~SimulatedImu() = default;
+};
+
+class SimulatedFootBoard {
+ public:
+  virtual void apply(const FootFeedback& feedback) noexcept = 0;
+
+ protected:
+  ~SimulatedFootBoard() = default;
 };
 
 }  // namespace doppel::dynamixel

@@ -36,7 +36,7 @@ class FumanoidBoard : public Protocol1Device {
 
 // "FUMANOID-IMU": pitch, roll, yaw, 3-axis gyro, 3-axis accelerometer, latched every Sample
 // Period (default 20 ms = 50 Hz, like the thesis' Kalman-filter IMU).
-class FumanoidImu final : public FumanoidBoard {
+class FumanoidImu final : public FumanoidBoard, public SimulatedImu {
  public:
   static constexpr double kAngleUnitRad = 1e-4;    // Pitch/Roll/Yaw: 0.1 mrad
   static constexpr double kGyroUnitRadS = 1e-3;    // Gyro X/Y/Z: 1 mrad/s
@@ -46,11 +46,11 @@ class FumanoidImu final : public FumanoidBoard {
   FumanoidImu(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw);
   // Latches `feedback` into the registers when a sample is due (feedback.sim_time_ns). Values
   // outside int16 saturate. rt-safe.
-  void apply(const ImuFeedback& feedback) noexcept;
+  void apply(const ImuFeedback& feedback) noexcept override;
 };
 
 // "FUMANOID-FOOT": four load cells and their sum, latched every Sample Period (default 10 ms).
-class FumanoidFootBoard final : public FumanoidBoard {
+class FumanoidFootBoard final : public FumanoidBoard, public SimulatedFootBoard {
  public:
   static constexpr double kForceUnitN = 0.01;  // Force registers: 0.01 N, 0..655.35 N
 
@@ -58,7 +58,7 @@ class FumanoidFootBoard final : public FumanoidBoard {
   FumanoidFootBoard(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw);
   // Latches `feedback` when a sample is due. Negative (pulling) forces read 0; values saturate at
   // 65535. rt-safe.
-  void apply(const FootFeedback& feedback) noexcept;
+  void apply(const FootFeedback& feedback) noexcept override;
 };
 
 }  // namespace doppel::dynamixel

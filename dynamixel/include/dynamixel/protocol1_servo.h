@@ -18,7 +18,7 @@ enum class ServoMode : uint8_t {
   kMultiTurn,  // MX only, both angle limits 4095: position over +-7 turns
 };
 
-class Protocol1Servo final : public Protocol1Device {
+class Protocol1Servo final : public Protocol1Device, public SimulatedServo {
  public:
   // Saturation at the torque limit lasting this long raises the Overload condition (assumption:
   // the manuals give no figure).
@@ -35,10 +35,10 @@ class Protocol1Servo final : public Protocol1Device {
   void power_on(double position_rad) noexcept;
 
   // Registers -> what the motor controller should do (SI; conventions in device_io.h). rt-safe.
-  ServoCommand command() const noexcept;
+  ServoCommand command() const noexcept override;
   // Measured values -> Present Position/Speed/Load/Voltage/Temperature, Moving, (MX) Realtime
   // Tick and Current; updates the condition bits and applies Alarm Shutdown. rt-safe.
-  void apply(const ServoFeedback& feedback) noexcept;
+  void apply(const ServoFeedback& feedback) noexcept override;
 
   ServoMode mode() const noexcept;
   // Persistent condition bits (p1_error::kOverload, kOverheating, kInputVoltage) from the last apply().

@@ -15,18 +15,7 @@
 
 namespace doppel::dynamixel {
 
-// The X-series gain items, raw (the motor controller converts them, see servo_controller.h).
-struct XGains {
-  uint16_t position_p = 0;  // Position P Gain (84)
-  uint16_t position_i = 0;  // Position I Gain (82)
-  uint16_t position_d = 0;  // Position D Gain (80)
-  uint16_t velocity_p = 0;  // Velocity P Gain (78)
-  uint16_t velocity_i = 0;  // Velocity I Gain (76)
-  uint16_t feedforward_1st = 0;  // Feedforward 1st Gain (90)
-  uint16_t feedforward_2nd = 0;  // Feedforward 2nd Gain (88)
-};
-
-class Protocol2Servo final : public Protocol2Device {
+class Protocol2Servo final : public Protocol2Device, public SimulatedServo {
  public:
   // Saturation at the drive limit lasting this long raises Overload (assumption, as for P1).
   static constexpr int64_t kOverloadHoldNs = 1'000'000'000;
@@ -41,16 +30,15 @@ class Protocol2Servo final : public Protocol2Device {
                  double initial_position_rad = 0.0);
 
   // Registers -> what the motor controller should do (SI; conventions in device_io.h). rt-safe.
-  ServoCommand command() const noexcept;
+  ServoCommand command() const noexcept override;
   // Measured values -> Present items, Moving, Moving Status, Realtime Tick; raises Hardware Error
   // Status bits enabled in Shutdown (torque off, Alert in every status until REBOOT) and trips the
   // Bus Watchdog. Call it regularly (also without traffic) so the watchdog sees time pass. rt-safe.
-  void apply(const ServoFeedback& feedback) noexcept;
+  void apply(const ServoFeedback& feedback) noexcept override;
 
   uint8_t operating_mode() const noexcept { return raw_table()[x430::kOperatingMode]; }
   // The Bus Watchdog has tripped (item reads -1, Goal items refuse writes until 0 is written).
   bool watchdog_tripped() const noexcept { return raw_table()[x430::kBusWatchdog] == kWatchdogTripped; }
-  XGains gains() const noexcept;
 
   // Present Position value of a joint angle (rad, 0 = centre) and back, under the current Drive
   // Mode, Homing Offset and turn count. rt-safe.

@@ -37,14 +37,6 @@ struct ServoControllerConfig {
 // Throws std::invalid_argument for a model that is not a servo this controller knows.
 ServoControllerConfig servo_controller_config(std::string_view model);
 
-// PID gains in register units: output (PWM units of pwm_full_scale) per position unit, per
-// position unit x s, per position unit / s.
-struct PidGains {
-  double kp = 0.0;
-  double ki = 0.0;
-  double kd = 0.0;
-};
-
 // MX (Protocol 1.0 firmware): Kp = P / 8, Ki = I * 1000 / 2048, Kd = D * 4 / 1000 (e-Manual).
 PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept;
 // X series and MX(2.0) position gains: Kp = P / 128, Ki = I / 65536, Kd = D / 16 (e-Manual).
@@ -65,12 +57,9 @@ class ServoController {
   explicit ServoController(const ServoControllerConfig& config) noexcept;
 
   // One firmware cycle of `dt_s` seconds. Angles as in device_io.h (0 = centre, + = CCW).
-  // `gains` overrides the command's MX gain registers (X series: pass x_pid_gains()).
   // supply_v is needed for torque control only. rt-safe.
   ControllerOutput update(const ServoCommand& command, double position_rad, double velocity_rad_s, double dt_s,
                           double supply_v = 0.0) noexcept;
-  ControllerOutput update(const ServoCommand& command, const PidGains& gains, double position_rad,
-                          double velocity_rad_s, double dt_s, double supply_v = 0.0) noexcept;
 
   // Forgets the profile and the integrator; the set-point starts at `position_rad`. rt-safe.
   void reset(double position_rad) noexcept;
