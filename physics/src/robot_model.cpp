@@ -1,6 +1,7 @@
 #include "physics/robot_model.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -64,6 +65,76 @@ UnitMass unit_mass(const ShapeSpec& shape) {
   return u;
 }
 
+// A shape's bounding box in its own frame: half extents (boxes exactly, round shapes enclosed).
+Eigen::Vector3d half_extents(const ShapeSpec& s) {
+  switch (s.type) {
+    case ShapeType::kBox:
+      return 0.5 * s.size_m;
+    case ShapeType::kSphere:
+      return Eigen::Vector3d::Constant(s.size_m.x());
+    case ShapeType::kCylinder:
+      return {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y()};
+    case ShapeType::kCapsule:
+      return {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y() + s.size_m.x()};
+    case ShapeType::kRing:
+      break;
+  }
+  return Eigen::Vector3d::Zero();
+}
+
+// Separating-axis test of two oriented boxes (centre, axes as columns, half extents), each grown by
+// `margin` on every side.
+bool boxes_overlap(const Eigen::Isometry3d& X_A, const Eigen::Vector3d& half_A, const Eigen::Isometry3d& X_B,
+                   const Eigen::Vector3d& half_B, double margin) {
+  const Eigen::Vector3d a = half_A.array() + margin;
+  const Eigen::Vector3d b = half_B.array() + margin;
+  const Eigen::Matrix3d R = X_A.linear().transpose() * X_B.linear();  // B's axes in A
+  const Eigen::Vector3d t = X_A.linear().transpose() * (X_B.translation() - X_A.translation());
+  const Eigen::Matrix3d absR = R.cwiseAbs().array() + 1e-12;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(t(i)) > a(i) + absR.row(i).dot(b)) return false;
+  }
+  for (int j = 0; j < 3; ++j) {
+    if (std::abs(t.dot(R.col(j))) > absR.col(j).dot(a) + b(j)) return false;
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const int i1 = (i + 1) % 3, i2 = (i + 2) % 3, j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+      const double distance = std::abs(t(i2) * R(i1, j) - t(i1) * R(i2, j));
+      const double reach = a(i1) * absR(i2, j) + a(i2) * absR(i1, j) + b(j1) * absR(i, j2) + b(j2) * absR(i, j1);
+      if (distance > reach) return false;
+    }
+  }
+  return true;
+}
+
+// Body pairs exempt from self-collision (see RobotModel::collision_exempt).
+std::vector<std::pair<int, int>> exempt_pairs(const RobotModel& model) {
+  constexpr double kTouchMargin_m = 0.001;  // per side: parts closer than 2 mm count as touching
+  std::set<std::pair<int, int>> pairs;
+  for (const LinkModel& link : model.links) {
+    pairs.emplace(std::min(link.parent, link.child), std::max(link.parent, link.child));
+  }
+  std::vector<double> q;
+  for (const LinkModel& link : model.links) q.push_back(link.initial);
+  const std::vector<Eigen::Isometry3d> X_RB = body_poses(model, q);
+  const auto n = static_cast<int>(model.bodies.size());
+  for (int a = 0; a < n; ++a) {
+    for (int b = a + 1; b < n; ++b) {
+      if (pairs.count({a, b}) != 0U) continue;
+      bool touching = false;
+      for (const ShapeSpec& sa : model.bodies[static_cast<size_t>(a)].shapes) {
+        for (const ShapeSpec& sb : model.bodies[static_cast<size_t>(b)].shapes) {
+          touching = touching || boxes_overlap(X_RB[static_cast<size_t>(a)] * sa.X_BS, half_extents(sa),
+                                               X_RB[static_cast<size_t>(b)] * sb.X_BS, half_extents(sb), kTouchMargin_m);
+        }
+      }
+      if (touching) pairs.emplace(a, b);
+    }
+  }
+  return {pairs.begin(), pairs.end()};
+}
+
 class Compiler {
  public:
   explicit Compiler(const proto::RobotFile& file) : file_(file), description_(file.description()), figure_(description_.figure()) {}
@@ -78,6 +149,8 @@ class Compiler {
     read_bodies();
     read_links();
     read_sensors();
+    model_.self_collision = !figure_.has_self_collision() || figure_.self_collision();
+    model_.collision_exempt = exempt_pairs(model_);
     return std::move(model_);
   }
 

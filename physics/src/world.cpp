@@ -207,12 +207,16 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
     // A limb turning at servo speed (5 rad/s) with 1e-4 kg m^2 feels a gyroscopic torque of
     // milli-newton-metres against servo torques of newton-metres: not worth integrating.
     desc.gyroscopic = false;
+    desc.self_collide = model.self_collision;
     desc.report_contacts = std::any_of(model.feet.begin(), model.feet.end(),
                                        [&](const FootModel& f) { return f.body == static_cast<int>(b); });
     const int id = backend_->add_body(desc);
     if (b == 0) {
       robot.first_body = id;
     }
+  }
+  for (const auto& [a, b] : model.collision_exempt) {
+    backend_->exclude_collision(robot.first_body + a, robot.first_body + b);
   }
   robot.link_motor.assign(model.links.size(), -1);
   for (size_t l = 0; l < model.links.size(); ++l) {

@@ -22,7 +22,8 @@ struct BackendOptions {
   double step_s = 0.001;          // the fixed step the backend will be stepped with
 };
 
-// Collision groups: bodies of one group never collide with each other (one robot's parts).
+// Collision groups: one robot's parts form a group; they collide with each other only when created
+// with self_collide, and then not in the pairs given to exclude_collision().
 inline constexpr uint32_t kGroupStatic = 7;  // field objects and the ground
 inline constexpr uint32_t kGroupBall = 6;    // free objects
 inline constexpr uint32_t kMaxRobotGroups = 6;
@@ -37,6 +38,7 @@ struct BodyDesc {
   uint32_t group = kGroupBall;         // collision group, 0..7
   bool report_contacts = false;        // contacts() will be asked for this body
   bool gyroscopic = true;              // integrate the gyroscopic torque w x (I w)
+  bool self_collide = false;           // collides with other self_collide bodies of its group
 };
 
 struct JointDesc {
@@ -78,6 +80,7 @@ class Backend {
   virtual void add_static(const ShapeSpec& shape_in_W, const MaterialSpec& material) = 0;  // X_BS = pose in W
   virtual void add_ground(const MaterialSpec& material) = 0;               // plane z = 0
   virtual int add_joint(const JointDesc& joint) = 0;                       // returns the joint index
+  virtual void exclude_collision(int body_a, int body_b) = 0;              // this pair never collides
   virtual void finalize() = 0;                                             // no add_* after this
 
   // Setup or between steps. rt-safe unless noted.

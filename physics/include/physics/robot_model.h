@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "physics/dc_motor.h"
@@ -100,6 +101,11 @@ struct RobotModel {
   std::vector<CameraModel> cameras; // file order
   int root = 0;                     // the body that is no link's child
   double mass_kg = 0.0;             // total
+  bool self_collision = true;       // Figure.self_collision: bodies of this robot collide with each other
+  // Body pairs (lower index first) that never collide with each other: joined by a link, or
+  // touching or overlapping (within 2 mm) in the initial pose, where a contact could only push
+  // the parts apart. Sorted.
+  std::vector<std::pair<int, int>> collision_exempt;
 };
 
 // Compiles and checks the figure of `file`. Throws std::invalid_argument naming file, line and

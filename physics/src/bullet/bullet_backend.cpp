@@ -24,6 +24,9 @@ namespace {
 
 constexpr size_t kMaxReportedContacts = 512;
 constexpr btScalar kMargin = 0.001;
+constexpr btScalar kContactBreakingThreshold_m = 0.005;
+constexpr btScalar kBroadphaseHalfSize_m = 20.0;  // x and y: RoboCup fields with borders are at most 16 x 11 m
+constexpr unsigned short kMaxBroadphaseObjects = 4096;
 
 // Bullet's allocations go to the block pool (see block_pool.h), installed before Bullet allocates
 // anything, so that the arrays Bullet grows during a step do not reach malloc.
@@ -185,10 +188,37 @@ class BulletWorld final : public btDiscreteDynamicsWorld {
   btAlignedObjectArray<btCollisionObject*> solver_bodies_;
 };
 
+// Broadphase pairs: the collision groups' masks, then the pairs excluded by exclude_collision(), so
+// that exempt pairs of one robot never reach the pair cache.
+class PairFilter final : public btOverlapFilterCallback {
+ public:
+  explicit PairFilter(const std::vector<std::vector<int>>& exempt) : exempt_(exempt) {}
+
+  bool needBroadphaseCollision(btBroadphaseProxy* a, btBroadphaseProxy* b) const override {
+    if ((a->m_collisionFilterGroup & b->m_collisionFilterMask) == 0 ||
+        (b->m_collisionFilterGroup & a->m_collisionFilterMask) == 0) {
+      return false;
+    }
+    const int ia = static_cast<const btCollisionObject*>(a->m_clientObject)->getUserIndex();
+    const int ib = static_cast<const btCollisionObject*>(b->m_clientObject)->getUserIndex();
+    if (ia < 0 || ib < 0) return true;
+    const std::vector<int>& partners = exempt_[static_cast<size_t>(ia)];
+    return std::find(partners.begin(), partners.end(), ib) == partners.end();
+  }
+
+ private:
+  const std::vector<std::vector<int>>& exempt_;
+};
+
 class BulletBackend final : public Backend {
  public:
   BulletBackend() {
-    std::call_once(g_bullet_once, [] { btAlignedAllocSetCustom(&bullet_alloc, &bullet_free); });
+    std::call_once(g_bullet_once, [] {
+      btAlignedAllocSetCustom(&bullet_alloc, &bullet_free);
+      // Bullet's default 2 cm (a global) grows every box by 2 cm for the broadphase; at a 1 ms
+      // step a part moves less than 5 mm, so 5 mm keeps contacts persistent and pairs few.
+      gContactBreakingThreshold = kContactBreakingThreshold_m;
+    });
   }
 
   ~BulletBackend() override {
@@ -207,7 +237,12 @@ class BulletBackend final : public Backend {
   void init(const BackendOptions& options) override {
     configuration_ = std::make_unique<btDefaultCollisionConfiguration>();
     dispatcher_ = std::make_unique<btCollisionDispatcher>(configuration_.get());
-    broadphase_ = std::make_unique<btDbvtBroadphase>();
+    // Sweep and prune pairs bodies by their exact boxes (grown by the contact breaking threshold);
+    // the dynamic tree grows its boxes by 5 cm, which pairs every part of a robot with its
+    // neighbours and runs the narrow phase on all of them. Outside the bounds it still works, coarser.
+    broadphase_ = std::make_unique<btAxisSweep3>(btVector3(-kBroadphaseHalfSize_m, -kBroadphaseHalfSize_m, -2.0),
+                                                 btVector3(kBroadphaseHalfSize_m, kBroadphaseHalfSize_m, 10.0),
+                                                 kMaxBroadphaseObjects);
     solver_ = std::make_unique<btSequentialImpulseConstraintSolver>();
     world_ = std::make_unique<BulletWorld>(dispatcher_.get(), broadphase_.get(), solver_.get(),
                                                        configuration_.get());
@@ -218,6 +253,7 @@ class BulletBackend final : public Backend {
     info.m_erp2 = 0.2;
     info.m_globalCfm = 0.0;
     world_->setForceUpdateAllAabbs(false);
+    world_->getPairCache()->setOverlapFilterCallback(&filter_);
     step_s_ = options.step_s;
   }
 
@@ -235,10 +271,10 @@ class BulletBackend final : public Backend {
     const int index = static_cast<int>(bodies_.size());
     body->setUserIndex(index);
     const int bit = 1 << desc.group;
-    world_->addRigidBody(body.get(), bit, desc.group == kGroupBall ? ~0 : ~bit);
-    world_->add_solver_body(body.get());
+    filters_.push_back({bit, desc.group == kGroupBall || desc.self_collide ? ~0 : ~bit});
     bodies_.push_back(std::move(body));
     report_.push_back(desc.report_contacts);
+    exempt_.emplace_back();
     pins_.emplace_back();
     return index;
   }
@@ -344,7 +380,19 @@ class BulletBackend final : public Backend {
     return static_cast<int>(joints_.size()) - 1;
   }
 
-  void finalize() override {}
+  void exclude_collision(int a, int b) override {
+    exempt_.at(static_cast<size_t>(a)).push_back(b);
+    exempt_.at(static_cast<size_t>(b)).push_back(a);
+  }
+
+  // Bodies enter the collision world only now that every excluded pair is known: a broadphase may
+  // pair them as soon as they are added.
+  void finalize() override {
+    for (size_t i = 0; i < bodies_.size(); ++i) {
+      world_->addRigidBody(bodies_[i].get(), filters_[i].first, filters_[i].second);
+      world_->add_solver_body(bodies_[i].get());
+    }
+  }
 
   void set_body_state(int index, const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v,
                       const Eigen::Vector3d& w) noexcept override {
@@ -356,7 +404,7 @@ class BulletBackend final : public Backend {
     body.setInterpolationLinearVelocity(bt(v));
     body.setInterpolationAngularVelocity(bt(w));
     body.updateInertiaTensor();
-    world_->updateSingleAabb(&body);
+    if (body.getBroadphaseHandle() != nullptr) world_->updateSingleAabb(&body);
   }
 
   void set_pinned(int index, bool pinned) noexcept override {
@@ -529,6 +577,9 @@ class BulletBackend final : public Backend {
   std::vector<std::unique_ptr<btCollisionObject>> statics_;
   std::vector<std::unique_ptr<btGeneric6DofConstraint>> pins_;
   std::vector<bool> report_;
+  std::vector<std::pair<int, int>> filters_;  // per body: collision filter group and mask
+  std::vector<std::vector<int>> exempt_;  // per body: bodies it never collides with
+  PairFilter filter_{exempt_};
   std::vector<Joint> joints_;
   std::array<Reported, kMaxReportedContacts> reported_{};
   size_t reported_count_ = 0;

@@ -119,12 +119,13 @@ class OdeBackend final : public Backend {
       dMatrix3 R;
       to_ode(desc.shapes[s].X_BS.linear(), R);
       dGeomSetOffsetRotation(geom, R);
-      set_group(geom, desc.group);
+      set_group(geom, desc.group, desc.self_collide);
       dGeomSetData(geom, info.get());
     }
     infos_.push_back(std::move(info));
     bodies_.push_back(body);
     pins_.push_back(nullptr);
+    exempt_.emplace_back();
     set_body_state(index, desc.X_WB, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
     return index;
   }
@@ -137,14 +138,14 @@ class OdeBackend final : public Backend {
     dMatrix3 R;
     to_ode(shape.X_BS.linear(), R);
     dGeomSetRotation(geom, R);
-    set_group(geom, kGroupStatic);
+    set_group(geom, kGroupStatic, false);
     infos_.push_back(std::make_unique<GeomInfo>(GeomInfo{-1, material, false}));
     dGeomSetData(geom, infos_.back().get());
   }
 
   void add_ground(const MaterialSpec& material) override {
     dGeomID plane = dCreatePlane(space_, 0.0, 0.0, 1.0, 0.0);
-    set_group(plane, kGroupStatic);
+    set_group(plane, kGroupStatic, false);
     infos_.push_back(std::make_unique<GeomInfo>(GeomInfo{-1, material, false}));
     dGeomSetData(plane, infos_.back().get());
   }
@@ -188,6 +189,11 @@ class OdeBackend final : public Backend {
     }
     joints_.push_back(Joint{joint, desc.type, child, parent});
     return static_cast<int>(joints_.size()) - 1;
+  }
+
+  void exclude_collision(int a, int b) override {
+    exempt_.at(static_cast<size_t>(a)).push_back(b);
+    exempt_.at(static_cast<size_t>(b)).push_back(a);
   }
 
   void finalize() override {}
@@ -315,11 +321,12 @@ class OdeBackend final : public Backend {
     return nullptr;
   }
 
-  // Group g collides with every other group; the ball group also with itself.
-  static void set_group(dGeomID geom, uint32_t group) {
+  // Group g collides with every other group; the ball group and self-colliding robots also with
+  // themselves (then collide() skips the excluded pairs).
+  static void set_group(dGeomID geom, uint32_t group, bool self_collide) {
     const unsigned long bit = 1UL << group;
     dGeomSetCategoryBits(geom, bit);
-    dGeomSetCollideBits(geom, group == kGroupBall ? ~0UL : ~bit);
+    dGeomSetCollideBits(geom, group == kGroupBall || self_collide ? ~0UL : ~bit);
   }
 
   static void near_callback(void* data, dGeomID a, dGeomID b) { static_cast<OdeBackend*>(data)->collide(a, b); }
@@ -327,11 +334,15 @@ class OdeBackend final : public Backend {
   void collide(dGeomID a, dGeomID b) noexcept {
     dBodyID ba = dGeomGetBody(a);
     dBodyID bb = dGeomGetBody(b);
-    if (ba == nullptr && bb == nullptr) return;
-    const int n = dCollide(a, b, kMaxContactsPerPair, &contact_scratch_[0].geom, sizeof(dContact));
-    if (n <= 0) return;
+    if (ba == bb) return;  // two statics, or two shapes of one body
     const auto* ia = static_cast<const GeomInfo*>(dGeomGetData(a));
     const auto* ib = static_cast<const GeomInfo*>(dGeomGetData(b));
+    if (ia->body >= 0 && ib->body >= 0) {
+      const std::vector<int>& partners = exempt_[static_cast<size_t>(ia->body)];
+      if (std::find(partners.begin(), partners.end(), ib->body) != partners.end()) return;
+    }
+    const int n = dCollide(a, b, kMaxContactsPerPair, &contact_scratch_[0].geom, sizeof(dContact));
+    if (n <= 0) return;
     const double mu = ia->material.friction * ib->material.friction;
     const double bounce = ia->material.restitution * ib->material.restitution;
     for (int i = 0; i < n; ++i) {
@@ -370,6 +381,7 @@ class OdeBackend final : public Backend {
   std::vector<dJointID> pins_;
   std::vector<Joint> joints_;
   std::vector<std::unique_ptr<GeomInfo>> infos_;
+  std::vector<std::vector<int>> exempt_;  // per body: bodies it never collides with
   std::vector<dJointFeedback> feedback_;
   std::vector<Reported> reported_;
   std::array<ContactForce, kMaxReportedContacts> results_{};
