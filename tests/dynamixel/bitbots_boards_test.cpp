@@ -8,46 +8,16 @@
 
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/protocol2.h"
+#include "test_support.h"
 
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
-
-InstructionPacket parse(const Bytes& wire) {
-  Protocol2Parser parser;
-  for (uint8_t b : wire) {
-    if (parser.push(b) == Protocol2Parser::Result::kPacket) {
-      return parser.packet();
-    }
-  }
-  ADD_FAILURE() << "packet did not frame";
-  return {};
-}
-
-Bytes instruction(uint8_t id, uint8_t inst, const Bytes& params = {}) {
-  uint8_t out[256];
-  const std::size_t n = encode_protocol2_instruction(id, inst, params.data(), params.size(), out, sizeof out);
-  return Bytes(out, out + n);
-}
-
-Bytes status(uint8_t id, uint8_t error, const Bytes& params = {}) {
-  Bytes b = {0xFF, 0xFF, 0xFD, 0x00, id, static_cast<uint8_t>(params.size() + 4), 0x00, 0x55, error};
-  b.reserve(b.size() + params.size() + 2);
-  for (uint8_t byte : params) {
-    b.push_back(byte);
-  }
-  const uint16_t crc = protocol2_crc(b.data(), b.size());
-  b.push_back(static_cast<uint8_t>(crc & 0xFF));
-  b.push_back(static_cast<uint8_t>(crc >> 8));
-  return b;
-}
-
-Bytes transact(Device& sut, const Bytes& wire) {
-  Response r;
-  sut.handle(parse(wire), r);
-  return r.transmits ? Bytes(r.status.bytes.begin(), r.status.bytes.begin() + r.status.size) : Bytes{};
-}
+using testing::Bytes;
+using testing::p2::instruction;
+using testing::p2::parse;
+using testing::p2::status;
+using testing::p2::transact;
 
 Bytes f32(float v) {
   const auto raw = std::bit_cast<uint32_t>(v);

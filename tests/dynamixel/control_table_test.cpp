@@ -31,15 +31,16 @@ constexpr Access RW = Access::kReadWrite;
 constexpr Area E = Area::kEeprom;
 constexpr Area M = Area::kRam;
 
-// Reference §3.4, one column of defaults per model.
-std::vector<Row> axrx_rows(int model, int baud, int temperature_limit, int max_voltage) {
+// The rows §3.4 (AX/RX) and §3.5 (MX) print alike, up to the per-model values given here; the rows
+// where the two families differ are added by axrx_rows() and mx_rows().
+std::vector<Row> shared_rows(int model, int baud, int position_max_raw, int temperature_limit, int max_voltage) {
   return {
       {0, 2, R, E, model, 0, 0},
       {3, 1, RW, E, 1, 0, 253},
       {4, 1, RW, E, baud, 0, 254},
       {5, 1, RW, E, 250, 0, 254},
-      {6, 2, RW, E, 0, 0, 1023},
-      {8, 2, RW, E, 1023, 0, 1023},
+      {6, 2, RW, E, 0, 0, position_max_raw},
+      {8, 2, RW, E, position_max_raw, 0, position_max_raw},
       {11, 1, RW, E, temperature_limit, 0, 150},
       {12, 1, RW, E, 60, 50, 250},
       {13, 1, RW, E, max_voltage, 50, 250},
@@ -47,15 +48,9 @@ std::vector<Row> axrx_rows(int model, int baud, int temperature_limit, int max_v
       {16, 1, RW, E, 2, 0, 2},
       {17, 1, RW, E, 36, 0, 127},
       {18, 1, RW, E, 36, 0, 127},
-      {20, 2, R, E, kNoDefault, 0, 0},
-      {22, 2, R, E, kNoDefault, 0, 0},
       {24, 1, RW, M, 0, 0, 1},
       {25, 1, RW, M, 0, 0, 1},
-      {26, 1, RW, M, 1, 0, 254},
-      {27, 1, RW, M, 1, 0, 254},
-      {28, 1, RW, M, 32, 1, 254},
-      {29, 1, RW, M, 32, 1, 254},
-      {30, 2, RW, M, kNoDefault, 0, 1023},
+      {30, 2, RW, M, kNoDefault, 0, position_max_raw},
       {32, 2, RW, M, 0, 0, 1023},  // joint mode (default limits); 2047 in wheel mode
       {34, 2, RW, M, 1023, 0, 1023},
       {36, 2, R, M, kNoDefault, 0, 0},
@@ -66,48 +61,37 @@ std::vector<Row> axrx_rows(int model, int baud, int temperature_limit, int max_v
       {44, 1, R, M, 0, 0, 0},
       {46, 1, R, M, 0, 0, 0},
       {47, 1, RW, M, 0, 0, 1},
-      {48, 2, RW, M, 32, 32, 1023},
   };
+}
+
+// Reference §3.4, one column of defaults per model.
+std::vector<Row> axrx_rows(int model, int baud, int temperature_limit, int max_voltage) {
+  std::vector<Row> rows = shared_rows(model, baud, 1023, temperature_limit, max_voltage);
+  rows.insert(rows.end(), {
+                              {20, 2, R, E, kNoDefault, 0, 0},
+                              {22, 2, R, E, kNoDefault, 0, 0},
+                              {26, 1, RW, M, 1, 0, 254},
+                              {27, 1, RW, M, 1, 0, 254},
+                              {28, 1, RW, M, 32, 1, 254},
+                              {29, 1, RW, M, 32, 1, 254},
+                              {48, 2, RW, M, 32, 32, 1023},
+                          });
+  return rows;
 }
 
 // Reference §3.5.
 std::vector<Row> mx_rows(int model, int max_voltage, bool current_items, bool drive_mode) {
-  std::vector<Row> rows = {
-      {0, 2, R, E, model, 0, 0},
-      {3, 1, RW, E, 1, 0, 253},
-      {4, 1, RW, E, 34, 0, 254},
-      {5, 1, RW, E, 250, 0, 254},
-      {6, 2, RW, E, 0, 0, 4095},
-      {8, 2, RW, E, 4095, 0, 4095},
-      {11, 1, RW, E, 80, 0, 150},
-      {12, 1, RW, E, 60, 50, 250},
-      {13, 1, RW, E, max_voltage, 50, 250},
-      {14, 2, RW, E, 1023, 0, 1023},
-      {16, 1, RW, E, 2, 0, 2},
-      {17, 1, RW, E, 36, 0, 127},
-      {18, 1, RW, E, 36, 0, 127},
-      {20, 2, RW, E, 0, -24576, 24576},
-      {22, 1, RW, E, 1, 1, 4},
-      {24, 1, RW, M, 0, 0, 1},
-      {25, 1, RW, M, 0, 0, 1},
-      {26, 1, RW, M, 0, 0, 254},
-      {27, 1, RW, M, 0, 0, 254},
-      {28, 1, RW, M, 32, 0, 254},
-      {30, 2, RW, M, kNoDefault, 0, 4095},
-      {32, 2, RW, M, 0, 0, 1023},
-      {34, 2, RW, M, 1023, 0, 1023},
-      {36, 2, R, M, kNoDefault, 0, 0},
-      {38, 2, R, M, kNoDefault, 0, 0},
-      {40, 2, R, M, kNoDefault, 0, 0},
-      {42, 1, R, M, kNoDefault, 0, 0},
-      {43, 1, R, M, kNoDefault, 0, 0},
-      {44, 1, R, M, 0, 0, 0},
-      {46, 1, R, M, 0, 0, 0},
-      {47, 1, RW, M, 0, 0, 1},
-      {48, 2, RW, M, 0, 0, 1023},
-      {50, 2, R, M, 0, 0, 0},
-      {73, 1, RW, M, 0, 0, 254},
-  };
+  std::vector<Row> rows = shared_rows(model, 34, 4095, 80, max_voltage);
+  rows.insert(rows.end(), {
+                              {20, 2, RW, E, 0, -24576, 24576},
+                              {22, 1, RW, E, 1, 1, 4},
+                              {26, 1, RW, M, 0, 0, 254},
+                              {27, 1, RW, M, 0, 0, 254},
+                              {28, 1, RW, M, 32, 0, 254},
+                              {48, 2, RW, M, 0, 0, 1023},
+                              {50, 2, R, M, 0, 0, 0},
+                              {73, 1, RW, M, 0, 0, 254},
+                          });
   if (current_items) {
     rows.push_back({70, 1, RW, M, 0, 0, 1});
     rows.push_back({71, 2, RW, M, 0, 0, 2047});

@@ -14,62 +14,22 @@
 #include "dynamixel/protocol2.h"
 #include "dynamixel/protocol2_factory.h"
 #include "dynamixel/protocol2_servo.h"
+#include "test_support.h"
 
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
+using testing::Bytes;
+using testing::le;
+using testing::p2::status;
+using testing::p2::transact;
+using testing::p2::write_params;
 
-InstructionPacket parse(const Bytes& wire) {
-  Protocol2Parser parser;
-  for (uint8_t b : wire) {
-    if (parser.push(b) == Protocol2Parser::Result::kPacket) {
-      return parser.packet();
-    }
-  }
-  ADD_FAILURE() << "packet did not frame";
-  return {};
-}
-
-Bytes le(int64_t v, int n) {
-  Bytes b;
-  for (int i = 0; i < n; ++i) {
-    b.push_back(static_cast<uint8_t>((static_cast<uint64_t>(v) >> (8 * i)) & 0xFF));
-  }
-  return b;
-}
-
-// Instruction and status as §2.1 frames them, CRC of §2.2 (no stuffing needed for these payloads).
-Bytes frame(uint8_t id, const Bytes& body) {
-  Bytes b = {0xFF, 0xFF, 0xFD, 0x00, id, static_cast<uint8_t>(body.size() + 2), 0x00};
-  b.insert(b.end(), body.begin(), body.end());
-  const uint16_t crc = protocol2_crc(b.data(), b.size());
-  b.push_back(static_cast<uint8_t>(crc & 0xFF));
-  b.push_back(static_cast<uint8_t>(crc >> 8));
-  return b;
-}
+// Instructions as §2.1 frames them, CRC of §2.2 (no stuffing needed for these payloads).
 Bytes instruction(uint8_t id, uint8_t inst, const Bytes& params = {}) {
   Bytes body = {inst};
   body.insert(body.end(), params.begin(), params.end());
-  return frame(id, body);
-}
-Bytes status(uint8_t id, uint8_t error, const Bytes& params = {}) {
-  Bytes body = {0x55, error};
-  body.insert(body.end(), params.begin(), params.end());
-  return frame(id, body);
-}
-
-Bytes transact(Device& sut, const Bytes& wire) {
-  Response r;
-  sut.handle(parse(wire), r);
-  return r.transmits ? Bytes(r.status.bytes.begin(), r.status.bytes.begin() + r.status.size) : Bytes{};
-}
-
-Bytes write_params(uint16_t address, int64_t value, int size) {
-  Bytes p = le(address, 2);
-  const Bytes v = le(value, size);
-  p.insert(p.end(), v.begin(), v.end());
-  return p;
+  return testing::p2::frame(id, body);
 }
 
 Bytes write(Device& sut, uint16_t address, int64_t value, int size) {
@@ -225,7 +185,7 @@ TEST(Mx2Models, FastSyncReadWithAnMxBreaksTheCombinedStatus) {
   BusDevices bus;
   bus.add(xm);
   bus.add(mx);
-  const auto statuses = bus.dispatch(parse(instruction(0xFE, instruction::kFastSyncRead, {0x84, 0x00, 0x04, 0x00, 1, 2})),
+  const auto statuses = bus.dispatch(testing::p2::parse(instruction(0xFE, instruction::kFastSyncRead, {0x84, 0x00, 0x04, 0x00, 1, 2})),
                                      1000000);
   ASSERT_EQ(statuses.size(), 1u);
   EXPECT_EQ(statuses[0].device_id, 1);

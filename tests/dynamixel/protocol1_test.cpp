@@ -5,33 +5,17 @@
 #include <cstdint>
 #include <vector>
 
+#include "test_support.h"
+
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
+using testing::Bytes;
+using testing::params_of;
+using testing::Parsed;
 
-// Every packet the parser framed from `bytes`, fed in chunks of `chunk` bytes (a chunk is a loop
-// of push calls, as the bus layer does after each read()).
-struct Parsed {
-  std::vector<InstructionPacket> packets;
-  ParserCounters counters;
-};
-
-Parsed parse(const Bytes& bytes, std::size_t chunk = 1) {
-  Protocol1Parser sut;
-  Parsed result;
-  for (std::size_t start = 0; start < bytes.size(); start += chunk) {
-    for (std::size_t i = start; i < std::min(bytes.size(), start + chunk); ++i) {
-      if (sut.push(bytes[i]) == Protocol1Parser::Result::kPacket) {
-        result.packets.push_back(sut.packet());
-      }
-    }
-  }
-  result.counters = sut.counters();
-  return result;
-}
-
-Bytes params_of(const InstructionPacket& p) { return Bytes(p.params.begin(), p.params.begin() + p.param_count); }
+// Every packet the parser framed from `bytes`, fed in chunks of `chunk` bytes.
+Parsed parse(const Bytes& bytes, std::size_t chunk = 1) { return testing::parse_all<Protocol1Parser>(bytes, chunk); }
 
 TEST(Protocol1Checksum, ReferenceWorkedExample) {
   // Reference §1.1: FF FF 01 05 03 0C 64 AA -> checksum 0xDC.

@@ -11,61 +11,20 @@
 
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/protocol2.h"
+#include "test_support.h"
 
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
+using testing::Bytes;
+using testing::le;
+using testing::p2::instruction;
+using testing::p2::parse;
+using testing::p2::status;
+using testing::p2::transact;
+using testing::p2::write_params;
 
 constexpr double kUnitsPerRad = 4096.0 / (2.0 * std::numbers::pi);
-
-InstructionPacket parse(const Bytes& wire) {
-  Protocol2Parser parser;
-  for (uint8_t b : wire) {
-    if (parser.push(b) == Protocol2Parser::Result::kPacket) {
-      return parser.packet();
-    }
-  }
-  ADD_FAILURE() << "packet did not frame";
-  return {};
-}
-
-Bytes instruction(uint8_t id, uint8_t inst, const Bytes& params = {}) {
-  uint8_t out[1500];
-  const std::size_t n = encode_protocol2_instruction(id, inst, params.data(), params.size(), out, sizeof out);
-  return Bytes(out, out + n);
-}
-
-// Status as §2.1 frames it (no stuffing needed for these payloads).
-Bytes status(uint8_t id, uint8_t error, const Bytes& params = {}) {
-  Bytes b = {0xFF, 0xFF, 0xFD, 0x00, id, static_cast<uint8_t>(params.size() + 4), 0x00, 0x55, error};
-  b.insert(b.end(), params.begin(), params.end());
-  const uint16_t crc = protocol2_crc(b.data(), b.size());
-  b.push_back(static_cast<uint8_t>(crc & 0xFF));
-  b.push_back(static_cast<uint8_t>(crc >> 8));
-  return b;
-}
-
-Bytes transact(Device& sut, const Bytes& wire) {
-  Response r;
-  sut.handle(parse(wire), r);
-  return r.transmits ? Bytes(r.status.bytes.begin(), r.status.bytes.begin() + r.status.size) : Bytes{};
-}
-
-Bytes le(int64_t v, int n) {
-  Bytes b;
-  for (int i = 0; i < n; ++i) {
-    b.push_back(static_cast<uint8_t>((static_cast<uint64_t>(v) >> (8 * i)) & 0xFF));
-  }
-  return b;
-}
-
-Bytes write_params(uint16_t address, int64_t value, int size) {
-  Bytes p = le(address, 2);
-  const Bytes v = le(value, size);
-  p.insert(p.end(), v.begin(), v.end());
-  return p;
-}
 
 double rad_of(int32_t present) { return (present - 2048) / kUnitsPerRad; }
 

@@ -9,32 +9,17 @@
 #include <vector>
 
 #include "dynamixel/packet_framer.h"
+#include "test_support.h"
 
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
+using testing::Bytes;
+using testing::params_of;
+using testing::Parsed;
 
-struct Parsed {
-  std::vector<InstructionPacket> packets;
-  ParserCounters counters;
-};
-
-Parsed parse(const Bytes& bytes, std::size_t chunk = 1) {
-  Protocol2Parser sut;
-  Parsed result;
-  for (std::size_t start = 0; start < bytes.size(); start += chunk) {
-    for (std::size_t i = start; i < std::min(bytes.size(), start + chunk); ++i) {
-      if (sut.push(bytes[i]) == Protocol2Parser::Result::kPacket) {
-        result.packets.push_back(sut.packet());
-      }
-    }
-  }
-  result.counters = sut.counters();
-  return result;
-}
-
-Bytes params_of(const InstructionPacket& p) { return Bytes(p.params.begin(), p.params.begin() + p.param_count); }
+// Every packet the parser framed from `bytes`, fed in chunks of `chunk` bytes.
+Parsed parse(const Bytes& bytes, std::size_t chunk = 1) { return testing::parse_all<Protocol2Parser>(bytes, chunk); }
 Bytes bytes_of(const StatusPacket& s) { return Bytes(s.bytes.begin(), s.bytes.begin() + s.size); }
 Bytes cat(Bytes a, const Bytes& b) {
   a.insert(a.end(), b.begin(), b.end());
@@ -298,32 +283,38 @@ TEST(Protocol2Parser, ResetDropsAPartialPacket) {
   EXPECT_EQ(packets, 1);
 }
 
+// One device's block of a FAST status: its ID and the data it read.
+struct FastBlock {
+  uint8_t id;
+  Bytes data;
+};
+
+// A FAST status (error 0) as the devices build it: each block encoded, then sealed with the running CRC.
+Bytes fast_status(const std::vector<FastBlock>& blocks) {
+  uint32_t total_data_bytes = 0;
+  for (const FastBlock& block : blocks) total_data_bytes += static_cast<uint32_t>(block.data.size());
+  Bytes wire;
+  uint16_t crc = 0;
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    StatusPacket packet;
+    EXPECT_TRUE(encode_fast_block(i == 0, total_data_bytes, static_cast<uint32_t>(blocks.size()), 0, blocks[i].id,
+                                  blocks[i].data.data(), blocks[i].data.size(), packet));
+    crc = seal_fast_block(packet, crc);
+    wire = cat(wire, bytes_of(packet));
+  }
+  return wire;
+}
+
 TEST(Protocol2FastStatus, SyncExampleOfTheReference) {
   // §2.7: FAST SYNC READ IDs 3, 7, 4, address 132, 4 bytes.
-  StatusPacket a, b, c;
-  const uint8_t d3[] = {0xA6, 0x00, 0x00, 0x00}, d7[] = {0x1F, 0x08, 0x00, 0x00}, d4[] = {0xFF, 0x03, 0x00, 0x00};
-  ASSERT_TRUE(encode_fast_block(true, 12, 3, 0, 3, d3, 4, a));
-  ASSERT_TRUE(encode_fast_block(false, 12, 3, 0, 7, d7, 4, b));
-  ASSERT_TRUE(encode_fast_block(false, 12, 3, 0, 4, d4, 4, c));
-  uint16_t crc = seal_fast_block(a, 0);
-  crc = seal_fast_block(b, crc);
-  seal_fast_block(c, crc);
-  EXPECT_EQ(cat(cat(bytes_of(a), bytes_of(b)), bytes_of(c)),
+  EXPECT_EQ(fast_status({{3, {0xA6, 0x00, 0x00, 0x00}}, {7, {0x1F, 0x08, 0x00, 0x00}}, {4, {0xFF, 0x03, 0x00, 0x00}}}),
             (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x19, 0x00, 0x55, 0x00, 0x03, 0xA6, 0x00, 0x00, 0x00, 0x84, 0x08,
                    0x00, 0x07, 0x1F, 0x08, 0x00, 0x00, 0x16, 0xCA, 0x00, 0x04, 0xFF, 0x03, 0x00, 0x00, 0xD1, 0x9E}));
 }
 
 TEST(Protocol2FastStatus, BulkExampleOfTheReference) {
   // §2.7: FAST BULK READ ID 3 (132, 4 B), ID 7 (124, 2 B), ID 4 (146, 1 B).
-  StatusPacket a, b, c;
-  const uint8_t d3[] = {0xA6, 0x00, 0x00, 0x00}, d7[] = {0xA5, 0x01}, d4[] = {0x1F};
-  ASSERT_TRUE(encode_fast_block(true, 7, 3, 0, 3, d3, 4, a));
-  ASSERT_TRUE(encode_fast_block(false, 7, 3, 0, 7, d7, 2, b));
-  ASSERT_TRUE(encode_fast_block(false, 7, 3, 0, 4, d4, 1, c));
-  uint16_t crc = seal_fast_block(a, 0);
-  crc = seal_fast_block(b, crc);
-  seal_fast_block(c, crc);
-  EXPECT_EQ(cat(cat(bytes_of(a), bytes_of(b)), bytes_of(c)),
+  EXPECT_EQ(fast_status({{3, {0xA6, 0x00, 0x00, 0x00}}, {7, {0xA5, 0x01}}, {4, {0x1F}}}),
             (Bytes{0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x14, 0x00, 0x55, 0x00, 0x03, 0xA6, 0x00, 0x00, 0x00, 0x67, 0xA4,
                    0x00, 0x07, 0xA5, 0x01, 0x24, 0x74, 0x00, 0x04, 0x1F, 0xD9, 0xC1}));
 }

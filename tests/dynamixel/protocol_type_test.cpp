@@ -12,28 +12,15 @@
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/packet_framer.h"
 #include "dynamixel/protocol2_servo.h"
+#include "test_support.h"
 
 namespace doppel::dynamixel {
 namespace {
 
-using Bytes = std::vector<uint8_t>;
+using testing::Bytes;
 
-InstructionPacket parse(const Bytes& wire) {
-  PacketFramer framer;
-  for (uint8_t b : wire) {
-    if (framer.push(b) == PacketFramer::Result::kPacket) {
-      return framer.packet();
-    }
-  }
-  ADD_FAILURE() << "packet did not frame";
-  return {};
-}
-
-Bytes transact(Device& sut, const Bytes& wire) {
-  Response r;
-  sut.handle(parse(wire), r);
-  return r.transmits ? Bytes(r.status.bytes.begin(), r.status.bytes.begin() + r.status.size) : Bytes{};
-}
+InstructionPacket parse(const Bytes& wire) { return testing::frame_one<PacketFramer>(wire); }
+Bytes transact(Device& sut, const Bytes& wire) { return testing::transact(sut, parse(wire)); }
 
 // §1.7 / §2.2 worked packets.
 const Bytes kP1Ping = {0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};
