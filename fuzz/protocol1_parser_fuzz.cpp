@@ -2,25 +2,17 @@
 // FUmanoid boards. Must never crash; checks framing, status and counter invariants.
 // Input: byte 0 picks the line rate, byte 1 drives the simulation feedback; the rest is the wire.
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/fumanoid_boards.h"
 #include "dynamixel/protocol1.h"
 #include "dynamixel/protocol1_servo.h"
+#include "fuzz_support.h"
 
 namespace {
 
 namespace dxl = doppel::dynamixel;
-
-#define FUZZ_CHECK(cond)                                                    \
-  do {                                                                      \
-    if (!(cond)) {                                                          \
-      std::fprintf(stderr, "invariant failed: %s (line %d)\n", #cond, __LINE__); \
-      std::abort();                                                         \
-    }                                                                       \
-  } while (0)
+namespace fuzz = doppel::dynamixel::fuzz;
 
 void check_status(const dxl::OutgoingStatus& s) {
   FUZZ_CHECK(s.packet != nullptr);
@@ -31,9 +23,8 @@ void check_status(const dxl::OutgoingStatus& s) {
   }
   FUZZ_CHECK(p.bytes[0] == 0xFF && p.bytes[1] == 0xFF);
   FUZZ_CHECK(p.bytes[2] == s.device_id);
-  FUZZ_CHECK(p.bytes[3] == p.size - 4);
   FUZZ_CHECK(p.bytes[4] <= 0x7F);
-  FUZZ_CHECK(dxl::protocol1_checksum(&p.bytes[2], p.size - 3) == p.bytes[p.size - 1]);
+  fuzz::check_protocol1_frame(p);
 }
 
 }  // namespace
@@ -43,7 +34,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   static constexpr uint32_t kRates[] = {1000000, 57600, 115200, 2250000};
-  const uint32_t line_bps = kRates[data[0] % 4];
+  const uint32_t line_bps = fuzz::line_rate(data, kRates);
 
   dxl::Protocol1Servo ax(dxl::model_spec("AX-12A"), 1, 1, 0);
   dxl::Protocol1Servo rx(dxl::model_spec("RX-64"), 2, 1, 0);
@@ -52,16 +43,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   dxl::FumanoidImu imu(100, 1, 0);
   dxl::FumanoidFootBoard foot(101, 1, 0);
   dxl::BusDevices bus;
-  for (dxl::Device* d : {static_cast<dxl::Device*>(&ax), static_cast<dxl::Device*>(&rx),
-                         static_cast<dxl::Device*>(&mx28), static_cast<dxl::Device*>(&mx106),
-                         static_cast<dxl::Device*>(&imu), static_cast<dxl::Device*>(&foot)}) {
-    bus.add(*d);
-  }
+  fuzz::add_all(bus, ax, rx, mx28, mx106, imu, foot);
 
   dxl::Protocol1Parser parser;
   uint64_t packets = 0;
   int64_t t_ns = 0;
-  for (size_t i = 2; i < size; ++i) {
+  for (size_t i = fuzz::kWireStart; i < size; ++i) {
     if (parser.push(data[i]) != dxl::Protocol1Parser::Result::kPacket) {
       continue;
     }
@@ -74,14 +61,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
 
     // Drive the simulation side with values derived from the input, including extremes.
-    t_ns += static_cast<int64_t>(data[1]) * 1'000'000;
-    dxl::ServoFeedback fb;
-    fb.position_rad = (static_cast<int>(data[i]) - 128) * 0.05;
-    fb.velocity_rad_s = (static_cast<int>(data[1]) - 128) * 0.5;
-    fb.torque_ratio = (data[i] & 1) ? 1.0 : -0.3;
-    fb.voltage_v = data[1] * 0.1;
-    fb.temperature_c = data[i];
-    fb.sim_time_ns = t_ns;
+    const dxl::ServoFeedback fb = fuzz::feedback_at(data, i, 0.05, t_ns);
     for (dxl::Protocol1Servo* servo : {&ax, &rx, &mx28, &mx106}) {
       servo->apply(fb);
       const dxl::ServoCommand c = servo->command();

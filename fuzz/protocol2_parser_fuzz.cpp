@@ -3,8 +3,6 @@
 // checks framing, stuffing round trips, status and counter invariants.
 // Input: byte 0 picks the line rate, byte 1 drives the simulation feedback; the rest is the wire.
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
 
 #include "dynamixel/bitbots_boards.h"
 #include "dynamixel/bus_devices.h"
@@ -12,18 +10,12 @@
 #include "dynamixel/protocol1_servo.h"
 #include "dynamixel/protocol2.h"
 #include "dynamixel/protocol2_servo.h"
+#include "fuzz_support.h"
 
 namespace {
 
 namespace dxl = doppel::dynamixel;
-
-#define FUZZ_CHECK(cond)                                                               \
-  do {                                                                                 \
-    if (!(cond)) {                                                                     \
-      std::fprintf(stderr, "invariant failed: %s (line %d)\n", #cond, __LINE__);       \
-      std::abort();                                                                    \
-    }                                                                                  \
-  } while (0)
+namespace fuzz = doppel::dynamixel::fuzz;
 
 // A P2 status (or fast-read block) as it leaves the device.
 void check_status(const dxl::OutgoingStatus& s) {
@@ -38,8 +30,7 @@ void check_status(const dxl::OutgoingStatus& s) {
   }
   if (p.bytes[2] != 0xFD) {
     // Protocol 1.0 status from the MX-28.
-    FUZZ_CHECK(p.bytes[3] == p.size - 4);
-    FUZZ_CHECK(dxl::protocol1_checksum(&p.bytes[2], p.size - 3) == p.bytes[p.size - 1]);
+    fuzz::check_protocol1_frame(p);
     return;
   }
   FUZZ_CHECK(p.size >= 11);
@@ -61,7 +52,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   static constexpr uint32_t kRates[] = {4000000, 1000000, 57600, 2000000};
-  const uint32_t line_bps = kRates[data[0] % 4];
+  const uint32_t line_bps = fuzz::line_rate(data, kRates);
 
   // Stuffing round trip on the raw input.
   static uint8_t stuffed[4096];
@@ -84,19 +75,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   dxl::BitbotsCore core(42, 6);
   dxl::Protocol1Servo mx(dxl::model_spec("MX-28"), 1, 1, 0);
   dxl::BusDevices bus;
-  for (dxl::Device* d : {static_cast<dxl::Device*>(&xm1), static_cast<dxl::Device*>(&xm2),
-                         static_cast<dxl::Device*>(&xl3), static_cast<dxl::Device*>(&imu),
-                         static_cast<dxl::Device*>(&foot), static_cast<dxl::Device*>(&core),
-                         static_cast<dxl::Device*>(&mx)}) {
-    bus.add(*d);
-  }
+  fuzz::add_all(bus, xm1, xm2, xl3, imu, foot, core, mx);
 
   dxl::Protocol2Parser p2;
   dxl::PacketFramer framer;
   uint64_t p2_packets = 0;
   uint64_t framed = 0;
   int64_t t_ns = 0;
-  for (size_t i = 2; i < size; ++i) {
+  for (size_t i = fuzz::kWireStart; i < size; ++i) {
     if (p2.push(data[i]) == dxl::Protocol2Parser::Result::kPacket) {
       ++p2_packets;
       FUZZ_CHECK(p2.packet().param_count <= dxl::kMaxInstructionParams);
@@ -112,14 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       check_status(s);
     }
 
-    t_ns += static_cast<int64_t>(data[1]) * 1'000'000;
-    dxl::ServoFeedback fb;
-    fb.position_rad = (static_cast<int>(data[i]) - 128) * 0.5;
-    fb.velocity_rad_s = (static_cast<int>(data[1]) - 128) * 0.5;
-    fb.torque_ratio = (data[i] & 1) ? 1.0 : -0.3;
-    fb.voltage_v = data[1] * 0.1;
-    fb.temperature_c = data[i];
-    fb.sim_time_ns = t_ns;
+    const dxl::ServoFeedback fb = fuzz::feedback_at(data, i, 0.5, t_ns);
     for (dxl::Protocol2Servo* servo : {&xm1, &xm2, &xl3}) {
       servo->apply(fb);
       const dxl::ServoCommand c = servo->command();
