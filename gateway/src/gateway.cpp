@@ -62,13 +62,9 @@ Gateway::Gateway(const Options& options) : options_(options) {
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
-    // One supply for every motor of the world: the first simulated robot's first bus.
-    for (const RobotConfig& config : configs) {
-      if (config.body && !config.buses.empty()) {
-        world_options.supply_voltage_v = config.buses.front().supply_voltage_v;
-        break;
-      }
-    }
+    // Each motor runs on its own bus' supply_voltage_v (physics::compile_robot); this is the
+    // file's default for buses that set none.
+    world_options.supply_voltage_v = BusConfig{}.supply_voltage_v;
     world_ = std::make_unique<physics::World>(physics::make_backend(options.physics), std::move(bodies),
                                               std::move(placements), world_options);
     for (std::size_t r = 0; r < configs.size(); ++r) {

@@ -435,6 +435,13 @@ class Compiler {
         motor.params = *params;
         motor.direction = m.reversed() ? -1.0 : 1.0;
         motor.offset_rad = m.offset_deg() * kDeg;
+        const proto::Bus& bus = description_.bus(static_cast<int>(m.bus()));
+        if (bus.has_supply_voltage_v()) {
+          if (!(bus.supply_voltage_v() > 0.0 && bus.supply_voltage_v() <= 30.0)) {
+            file_.fail(bus, "supply_voltage_v", -1, "must be in (0, 30] V");
+          }
+          motor.supply_voltage_v = bus.supply_voltage_v();
+        }
         link.motor = static_cast<int>(model_.motors.size());
         model_.motors.push_back(std::move(motor));
       }

@@ -69,6 +69,7 @@ struct World::MotorSlot {
   double offset_rad = 0.0;
   uint32_t bus = 0;
   uint8_t id = 0;
+  double supply_v = 0.0;  // its bus' supply voltage
   MotorCommand command;
   DriveLaw law;
   ThermalModel thermal;
@@ -250,12 +251,13 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
                    m.offset_rad,
                    m.bus,
                    m.id,
+                   m.supply_voltage_v > 0.0 ? m.supply_voltage_v : options_.supply_voltage_v,
                    MotorCommand{},
                    DriveLaw{},
                    ThermalModel(m.params, options_.ambient_c, options_.step_s),
                    MotorState{}};
     slot.state.temperature_c = options_.ambient_c;
-    slot.state.voltage_v = options_.supply_voltage_v;
+    slot.state.voltage_v = slot.supply_v;
     slot.state.position_rad = m.direction * q[static_cast<size_t>(m.link)] + m.offset_rad;
     robot.link_motor[static_cast<size_t>(m.link)] = static_cast<int>(motors_.size());
     motors_.push_back(slot);
@@ -391,7 +393,6 @@ void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexc
 }
 
 void World::step() noexcept {
-  const double supply = options_.supply_voltage_v;
   for (size_t r = 0; r < robots_.size(); ++r) {
     RobotSlot& robot = robots_[r];
     if (robot.release_pending) {
@@ -414,8 +415,8 @@ void World::step() noexcept {
       continue;
     }
     // The law in servo coordinates, turned into the joint's.
-    const DriveLaw servo = motor_drive(m.params, m.command, supply);
-    m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque};
+    const DriveLaw servo = motor_drive(m.params, m.command, m.supply_v, m.state.velocity_rad_s);
+    m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque, servo.friction_torque};
     backend_->set_drive(m.joint, m.law);
   }
 
@@ -430,11 +431,11 @@ void World::step() noexcept {
     s.position_rad = m.direction * reading.position + m.offset_rad;
     s.velocity_rad_s = m.direction * reading.velocity;
     s.torque_nm = m.direction * joint_torque;
-    const double full = max_torque_nm(m.params, supply);
+    const double full = max_torque_nm(m.params, m.supply_v);
     s.torque_ratio = full > 0.0 ? std::clamp(s.torque_nm / full, -1.0, 1.0) : 0.0;
     s.current_a = std::abs(joint_torque) / m.params.torque_constant_nm_a;
     s.temperature_c = m.thermal.temperature_c();
-    s.voltage_v = supply;
+    s.voltage_v = m.supply_v;
   }
   update_sensors();
 }

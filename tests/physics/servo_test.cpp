@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "rigs.h"
 
@@ -18,6 +19,13 @@ using test::servo_rig;
 constexpr double kSupply = 14.8;
 constexpr double kKe = 2.82, kR = 0.75, kKt = 3.2;
 constexpr double kStallCap = 5.3 * kSupply / 18.5;  // datasheet stall torque scaled to the supply
+// Gear friction: Coulomb 2 % of the 5.3 N m stall torque, viscous 2 % of it at the datasheet's
+// no-load speed (64 rpm at 18.5 V).
+constexpr double kCoulomb = 0.02 * 5.3;
+constexpr double kViscous = 0.02 * 5.3 / (64.0 * 2.0 * M_PI / 60.0);
+constexpr double kDamping = kKt * kKe / kR;  // b of the motor law
+// Datasheet no-load speed at the supply: 53.2 rpm at 15 V (reference, S7).
+constexpr double kDatasheetNoLoad = 53.2 * 2.0 * M_PI / 60.0 * kSupply / 15.0;
 
 class ServoTest : public ::testing::TestWithParam<std::string> {};
 
@@ -30,9 +38,11 @@ TEST_P(ServoTest, UnloadedServoReachesTheNoLoadSpeed) {
 
   for (int i = 0; i < 500; ++i) world->step();
 
-  const double no_load = kSupply / kKe;  // w0 = V / ke
-  EXPECT_NEAR(world->motor(sut).velocity_rad_s, no_load, 0.10 * no_load);
+  // The motor's torque b (V/ke - w) equals the gear friction Fc + Fv w.
+  const double no_load = (kDamping * kSupply / kKe - kCoulomb) / (kDamping + kViscous);
+  EXPECT_NEAR(world->motor(sut).velocity_rad_s, kDatasheetNoLoad, 0.10 * kDatasheetNoLoad);
   EXPECT_NEAR(world->motor(sut).velocity_rad_s, no_load, 0.01 * no_load);
+  EXPECT_NEAR(world->motor(sut).torque_nm, kCoulomb + kViscous * no_load, 0.02 * kCoulomb);  // no-load current
 }
 
 TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
@@ -49,6 +59,7 @@ TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
   const double measured = inertia * world->motor(sut).velocity_rad_s / 0.1;
   const double model_stall = std::min(kKt * kSupply / kR, kStallCap);  // DC line, capped by Torque Limit 100 %
   EXPECT_NEAR(measured, model_stall, 0.10 * model_stall);
+  EXPECT_NEAR(measured, model_stall - kCoulomb, 0.01 * model_stall);  // the gear's friction takes its share
   EXPECT_NEAR(world->motor(sut).torque_nm, model_stall, 1e-9);
   EXPECT_NEAR(world->motor(sut).torque_ratio, 1.0, 1e-9);
 }
@@ -62,7 +73,7 @@ TEST_P(ServoTest, TorqueLimitScalesTheStallTorque) {
   for (int i = 0; i < 100; ++i) world->step();
 
   const double measured = 1.0 * world->motor(sut).velocity_rad_s / 0.1;
-  EXPECT_NEAR(measured, -0.5 * kStallCap, 0.05 * kStallCap);
+  EXPECT_NEAR(measured, -0.5 * kStallCap + kCoulomb, 0.01 * kStallCap);
 }
 
 TEST_P(ServoTest, BelowTheCapTheTorqueFollowsTheDcMotorLine) {
@@ -76,7 +87,8 @@ TEST_P(ServoTest, BelowTheCapTheTorqueFollowsTheDcMotorLine) {
 
   const double w = world->motor(sut).velocity_rad_s;
   const double measured = 1.0 * w / 0.02;
-  const double expected = kKt * (0.05 * kSupply - kKe * 0.5 * w) / kR;  // at the mean speed of the interval
+  // At the mean speed of the interval, less the gear friction.
+  const double expected = kKt * (0.05 * kSupply - kKe * 0.5 * w) / kR - kCoulomb - kViscous * 0.5 * w;
   EXPECT_NEAR(measured, expected, 0.05 * expected);
 }
 
@@ -106,6 +118,56 @@ figure {
 
   EXPECT_NEAR(held, 0.0, 2.0 * 0.29 * M_PI / 180.0);  // within two position units of the goal
   EXPECT_GT(limp, 0.5);                               // swung down (about +y: the arm's tip goes down)
+}
+
+TEST_P(ServoTest, EachMotorRunsOnItsBusSupplyVoltage) {
+  // Two unloaded rotors, each servo on its own bus: 12 V and 16 V; the world's default is 14.8 V.
+  const std::string rig = R"(name: "two-buses"
+bus { name: "a" baud_bps: 1000000 protocol: PROTOCOL_1 supply_voltage_v: 12 device { id: 1 model: "RX-64" name: "A" } }
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 supply_voltage_v: 16 device { id: 1 model: "RX-64" name: "B" } }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
+  body { name: "ra" pose { position_m { x: -0.1 z: 0.11 } } shape { cylinder { radius_m: 0.03 length_m: 0.02 } } mass_kg: 0.05 }
+  body { name: "rb" pose { position_m { x: 0.1 z: 0.11 } } shape { cylinder { radius_m: 0.03 length_m: 0.02 } } mass_kg: 0.05 }
+  link { name: "A" type: LINK_REVOLUTE parent: "base" child: "ra" anchor_m { x: -0.1 z: 0.1 } axis { z: 1 } motor { bus: 0 id: 1 } }
+  link { name: "B" type: LINK_REVOLUTE parent: "base" child: "rb" anchor_m { x: 0.1 z: 0.1 } axis { z: 1 } motor { bus: 1 id: 1 } }
+})";
+  auto world = make_world(GetParam(), {robot_from_text(rig)});
+  const MotorHandle a = *world->find_motor(0, 0, 1);
+  const MotorHandle b = *world->find_motor(0, 1, 1);
+  world->set_motor(a, MotorCommand{true, 1.0, 1.0});
+  world->set_motor(b, MotorCommand{true, 1.0, 1.0});
+
+  for (int i = 0; i < 500; ++i) world->step();
+
+  for (const auto& [motor, volts] : {std::pair{a, 12.0}, std::pair{b, 16.0}}) {
+    const double no_load = (kDamping * volts / kKe - kCoulomb) / (kDamping + kViscous);
+    EXPECT_NEAR(world->motor(motor).velocity_rad_s, no_load, 0.01 * no_load) << volts << " V";
+    EXPECT_EQ(world->motor(motor).voltage_v, volts);
+    EXPECT_NEAR(world->motor(motor).torque_ratio * 5.3 * volts / 18.5, world->motor(motor).torque_nm, 1e-9);
+  }
+}
+
+TEST_P(ServoTest, GearFrictionHoldsAnUnpoweredJointAgainstASmallLoad) {
+  // A horizontal arm about y whose weight pulls with 0.05 N m, less than the 0.106 N m of Coulomb
+  // friction: with torque off it stays; the same arm with 0.5 kg (0.74 N m) swings down (above).
+  const std::string rig = R"(name: "light-pendulum"
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { x: 0.1 y: 0.05 z: 0.5 } } shape { box { size_m { x: 0.2 y: 0.02 z: 0.02 } } } mass_kg: 0.051 }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         motor { bus: 0 id: 1 } }
+})";
+  WorldOptions options = test::bare_options();
+  options.hold = HoldMode::kReleased;
+  auto world = make_world(GetParam(), {robot_from_text(rig)}, options);
+
+  for (int i = 0; i < 500; ++i) world->step();
+
+  EXPECT_NEAR(world->link_position(0, 1), 0.0, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, ServoTest, ::testing::ValuesIn(engine_names()),

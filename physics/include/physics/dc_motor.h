@@ -18,14 +18,18 @@ struct DcMotorParams {
   double torque_constant_nm_a = 0.0;    // kt, N·m per A at the output shaft
   double stall_torque_nm = 0.0;         // datasheet stall torque at rated_voltage_v: Torque Limit 100 %
   double rated_voltage_v = 0.0;         // voltage of the datasheet figures
-  double friction_nm = 0.0;             // gear friction felt when the motor is unpowered (torque off)
+  double friction_nm = 0.0;             // Coulomb gear friction at the output, N·m, powered or not
   double thermal_resistance_k_w = 0.0;  // winding to ambient, K/W
   double thermal_time_constant_s = 0.0; // of the winding + case, s
+  double viscous_friction_nm_s_rad = 0.0;  // viscous gear friction at the output, N·m per rad/s
 };
 
 // Constants for a servo model name as in the bus part ("RX-64", "MX-28", ...), nullopt if unknown.
 // RX-64 and RX-28 take ke, R, kt from the thesis' Table 7; the others are derived from their
-// datasheets (ke = V / no-load speed, kt = stall torque / stall current, R = V / stall current).
+// datasheets (kt = stall torque / stall current, R = V / stall current, ke such that the motor
+// reaches the datasheet's no-load speed against its own gear friction). Gear friction (an
+// assumption, no datasheet gives it): Coulomb 2 % of the stall torque, viscous another 2 % of it
+// at the no-load speed (docs/physics.md: why not more).
 std::optional<DcMotorParams> dc_motor_params(std::string_view model) noexcept;
 
 // What the firmware applies to the motor during one step.
@@ -38,10 +42,14 @@ struct MotorCommand {
 // A torque-speed law tau = clamp(damping * (target_velocity - w), +-max_torque), which a backend
 // solves implicitly with the joint's new velocity w. A DC motor is exactly this law with
 // target_velocity = V / ke and damping = kt * ke / R; a rigid lock is damping = infinity.
+// Gear friction is a second, separate law on the same axis: a torque of at most friction_torque
+// that opposes motion (a rigid zero-speed constraint bounded by it), so the joint sticks while
+// the other torques stay below it and slides against it otherwise.
 struct DriveLaw {
   double target_velocity = 0.0;  // rad/s (or m/s for a prismatic link)
   double damping = 0.0;          // N·m·s/rad; infinity = rigid velocity constraint
   double max_torque = 0.0;       // N·m (or N), >= 0; 0 = no drive
+  double friction_torque = 0.0;  // N·m (or N), >= 0; 0 = no friction
 };
 
 // Maximum output torque at `supply_v` with a 100 % Torque Limit: the datasheet stall torque scaled
@@ -49,10 +57,17 @@ struct DriveLaw {
 double max_torque_nm(const DcMotorParams& params, double supply_v) noexcept;
 
 // The drive law for `command` at `supply_v`: powered (DC-motor line capped by the Torque Limit) or
-// limp (Coulomb gear friction). rt-safe.
-DriveLaw motor_drive(const DcMotorParams& params, const MotorCommand& command, double supply_v) noexcept;
+// not (no drive), with the gear friction at the output speed `velocity_rad_s` of the last step
+// (Coulomb + viscous, the viscous part thus one step late). rt-safe.
+DriveLaw motor_drive(const DcMotorParams& params, const MotorCommand& command, double supply_v,
+                     double velocity_rad_s) noexcept;
 
-// The torque the law delivers at joint speed `velocity` (the speed after the step). rt-safe.
+// The speed an unloaded output shaft settles at with `volts` applied: the motor's torque equals
+// the gear friction, kt (V - ke w) / R = friction + viscous w (or 0 when friction holds it). rt-safe.
+double no_load_speed_rad_s(const DcMotorParams& params, double volts) noexcept;
+
+// The motor's torque under the law at joint speed `velocity` (the speed after the step), without
+// the gear friction. rt-safe.
 double drive_torque(const DriveLaw& law, double velocity) noexcept;
 
 // Winding temperature: C dT/dt = I^2 R - (T - T_ambient) / R_th, integrated exactly over a step.

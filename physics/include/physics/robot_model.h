@@ -52,6 +52,7 @@ struct MotorModel {
   DcMotorParams params;    // motor constants (model defaults with the file's overrides)
   double direction = 1.0;  // +1, or -1 when reversed: servo angle = direction * q + offset
   double offset_rad = 0.0; // servo angle at link position 0
+  double supply_voltage_v = 0.0;  // its bus' Bus.supply_voltage_v; 0 = unset (WorldOptions::supply_voltage_v)
 };
 
 struct LinkModel {

@@ -55,7 +55,8 @@ struct BallOptions {
 struct WorldOptions {
   double step_s = 0.001;           // fixed step
   double gravity_m_s2 = 9.80665;   // along -z
-  double supply_voltage_v = 14.8;  // every servo's supply (the FUmanoid battery)
+  double supply_voltage_v = 14.8;  // supply of servos whose bus sets no supply_voltage_v (the FUmanoid
+                                   // battery); the others use their bus' (MotorModel::supply_voltage_v)
   double ambient_c = 25.0;         // start and ambient temperature of the motors
   HoldMode hold = HoldMode::kUntilTorque;
   double hold_torque_nm = 50.0;    // how hard the handler holds each joint

@@ -72,7 +72,8 @@ Eigen::Isometry3d axis_frame(const Eigen::Vector3d& origin, const Eigen::Vector3
 // impulse * cfm = (target - w_new) / k with k = a' (IA^-1 + IB^-1) a. So a law stiff against the two
 // bodies' inertia (k h b >= 1) is this row with cfm = 1 / (k h b) < 1 (implicit, exact at
 // convergence), and a soft one (k h b < 1) is applied as an explicit torque, which is stable there
-// (|1 - k h b| < 1). A rigid lock (b = infinity) is the row with cfm 0.
+// (|1 - k h b| < 1). A rigid lock (b = infinity) is the row with cfm 0. Gear friction is a second
+// row on the axis: zero relative speed, bounded by the friction torque.
 class DriveRow final : public btTypedConstraint {
  public:
   DriveRow(btRigidBody& child, btRigidBody& parent, const btVector3& axis_in_child)
@@ -109,23 +110,35 @@ class DriveRow final : public btTypedConstraint {
   }
 
   void getInfo1(btConstraintInfo1* info) override {
-    info->m_numConstraintRows = row_ ? 1 : 0;
+    info->m_numConstraintRows = (row_ ? 1 : 0) + (law_.friction_torque > 0.0 ? 1 : 0);
     info->nub = 0;
   }
 
   void getInfo2(btConstraintInfo2* info) override {
     const btVector3 a = axis();
-    info->m_J1angularAxis[0] = a.x();
-    info->m_J1angularAxis[1] = a.y();
-    info->m_J1angularAxis[2] = a.z();
-    info->m_J2angularAxis[0] = -a.x();
-    info->m_J2angularAxis[1] = -a.y();
-    info->m_J2angularAxis[2] = -a.z();
     const btScalar h = 1.0 / info->fps;
-    info->m_constraintError[0] = law_.target_velocity;
-    info->m_lowerLimit[0] = -law_.max_torque * h;
-    info->m_upperLimit[0] = law_.max_torque * h;
-    info->cfm[0] = cfm_;
+    int row = 0;
+    if (row_) {
+      set_row(info, row++, a, law_.target_velocity, law_.max_torque * h, cfm_);
+    }
+    if (law_.friction_torque > 0.0) {
+      set_row(info, row, a, 0.0, law_.friction_torque * h, 0.0);
+    }
+  }
+
+  static void set_row(btConstraintInfo2* info, int row, const btVector3& a, btScalar velocity, btScalar max_impulse,
+                      btScalar cfm) {
+    const int i = row * info->rowskip;
+    info->m_J1angularAxis[i + 0] = a.x();
+    info->m_J1angularAxis[i + 1] = a.y();
+    info->m_J1angularAxis[i + 2] = a.z();
+    info->m_J2angularAxis[i + 0] = -a.x();
+    info->m_J2angularAxis[i + 1] = -a.y();
+    info->m_J2angularAxis[i + 2] = -a.z();
+    info->m_constraintError[i] = velocity;
+    info->m_lowerLimit[i] = -max_impulse;
+    info->m_upperLimit[i] = max_impulse;
+    info->cfm[i] = cfm;
   }
 
   void setParam(int, btScalar, int) override {}

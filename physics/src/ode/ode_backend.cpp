@@ -154,6 +154,7 @@ class OdeBackend final : public Backend {
     dBodyID child = bodies_.at(static_cast<size_t>(desc.child));
     dBodyID parent = desc.parent >= 0 ? bodies_.at(static_cast<size_t>(desc.parent)) : nullptr;
     dJointID joint = nullptr;
+    dJointID friction = nullptr;
     const Eigen::Vector3d& a = desc.anchor_W;
     const Eigen::Vector3d& u = desc.axis_W;
     switch (desc.type) {
@@ -166,6 +167,14 @@ class OdeBackend final : public Backend {
           dJointSetHingeParam(joint, dParamLoStop, desc.lower);
           dJointSetHingeParam(joint, dParamHiStop, desc.upper);
         }
+        // Gear friction: a one-axis angular motor at zero speed, bounded by the friction torque.
+        friction = dJointCreateAMotor(world_, nullptr);
+        dJointAttach(friction, child, parent);
+        dJointSetAMotorMode(friction, dAMotorUser);
+        dJointSetAMotorNumAxes(friction, 1);
+        dJointSetAMotorAxis(friction, 0, 1, u.x(), u.y(), u.z());
+        dJointSetAMotorParam(friction, dParamVel, 0.0);
+        dJointSetAMotorParam(friction, dParamFMax, 0.0);
         break;
       case JointType::kPrismatic:
         joint = dJointCreateSlider(world_, nullptr);
@@ -187,7 +196,7 @@ class OdeBackend final : public Backend {
         dJointSetFixed(joint);
         break;
     }
-    joints_.push_back(Joint{joint, desc.type, child, parent});
+    joints_.push_back(Joint{joint, desc.type, child, parent, friction});
     return static_cast<int>(joints_.size()) - 1;
   }
 
@@ -231,6 +240,7 @@ class OdeBackend final : public Backend {
       dJointSetHingeParam(j.id, dParamFMax, law.max_torque);
       dJointSetHingeParam(j.id, dParamVel, law.target_velocity);
       dJointSetHingeParam(j.id, dParamCFM, cfm);
+      dJointSetAMotorParam(j.friction, dParamFMax, law.friction_torque);
     } else if (j.type == JointType::kPrismatic) {
       dJointSetSliderParam(j.id, dParamFMax, law.max_torque);
       dJointSetSliderParam(j.id, dParamVel, law.target_velocity);
@@ -299,6 +309,7 @@ class OdeBackend final : public Backend {
     JointType type = JointType::kRevolute;
     dBodyID child = nullptr;
     dBodyID parent = nullptr;
+    dJointID friction = nullptr;  // revolute joints: the gear friction's angular motor
   };
 
   static void to_ode(const Eigen::Matrix3d& R, dMatrix3 out) {
