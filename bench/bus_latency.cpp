@@ -11,8 +11,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
-
 #include <vector>
 
 #include "doppel_process.h"
@@ -83,56 +83,32 @@ doppel::bench::InterleavedLatency measure(SerialClient& client, SerialClient& ec
 }  // namespace
 
 int main(int argc, char** argv) {
-  int samples = 2000;
-  bool realtime = false;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--rt") == 0) {
-      realtime = true;
-    } else if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
-      samples = std::atoi(argv[++i]);
-    } else if (std::strcmp(argv[i], "--quick") == 0) {
-      samples = 50;
-    } else {
-      std::fprintf(stderr, "usage: bus_latency [--samples N] [--quick] [--rt]\n");
-      return 2;
-    }
-  }
-  int failures = 0;
-  std::string own_timing;
   // --rt: client, echo and Doppel's bus threads all run SCHED_FIFO (priority 50), as a tuned
   // control computer would; without it, all use normal scheduling.
-  if (realtime && !doppel::bench::run_realtime("bus_latency")) {
+  const std::optional<doppel::bench::LatencyOptions> options =
+      doppel::bench::start_latency_tool(argc, argv, "bus_latency", 50);
+  if (!options) {
     return 2;
   }
+  const bool realtime = options->realtime;
+  int failures = 0;
+  std::string own_timing;
   doppel::bench::PtyEcho echo_server(realtime ? 50 : 0);
   SerialClient echo(echo_server.path(), kBaud);
   std::printf("Protocol 1.0 at %u bps, robot mx-test, %s scheduling; each Doppel sample alternates with a bare "
               "pty echo (8 B out, 8 B back) through the same client code.\n\n", kBaud, realtime ? "SCHED_FIFO" : "normal");
-  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | echo p50 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  doppel::bench::print_latency_header();
   for (const char* mode : {"fast", "wire"}) {
     bool wire = std::strcmp(mode, "wire") == 0;
-    std::vector<std::string> args{"--robot", "mx-test", "--timing", mode};
-    if (realtime) {
-      args.insert(args.end(), {"--rt-priority", "50"});
-    }
-    DoppelProcess doppel(args);
+    DoppelProcess doppel(doppel::bench::doppel_args("mx-test", mode, realtime));
     SerialClient client(doppel.link(), kBaud);
     for (const Case& c : cases()) {
-      doppel::bench::InterleavedLatency m = measure(client, echo, c, wire ? std::max(samples / 2, 20) : samples, wire);
+      doppel::bench::InterleavedLatency m =
+          measure(client, echo, c, wire ? std::max(options->samples / 2, 20) : options->samples, wire);
       failures += m.failures;
-      const Percentiles& rt = m.round_trip_us;
-      if (wire) {
-        std::printf("| %s | wire | %.1f | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", c.name, rt.p50, rt.p99,
-                    rt.p999, m.echo_us.p50, wire_model_us(c), m.error_us.p50, m.error_us.p99, m.failures);
-      } else {
-        std::printf("| %s | fast | %.1f | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", c.name, rt.p50, rt.p99,
-                    rt.p999, m.echo_us.p50, rt.p50 / m.echo_us.p50, m.failures);
-      }
+      doppel::bench::print_latency_row(c.name, wire, m, wire_model_us(c));
     }
-    int status = doppel.stop();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-      std::printf("doppel did not exit cleanly (status %d)\n", status);
+    if (!doppel::bench::stop_cleanly(doppel)) {
       ++failures;
     }
     if (wire) {

@@ -113,19 +113,12 @@ void BM_Iceoryx(benchmark::State& state, bool waitset) {
   report(state, samples_us);
 }
 
-bool write_all(int fd, const uint8_t* p, size_t n) {
+// Moves all `n` bytes through `io` (::read or ::write), resuming after short transfers; false on an
+// error or the end of the stream.
+template <class Io, class Byte>
+bool transfer_all(Io io, int fd, Byte* p, size_t n) {
   while (n > 0) {
-    const ssize_t k = ::write(fd, p, n);
-    if (k <= 0) return false;
-    p += k;
-    n -= static_cast<size_t>(k);
-  }
-  return true;
-}
-
-bool read_all(int fd, uint8_t* p, size_t n) {
-  while (n > 0) {
-    const ssize_t k = ::read(fd, p, n);
+    const ssize_t k = io(fd, p, n);
     if (k <= 0) return false;
     p += k;
     n -= static_cast<size_t>(k);
@@ -148,7 +141,7 @@ void BM_UnixSocket(benchmark::State& state) {
   }
   std::atomic<int64_t> latency_ns{-1};
   std::thread reader([&] {
-    while (read_all(fds[1], received.data(), bytes)) {
+    while (transfer_all(::read, fds[1], received.data(), bytes)) {
       const int64_t held = mono_ns();
       int64_t sent = 0;
       std::memcpy(&sent, received.data(), sizeof(sent));
@@ -162,7 +155,7 @@ void BM_UnixSocket(benchmark::State& state) {
     latency_ns.store(-1, std::memory_order_relaxed);
     const int64_t sent = mono_ns();
     std::memcpy(frame.data(), &sent, sizeof(sent));
-    if (!write_all(fds[0], frame.data(), bytes)) {
+    if (!transfer_all(::write, fds[0], frame.data(), bytes)) {
       state.SkipWithError("write failed");
       break;
     }

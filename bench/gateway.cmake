@@ -1,9 +1,6 @@
 # End-to-end bus benchmarks against the real doppel executable (figures in docs/benchmarks.md).
 foreach(tool bus_latency bus_throughput control_loop)
-  add_executable(${tool} ${CMAKE_CURRENT_SOURCE_DIR}/${tool}.cpp)
-  target_link_libraries(${tool} PRIVATE doppel::test_support Threads::Threads doppel::build_options)
-  target_include_directories(${tool} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
-  add_dependencies(${tool} doppel)
+  doppel_bus_tool(${tool})
 endforeach()
 target_link_libraries(bus_latency PRIVATE util)  # openpty
 

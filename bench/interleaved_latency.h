@@ -1,17 +1,23 @@
 #pragma once
-// The measurement both bus_latency tools share: each Doppel transaction alternates with one bare
-// pty echo round trip through the same client code, so machine load hits both alike, and the
-// echo's median is the floor that the wire model's error is measured above.
+// The measurement both bus_latency tools (bus_latency, p2_bus_latency) share: each Doppel
+// transaction alternates with one bare pty echo round trip through the same client code, so machine
+// load hits both alike, and the echo's median is the floor that the wire model's error is measured
+// above. Also their common command line, Doppel arguments and result table.
 
 #include <pthread.h>
 #include <sched.h>
+#include <sys/wait.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "doppel_process.h"
 #include "latency_stats.h"
 #include "reference_client.h"
 
@@ -62,6 +68,12 @@ InterleavedLatency measure_interleaved(testing::SerialClient& echo, int samples,
   return out;
 }
 
+// The command line both tools take: [--samples N] [--quick] [--rt].
+struct LatencyOptions {
+  int samples = 2000;     // Doppel transactions per instruction in fast mode
+  bool realtime = false;  // --rt: SCHED_FIFO 50 for client, echo and Doppel's bus threads
+};
+
 // --rt: this thread runs SCHED_FIFO 50, like the echo thread and Doppel's bus threads then. False
 // (with a message naming `tool`) when the system refuses.
 inline bool run_realtime(const char* tool) {
@@ -69,6 +81,67 @@ inline bool run_realtime(const char* tool) {
   param.sched_priority = 50;
   if (pthread_setschedparam(pthread_self(), SCHED_FIFO, &param) != 0) {
     std::fprintf(stderr, "%s: SCHED_FIFO refused (needs root or CAP_SYS_NICE)\n", tool);
+    return false;
+  }
+  return true;
+}
+
+// Parses the command line of `tool` (--quick means `quick_samples`) and, with --rt, puts this thread
+// on SCHED_FIFO 50 (run_realtime()). nullopt, after saying why, on a bad command line or a refused
+// --rt: the tool then exits with 2.
+inline std::optional<LatencyOptions> start_latency_tool(int argc, char** argv, const char* tool, int quick_samples) {
+  LatencyOptions options;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
+      options.samples = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--quick") == 0) {
+      options.samples = quick_samples;
+    } else if (std::strcmp(argv[i], "--rt") == 0) {
+      options.realtime = true;
+    } else {
+      std::fprintf(stderr, "usage: %s [--samples N] [--quick] [--rt]\n", tool);
+      return std::nullopt;
+    }
+  }
+  if (options.realtime && !run_realtime(tool)) {
+    return std::nullopt;
+  }
+  return options;
+}
+
+// Doppel's arguments for `robot` in timing `mode` ("fast" or "wire"), its bus threads at SCHED_FIFO 50
+// when `realtime`.
+inline std::vector<std::string> doppel_args(const char* robot, const char* mode, bool realtime) {
+  std::vector<std::string> args{"--robot", robot, "--timing", mode};
+  if (realtime) {
+    args.insert(args.end(), {"--rt-priority", "50"});
+  }
+  return args;
+}
+
+// The header of the table print_latency_row() fills.
+inline void print_latency_header() {
+  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | echo p50 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+}
+
+// One row: in wire mode with the model and the error against it, in fast mode with the ratio to the echo.
+inline void print_latency_row(const char* name, bool wire, const InterleavedLatency& m, double wire_model_us) {
+  const Percentiles& rt = m.round_trip_us;
+  if (wire) {
+    std::printf("| %s | wire | %.1f | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", name, rt.p50, rt.p99,
+                rt.p999, m.echo_us.p50, wire_model_us, m.error_us.p50, m.error_us.p99, m.failures);
+  } else {
+    std::printf("| %s | fast | %.1f | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", name, rt.p50, rt.p99,
+                rt.p999, m.echo_us.p50, rt.p50 / m.echo_us.p50, m.failures);
+  }
+}
+
+// Stops `doppel`; false (after saying so) when it did not exit with status 0.
+inline bool stop_cleanly(testing::DoppelProcess& doppel) {
+  const int status = doppel.stop();
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    std::printf("doppel did not exit cleanly (status %d)\n", status);
     return false;
   }
   return true;

@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,14 +30,7 @@
 
 namespace {
 
-using doppel::bench::Percentiles;
-using doppel::bench::percentiles;
-using doppel::testing::Bytes;
-using doppel::testing::DoppelProcess;
-using doppel::testing::le16;
-using doppel::testing::le32;
-using doppel::testing::p2_instruction;
-using doppel::testing::SerialClient;
+using namespace doppel::testing;  // the reference client's Bytes, SerialClient, p2_instruction, le16, ...
 using Clock = std::chrono::steady_clock;
 
 constexpr uint32_t kBaud = 4000000;
@@ -123,55 +117,32 @@ doppel::bench::InterleavedLatency measure(SerialClient& client, SerialClient& ec
 }  // namespace
 
 int main(int argc, char** argv) {
-  int samples = 2000;
-  bool realtime = false;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
-      samples = std::atoi(argv[++i]);
-    } else if (std::strcmp(argv[i], "--quick") == 0) {
-      samples = 30;
-    } else if (std::strcmp(argv[i], "--rt") == 0) {
-      realtime = true;
-    } else {
-      std::fprintf(stderr, "usage: p2_bus_latency [--samples N] [--quick] [--rt]\n");
-      return 2;
-    }
-  }
-  int failures = 0;
-  if (realtime && !doppel::bench::run_realtime("p2_bus_latency")) {
+  const std::optional<doppel::bench::LatencyOptions> options =
+      doppel::bench::start_latency_tool(argc, argv, "p2_bus_latency", 30);
+  if (!options) {
     return 2;
   }
+  const bool realtime = options->realtime;
+  int failures = 0;
   doppel::bench::PtyEcho echo_server(realtime ? 50 : 0);
   SerialClient echo(echo_server.path(), kBaud);
   std::printf("Protocol 2.0 at %u bps (TCSETS2/BOTHER), robot fumanoid-x430 (XM430-W350 RDT 500 us, Bit-Bots IMU RDT 0), %s scheduling; "
               "each sample alternates with a bare pty echo (8 B out, 8 B back) through the same client code.\n\n", kBaud,
               realtime ? "SCHED_FIFO" : "normal");
-  std::printf("| instruction | timing | p50 us | p99 us | p99.9 us | echo p50 us | p50 / echo p50 | wire model us | timing error p50 us | timing error p99 us | failures |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  doppel::bench::print_latency_header();
   for (const char* mode : {"fast", "wire"}) {
     const bool wire = std::strcmp(mode, "wire") == 0;
-    std::vector<std::string> args{"--robot", "fumanoid-x430", "--timing", mode};
-    if (realtime) args.insert(args.end(), {"--rt-priority", "50"});
-    DoppelProcess doppel(args, "ttyDXL3");
+    DoppelProcess doppel(doppel::bench::doppel_args("fumanoid-x430", mode, realtime), "ttyDXL3");
     SerialClient bus0(doppel.link("ttyDXL0"), kBaud);
     SerialClient bus1(doppel.link("ttyDXL1"), kBaud);
     for (const Case& c : cases()) {
       // Broadcast PING and 6-device chains pay 6 RDTs: fewer samples keep the run short.
-      const int n = wire ? std::max(samples / (c.reply_slots > 1 ? 8 : 2), 10) : samples;
+      const int n = wire ? std::max(options->samples / (c.reply_slots > 1 ? 8 : 2), 10) : options->samples;
       const doppel::bench::InterleavedLatency m = measure(c.bus == 0 ? bus0 : bus1, echo, c, n, wire);
       failures += m.failures;
-      const Percentiles& rt = m.round_trip_us;
-      if (wire) {
-        std::printf("| %s | wire | %.1f | %.1f | %.1f | %.1f | - | %.1f | %.1f | %.1f | %d |\n", c.name, rt.p50, rt.p99,
-                    rt.p999, m.echo_us.p50, wire_model_us(c), m.error_us.p50, m.error_us.p99, m.failures);
-      } else {
-        std::printf("| %s | fast | %.1f | %.1f | %.1f | %.1f | %.2f | - | - | - | %d |\n", c.name, rt.p50, rt.p99,
-                    rt.p999, m.echo_us.p50, rt.p50 / m.echo_us.p50, m.failures);
-      }
+      doppel::bench::print_latency_row(c.name, wire, m, wire_model_us(c));
     }
-    const int status = doppel.stop();
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-      std::printf("doppel did not exit cleanly (status %d)\n", status);
+    if (!doppel::bench::stop_cleanly(doppel)) {
       ++failures;
     }
   }

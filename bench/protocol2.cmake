@@ -1,10 +1,7 @@
 # Protocol 2.0 end-to-end benchmarks against the real doppel executable (figures in docs/protocol2.md,
 # copied to docs/benchmarks.md): per-instruction latency and the Bit-Bots control cycle.
 foreach(tool p2_bus_latency p2_bitbots_cycle)
-  add_executable(${tool} ${CMAKE_CURRENT_SOURCE_DIR}/${tool}.cpp)
-  target_link_libraries(${tool} PRIVATE doppel::test_support Threads::Threads doppel::build_options)
-  target_include_directories(${tool} PRIVATE ${CMAKE_CURRENT_SOURCE_DIR})
-  add_dependencies(${tool} doppel)
+  doppel_bus_tool(${tool})
 endforeach()
 target_link_libraries(p2_bus_latency PRIVATE util)  # openpty
 target_compile_definitions(p2_bitbots_cycle PRIVATE DOPPEL_BENCH_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
