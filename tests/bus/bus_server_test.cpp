@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -17,14 +18,17 @@
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device.h"
 #include "pty_test_support.h"
+#include "served_bus.h"
 
 namespace doppel::bus {
 namespace {
 
 using namespace std::chrono_literals;
+using testing::ClientFd;
+using testing::fast;
 using testing::open_client;
-using testing::read_available;
 using testing::read_bytes;
+using testing::ServedBus;
 using testing::TempDir;
 using testing::write_all;
 using Bytes = std::vector<uint8_t>;
@@ -95,43 +99,6 @@ class RecordingSync final : public DeviceSync {
   std::string* log = nullptr;
 };
 
-// A server on its own thread over a real pty, torn down in order.
-class ServedBus {
- public:
-  explicit ServedBus(const BusServerOptions& options, std::vector<FakeDevice*> devices, DeviceSync* sync = nullptr)
-      : port_(dir_.file("ttyDXL0")) {
-    for (FakeDevice* d : devices) devices_.add(*d);
-    server_ = std::make_unique<BusServer>(port_, devices_, options, sync);
-    thread_ = std::thread([this] { server_->run(stop_); });
-  }
-  ~ServedBus() {
-    stop_ = true;
-    thread_.join();
-  }
-
-  const std::string& path() const { return port_.link_path(); }
-  BusServer& server() { return *server_; }
-
-  // Polls the diagnostics until `done` holds (or 2 s pass).
-  template <class Pred>
-  bool eventually(Pred done) {
-    const auto deadline = std::chrono::steady_clock::now() + 2s;
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (done(server_->diagnostics())) return true;
-      std::this_thread::sleep_for(1ms);
-    }
-    return false;
-  }
-
- private:
-  TempDir dir_;
-  PtyPort port_;
-  dynamixel::BusDevices devices_;
-  std::unique_ptr<BusServer> server_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
-
 // Opens the port and sets the line up as DynamixelSDK does (raw, VMIN = VTIME = 0, `speed`).
 int open_sdk_client(const std::string& path, speed_t speed = B1000000) {
   const int fd = open_client(path);
@@ -147,16 +114,10 @@ int open_sdk_client(const std::string& path, speed_t speed = B1000000) {
   return fd;
 }
 
-BusServerOptions fast() {
-  BusServerOptions options;
-  options.timing_mode = TimingMode::kFast;
-  return options;
-}
-
 TEST(BusServer, AnswersPingWithReferenceBytes) {
   FakeDevice servo(1, kPing1Status, {});
   ServedBus sut(fast(), {&servo});
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1));
@@ -169,7 +130,6 @@ TEST(BusServer, AnswersPingWithReferenceBytes) {
   EXPECT_EQ(d.replies, 1u);
   EXPECT_EQ(d.line_baud_bps, 1'000'000u);
   EXPECT_TRUE(d.connected);
-  ::close(client);
 }
 
 TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
@@ -177,16 +137,16 @@ TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
   BusServerOptions options;  // wire mode, 50 µs processing
   options.record_traces = true;
   ServedBus sut(options, {&servo});
-  const int client = open_sdk_client(sut.path(), B57600);
+  const ClientFd client(open_sdk_client(sut.path(), B57600));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1));
   const Bytes reply = read_bytes(client, 6, 1s);
-  ReplyTrace trace;
-  const bool traced = sut.eventually([&](const BusDiagnostics&) { return sut.server().traces().try_pop(trace); });
+  const std::optional<ReplyTrace> traced = sut.next_trace();
 
   EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
+  const ReplyTrace& trace = *traced;
   // 50 µs processing + 500 µs RDT, then 6 bytes × 173.6 µs (reference §1.6, §4.1).
   EXPECT_EQ(trace.status_end_ns - trace.instruction_end_ns, 50'000 + 500'000 + wire_duration_ns(6, 57'600));
   EXPECT_EQ(trace.due_ns, trace.status_end_ns);  // no adapter
@@ -200,7 +160,6 @@ TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
   for (uint64_t count : diagnostics.lateness_bins) counted += count;
   EXPECT_EQ(counted, 1u);
   EXPECT_GE(lateness_quantile_ns(diagnostics, 1.0), trace.written_ns - trace.due_ns);
-  ::close(client);
 }
 
 TEST(BusServer, WithoutASpinSlotItSleepsToTheDueTimeAndIsStillNeverEarly) {
@@ -210,18 +169,17 @@ TEST(BusServer, WithoutASpinSlotItSleepsToTheDueTimeAndIsStillNeverEarly) {
   options.spin_budget = &no_spinning;
   options.record_traces = true;
   ServedBus sut(options, {&servo});
-  const int client = open_sdk_client(sut.path(), B57600);
+  const ClientFd client(open_sdk_client(sut.path(), B57600));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1));
   const Bytes reply = read_bytes(client, 6, 1s);
-  ReplyTrace trace;
-  const bool traced = sut.eventually([&](const BusDiagnostics&) { return sut.server().traces().try_pop(trace); });
+  const std::optional<ReplyTrace> traced = sut.next_trace();
 
   EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
+  const ReplyTrace& trace = *traced;
   EXPECT_GE(trace.written_ns, trace.due_ns);
-  ::close(client);
 }
 
 TEST(BusServer, AdapterLatencyHoldsReplyUntilATimerExpiry) {
@@ -230,28 +188,27 @@ TEST(BusServer, AdapterLatencyHoldsReplyUntilATimerExpiry) {
   options.adapter_latency_ms = 16;
   options.record_traces = true;
   ServedBus sut(options, {&servo});
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1));
   const Bytes reply = read_bytes(client, 6, 1s);
-  ReplyTrace trace;
-  const bool traced = sut.eventually([&](const BusDiagnostics&) { return sut.server().traces().try_pop(trace); });
+  const std::optional<ReplyTrace> traced = sut.next_trace();
 
   EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
+  const ReplyTrace& trace = *traced;
   EXPECT_EQ(trace.due_ns % 16'000'000, 0);  // first timer restart: free-running ticks from t = 0
   EXPECT_GE(trace.due_ns, trace.status_end_ns);
   EXPECT_LT(trace.due_ns - trace.status_end_ns, 16'000'000);
   EXPECT_GE(trace.written_ns, trace.due_ns);
-  ::close(client);
 }
 
 TEST(BusServer, BulkReadRepliesComeChainedInListOrder) {
   FakeDevice first(1, {}, kBulkStatus1);
   FakeDevice second(2, {}, kBulkStatus2);
   ServedBus sut(BusServerOptions{}, {&second, &first});  // added in the "wrong" order on purpose
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kBulkRead));
@@ -260,13 +217,12 @@ TEST(BusServer, BulkReadRepliesComeChainedInListOrder) {
   Bytes expected = kBulkStatus1;
   expected.insert(expected.end(), kBulkStatus2.begin(), kBulkStatus2.end());
   EXPECT_EQ(replies, expected);
-  ::close(client);
 }
 
 TEST(BusServer, DeviceAtAnotherBaudRateDoesNotAnswer) {
   FakeDevice servo(1, kPing1Status, {}, 1'000'000);
   ServedBus sut(fast(), {&servo});
-  const int client = open_sdk_client(sut.path(), B57600);
+  const ClientFd client(open_sdk_client(sut.path(), B57600));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1));
@@ -276,25 +232,23 @@ TEST(BusServer, DeviceAtAnotherBaudRateDoesNotAnswer) {
   EXPECT_TRUE(framed);
   EXPECT_TRUE(reply.empty());
   EXPECT_EQ(sut.server().diagnostics().replies, 0u);
-  ::close(client);
 }
 
 TEST(BusServer, CountsBadChecksums) {
   FakeDevice servo(1, kPing1Status, {});
   ServedBus sut(fast(), {&servo});
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, kPing1BadChecksum));
 
   EXPECT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.packets == 1 && d.bad_checksums == 1; }));
-  ::close(client);
 }
 
 TEST(BusServer, InterByteTimeoutDropsAStalledPacket) {
   FakeDevice servo(1, kPing1Status, {});
   ServedBus sut(fast(), {&servo});
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(write_all(client, {0xFF, 0xFF, 0x01, 0x04, 0x02}));  // READ, cut short
@@ -305,7 +259,6 @@ TEST(BusServer, InterByteTimeoutDropsAStalledPacket) {
 
   EXPECT_EQ(reply, kPing1Status);
   EXPECT_EQ(sut.server().diagnostics().timeouts, 1u);
-  ::close(client);
 }
 
 TEST(BusServer, SyncHooksSurroundEveryDispatch) {
@@ -317,14 +270,13 @@ TEST(BusServer, SyncHooksSurroundEveryDispatch) {
   Bytes replies;
   {
     ServedBus sut(fast(), {&servo}, &sync);
-    const int client = open_sdk_client(sut.path());
+    const ClientFd client(open_sdk_client(sut.path()));
     ASSERT_GE(client, 0);
     Bytes two_pings = kPing1;
     two_pings.insert(two_pings.end(), kPing1.begin(), kPing1.end());
     ASSERT_TRUE(write_all(client, two_pings));
     replies = read_bytes(client, 12, 1s);
     ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.packets == 2; }));
-    ::close(client);
   }  // joins the bus thread, so its writes to `log` are visible here
 
   EXPECT_EQ(replies.size(), 12u);
@@ -336,20 +288,19 @@ TEST(BusServer, NextClientStartsCleanAfterPreviousLeftWithoutReading) {
   BusServerOptions options;
   options.adapter_latency_ms = 255;  // the reply is still pending when the client leaves
   ServedBus sut(options, {&servo});
-  const int first = open_sdk_client(sut.path());
+  ClientFd first(open_sdk_client(sut.path()));
   ASSERT_GE(first, 0);
   ASSERT_TRUE(write_all(first, kPing1));
   ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.replies == 1; }));
-  ::close(first);
+  first.close();
   ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.reconnects == 1 && !d.connected; }));
 
-  const int second = open_sdk_client(sut.path());
+  const ClientFd second(open_sdk_client(sut.path()));
   ASSERT_GE(second, 0);
   const Bytes stale = read_bytes(second, 1, 300ms);
 
   EXPECT_TRUE(stale.empty());
   EXPECT_EQ(sut.server().diagnostics().discarded_bytes, 6u);
-  ::close(second);
 }
 
 TEST(BusServer, ClientKilledMidPacketDoesNotCorruptTheNextSession) {
@@ -368,7 +319,7 @@ TEST(BusServer, ClientKilledMidPacketDoesNotCorruptTheNextSession) {
   ::waitpid(child, nullptr, 0);
   ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.reconnects == 1; }));
 
-  const int next = open_sdk_client(sut.path());
+  const ClientFd next(open_sdk_client(sut.path()));
   ASSERT_GE(next, 0);
   ASSERT_TRUE(write_all(next, kPing1));  // at once: no 100 ms pause to save it
   const Bytes reply = read_bytes(next, 6, 1s);
@@ -376,13 +327,12 @@ TEST(BusServer, ClientKilledMidPacketDoesNotCorruptTheNextSession) {
   EXPECT_EQ(reply, kPing1Status);
   EXPECT_EQ(sut.server().diagnostics().timeouts, 0u);
   EXPECT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.connects == 2; }));
-  ::close(next);
 }
 
 TEST(BusServer, ClientThatDoesNotReadLosesNoBytes) {
   FakeDevice servo(1, kPing1Status, {});
   ServedBus sut(fast(), {&servo});
-  const int client = open_sdk_client(sut.path());
+  const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
   constexpr std::size_t kPings = 15'000;  // 90 kB of replies: more than the pty buffers hold
   Bytes pings;
@@ -399,7 +349,6 @@ TEST(BusServer, ClientThatDoesNotReadLosesNoBytes) {
   }
   EXPECT_TRUE(all_exact);
   EXPECT_EQ(sut.server().diagnostics().dropped_replies, 0u);
-  ::close(client);
 }
 
 TEST(BusServer, RejectsAdapterLatencyAbove255Ms) {

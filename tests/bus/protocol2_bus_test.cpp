@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -19,14 +20,17 @@
 #include "dynamixel/protocol1_servo.h"
 #include "dynamixel/protocol2_servo.h"
 #include "pty_test_support.h"
+#include "served_bus.h"
 
 namespace doppel::bus {
 namespace {
 
 using namespace std::chrono_literals;
+using testing::ClientFd;
+using testing::fast;
 using testing::open_client;
 using testing::read_bytes;
-using testing::TempDir;
+using testing::ServedBus;
 using testing::write_all;
 using Bytes = std::vector<uint8_t>;
 
@@ -50,30 +54,6 @@ class CountingSync final : public DeviceSync {
   std::atomic<int> ticks{0};
 };
 
-class ServedBus {
- public:
-  ServedBus(const BusServerOptions& options, std::vector<dynamixel::Device*> devices, DeviceSync* sync = nullptr)
-      : port_(dir_.file("ttyDXL0")) {
-    for (dynamixel::Device* d : devices) devices_.add(*d);
-    server_ = std::make_unique<BusServer>(port_, devices_, options, sync);
-    thread_ = std::thread([this] { server_->run(stop_); });
-  }
-  ~ServedBus() {
-    stop_ = true;
-    thread_.join();
-  }
-  const std::string& path() const { return port_.link_path(); }
-  BusServer& server() { return *server_; }
-
- private:
-  TempDir dir_;
-  PtyPort port_;
-  dynamixel::BusDevices devices_;
-  std::unique_ptr<BusServer> server_;
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
-};
-
 // Opens the port as DynamixelSDK does for rates without a Bxxxx constant: TCSETS2 with BOTHER.
 int open_bother_client(const std::string& path, uint32_t baud_bps) {
   const int fd = open_client(path);
@@ -93,19 +73,13 @@ int open_bother_client(const std::string& path, uint32_t baud_bps) {
   return fd;
 }
 
-BusServerOptions fast() {
-  BusServerOptions options;
-  options.timing_mode = TimingMode::kFast;
-  return options;
-}
-
 const dynamixel::P2ModelSpec& xm() { return dynamixel::p2_model_spec("XM430-W350"); }
 
 TEST(Protocol2Bus, P1AndP2DevicesWithTheSameIdShareABus) {
   dynamixel::Protocol1Servo p1(dynamixel::model_spec("MX-28"), 1, 1, 0);  // 1 Mbps
   dynamixel::Protocol2Servo p2(xm(), 1, 3, 0);                            // index 3 = 1 Mbps
   ServedBus sut(fast(), {&p1, &p2});
-  const int client = open_bother_client(sut.path(), 1'000'000);
+  const ClientFd client(open_bother_client(sut.path(), 1'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, kP1Ping1));
   EXPECT_EQ(read_bytes(client, 6, 1s), kP1Ping1Status);
@@ -118,13 +92,12 @@ TEST(Protocol2Bus, P1AndP2DevicesWithTheSameIdShareABus) {
   Bytes expected = kP2Ping1Status;
   expected.insert(expected.end(), kP1Ping1Status.begin(), kP1Ping1Status.end());
   EXPECT_EQ(read_bytes(client, expected.size(), 1s), expected);
-  ::close(client);
 }
 
 TEST(Protocol2Bus, P2PacketWithAGapOfMoreThanOneAndAHalfMillisecondsIsDropped) {
   dynamixel::Protocol2Servo servo(xm(), 1, 6, 0);
   ServedBus sut(fast(), {&servo});
-  const int client = open_bother_client(sut.path(), 4'000'000);
+  const ClientFd client(open_bother_client(sut.path(), 4'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, Bytes(kP2Ping1.begin(), kP2Ping1.begin() + 6)));
   std::this_thread::sleep_for(20ms);
@@ -133,19 +106,17 @@ TEST(Protocol2Bus, P2PacketWithAGapOfMoreThanOneAndAHalfMillisecondsIsDropped) {
   EXPECT_EQ(sut.server().diagnostics().timeouts, 1u);
   ASSERT_TRUE(write_all(client, kP2Ping1));
   EXPECT_EQ(read_bytes(client, 14, 1s), kP2Ping1Status);
-  ::close(client);
 }
 
 TEST(Protocol2Bus, P1PacketKeepsItsHundredMillisecondTimeout) {
   dynamixel::Protocol1Servo servo(dynamixel::model_spec("MX-28"), 1, 1, 0);
   ServedBus sut(fast(), {&servo});
-  const int client = open_bother_client(sut.path(), 1'000'000);
+  const ClientFd client(open_bother_client(sut.path(), 1'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, Bytes(kP1Ping1.begin(), kP1Ping1.begin() + 3)));
   std::this_thread::sleep_for(20ms);
   ASSERT_TRUE(write_all(client, Bytes(kP1Ping1.begin() + 3, kP1Ping1.end())));
   EXPECT_EQ(read_bytes(client, 6, 1s), kP1Ping1Status);
-  ::close(client);
 }
 
 TEST(Protocol2Bus, FastSyncReadAtFourMegabaudInWireMode) {
@@ -155,21 +126,16 @@ TEST(Protocol2Bus, FastSyncReadAtFourMegabaudInWireMode) {
   BusServerOptions options;
   options.record_traces = true;
   ServedBus sut(options, {&s3, &s7, &s4});
-  const int client = open_bother_client(sut.path(), 4'000'000);
+  const ClientFd client(open_bother_client(sut.path(), 4'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, kFastSyncRead));
   EXPECT_EQ(read_bytes(client, kFastSyncReply.size(), 1s), kFastSyncReply);
-  ReplyTrace trace;
-  bool traced = false;
-  for (int i = 0; i < 200 && !traced; ++i) {
-    traced = sut.server().traces().try_pop(trace);
-    std::this_thread::sleep_for(1ms);
-  }
+  const std::optional<ReplyTrace> traced = sut.next_trace();
   ASSERT_TRUE(traced);
+  const ReplyTrace& trace = *traced;
   // One packet: firmware time (RDT 0) once, then 32 bytes back to back at 2.5 µs each.
   EXPECT_EQ(trace.status_end_ns - trace.instruction_end_ns, WireTiming::kDefaultProcessingNs + wire_duration_ns(32, 4'000'000));
   EXPECT_EQ(trace.line_baud_bps, 4'000'000u);
-  ::close(client);
 }
 
 TEST(Protocol2Bus, BroadcastPingWaitsThreeMillisecondsPerMissingId) {
@@ -178,24 +144,19 @@ TEST(Protocol2Bus, BroadcastPingWaitsThreeMillisecondsPerMissingId) {
   BusServerOptions options;
   options.record_traces = true;
   ServedBus sut(options, {&s4, &s1});
-  const int client = open_bother_client(sut.path(), 4'000'000);
+  const ClientFd client(open_bother_client(sut.path(), 4'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, kP2BroadcastPing));
   const Bytes reply = read_bytes(client, 28, 1s);
   ASSERT_EQ(reply.size(), 28u);
   EXPECT_EQ(reply[4], 1);
   EXPECT_EQ(reply[14 + 4], 4);
-  ReplyTrace trace;
-  bool traced = false;
-  for (int i = 0; i < 200 && !traced; ++i) {
-    traced = sut.server().traces().try_pop(trace);
-    std::this_thread::sleep_for(1ms);
-  }
+  const std::optional<ReplyTrace> traced = sut.next_trace();
   ASSERT_TRUE(traced);
+  const ReplyTrace& trace = *traced;
   const int64_t status_ns = wire_duration_ns(14, 4'000'000);
   EXPECT_EQ(trace.status_end_ns - trace.instruction_end_ns,
             2 * (WireTiming::kDefaultProcessingNs + status_ns) + 2 * 3'000'000);  // IDs 2 and 3 idle
-  ::close(client);
 }
 
 TEST(Protocol2Bus, DevicesAreTickedWithoutTraffic) {

@@ -19,6 +19,7 @@ namespace doppel::bus {
 namespace {
 
 using namespace std::chrono_literals;
+using testing::ClientFd;
 using testing::open_client;
 using testing::read_available;
 using testing::read_bytes;
@@ -122,7 +123,7 @@ TEST(PtyPort, LeavesALinkTakenOverByAnotherPort) {
 TEST(PtyPort, SlaveIsInRawMode) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
 
   termios tio{};
@@ -132,13 +133,12 @@ TEST(PtyPort, SlaveIsInRawMode) {
   EXPECT_EQ(tio.c_iflag & (ICRNL | IXON | ISTRIP | INLCR | IGNCR), 0u);
   EXPECT_EQ(tio.c_oflag & OPOST, 0u);
   EXPECT_EQ(tio.c_cflag & CSIZE, static_cast<tcflag_t>(CS8));
-  ::close(client);
 }
 
 TEST(PtyPort, BytesPassUnchangedBothWays) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(sut.wait_for_client(kSecondNs));
   // CR, LF, ^C, XON/XOFF, ^D, DEL and 0xFF: all special to a cooked terminal.
@@ -151,13 +151,12 @@ TEST(PtyPort, BytesPassUnchangedBothWays) {
 
   EXPECT_EQ(at_doppel, awkward);
   EXPECT_EQ(at_client, awkward);
-  ::close(client);
 }
 
 TEST(PtyPort, ReadsBackStandardBaudRateSetByClient) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   termios tio{};
   ASSERT_EQ(::tcgetattr(client, &tio), 0);
@@ -171,7 +170,6 @@ TEST(PtyPort, ReadsBackStandardBaudRateSetByClient) {
 
   EXPECT_EQ(at_1m, 1'000'000u);
   EXPECT_EQ(at_57k, 57'600u);
-  ::close(client);
 }
 
 TEST(PtyPort, NotConnectedUntilAClientOpens) {
@@ -180,7 +178,7 @@ TEST(PtyPort, NotConnectedUntilAClientOpens) {
 
   const bool before = sut.poll_client();
   const bool timed_out = sut.wait_for_client(10'000'000);
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   const bool after = sut.wait_for_client(kSecondNs);
 
@@ -188,7 +186,6 @@ TEST(PtyPort, NotConnectedUntilAClientOpens) {
   EXPECT_FALSE(timed_out);
   EXPECT_TRUE(after);
   EXPECT_TRUE(sut.connected());
-  ::close(client);
 }
 
 TEST(PtyPort, WritesNothingWhileNoClientIsConnected) {
@@ -197,22 +194,21 @@ TEST(PtyPort, WritesNothingWhileNoClientIsConnected) {
   const uint8_t bytes[] = {1, 2, 3};
 
   EXPECT_EQ(sut.write(bytes, 3), 0u);
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   EXPECT_TRUE(read_available(client).empty());
-  ::close(client);
 }
 
 TEST(PtyPort, BytesWrittenBeforeCloseAreReadBeforeTheHangUp) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(sut.wait_for_client(kSecondNs));
   const std::vector<uint8_t> ping{0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};
 
   ASSERT_TRUE(write_all(client, ping));
-  ::close(client);
+  client.close();
   const auto seen = port_read_until_hang_up(sut);
 
   EXPECT_EQ(seen, ping);
@@ -223,10 +219,10 @@ TEST(PtyPort, ClientThatCameAndWentBeforeWeLookedIsStillServed) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
   const std::vector<uint8_t> broadcast_write{0xFF, 0xFF, 0xFE, 0x04, 0x03, 0x03, 0x01, 0xF6};
-  const int client = open_client(sut.link_path());
+  ClientFd client(open_client(sut.link_path()));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, broadcast_write));
-  ::close(client);
+  client.close();
 
   const bool connected = sut.wait_for_client(kSecondNs);
   const auto seen = port_read_until_hang_up(sut);
@@ -240,18 +236,18 @@ TEST(PtyPort, ClientThatCameAndWentBeforeWeLookedIsStillServed) {
 TEST(PtyPort, NextClientSeesNoStaleBytesAfterReconnect) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int first = open_client(sut.link_path());
+  ClientFd first(open_client(sut.link_path()));
   ASSERT_GE(first, 0);
   ASSERT_TRUE(sut.wait_for_client(kSecondNs));
   const std::vector<uint8_t> unread_reply{0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC};
   ASSERT_EQ(sut.write(unread_reply.data(), unread_reply.size()), unread_reply.size());
   ASSERT_TRUE(write_all(first, {0xFF, 0xFF, 0x01, 0x04}));  // half a READ
-  ::close(first);
+  first.close();
   port_read_until_hang_up(sut);
   ASSERT_TRUE(sut.hung_up());
 
   sut.disconnect();
-  const int second = open_client(sut.link_path());
+  ClientFd second(open_client(sut.link_path()));
   ASSERT_GE(second, 0);
   const bool connected = sut.wait_for_client(kSecondNs);
   const auto stale_at_client = read_available(second);
@@ -266,7 +262,6 @@ TEST(PtyPort, NextClientSeesNoStaleBytesAfterReconnect) {
   EXPECT_TRUE(stale_at_client.empty());
   EXPECT_EQ(stale_at_doppel, 0u);
   EXPECT_EQ(fresh_at_client, fresh);
-  ::close(second);
 }
 
 TEST(PtyPort, ClientKilledMidPacketLeavesNoStaleBytes) {
@@ -292,7 +287,7 @@ TEST(PtyPort, ClientKilledMidPacketLeavesNoStaleBytes) {
   const bool hung_up = sut.hung_up();
 
   sut.disconnect();
-  const int next = open_client(sut.link_path());
+  ClientFd next(open_client(sut.link_path()));
   ASSERT_GE(next, 0);
   ASSERT_TRUE(sut.wait_for_client(kSecondNs));
   const auto stale = read_available(next);
@@ -301,30 +296,28 @@ TEST(PtyPort, ClientKilledMidPacketLeavesNoStaleBytes) {
   EXPECT_TRUE(WIFSIGNALED(status));
   EXPECT_TRUE(hung_up);
   EXPECT_TRUE(stale.empty());
-  ::close(next);
 }
 
 TEST(PtyPort, RestoresRawModeForTheNextClient) {
   TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int first = open_client(sut.link_path());
+  ClientFd first(open_client(sut.link_path()));
   ASSERT_GE(first, 0);
   termios cooked{};
   ASSERT_EQ(::tcgetattr(first, &cooked), 0);
   cooked.c_lflag |= ECHO | ICANON;
   ASSERT_EQ(::tcsetattr(first, TCSANOW, &cooked), 0);
   ASSERT_TRUE(sut.wait_for_client(kSecondNs));
-  ::close(first);
+  first.close();
   port_read_until_hang_up(sut);
 
   sut.disconnect();
-  const int next = open_client(sut.link_path());
+  ClientFd next(open_client(sut.link_path()));
   ASSERT_GE(next, 0);
   termios tio{};
   ASSERT_EQ(::tcgetattr(next, &tio), 0);
 
   EXPECT_EQ(tio.c_lflag & (ECHO | ICANON), 0u);
-  ::close(next);
 }
 
 }  // namespace

@@ -36,6 +36,26 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// A client's file descriptor, closed when it goes out of scope (also when an ASSERT leaves early).
+// Converts to the plain fd for the helpers below and for POSIX calls.
+class ClientFd {
+ public:
+  explicit ClientFd(int fd) : fd_(fd) {}
+  ~ClientFd() { close(); }
+  ClientFd(const ClientFd&) = delete;
+  ClientFd& operator=(const ClientFd&) = delete;
+
+  operator int() const { return fd_; }
+  // Closes now (the client hangs up); the destructor then does nothing.
+  void close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+
+ private:
+  int fd_;
+};
+
 // Opens the port as DynamixelSDK does (O_RDWR | O_NOCTTY | O_NONBLOCK).
 inline int open_client(const std::string& path) { return ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK); }
 
