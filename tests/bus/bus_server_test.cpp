@@ -24,13 +24,7 @@ namespace doppel::bus {
 namespace {
 
 using namespace std::chrono_literals;
-using testing::ClientFd;
-using testing::fast;
-using testing::open_client;
-using testing::read_bytes;
-using testing::ServedBus;
-using testing::TempDir;
-using testing::write_all;
+using namespace testing;  // pty client helpers (pty_test_support.h), ServedBus and fast() (served_bus.h)
 using Bytes = std::vector<uint8_t>;
 
 // Reference §1.7, bytes as printed there (client side never uses Doppel's encoder).

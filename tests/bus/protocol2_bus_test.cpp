@@ -26,12 +26,7 @@ namespace doppel::bus {
 namespace {
 
 using namespace std::chrono_literals;
-using testing::ClientFd;
-using testing::fast;
-using testing::open_client;
-using testing::read_bytes;
-using testing::ServedBus;
-using testing::write_all;
+using namespace testing;  // pty client helpers (pty_test_support.h), ServedBus and fast() (served_bus.h)
 using Bytes = std::vector<uint8_t>;
 
 const Bytes kP2Ping1{0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};

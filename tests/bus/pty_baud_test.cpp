@@ -24,7 +24,7 @@ bool set_custom_rate(int fd, uint32_t bps) {
 TEST(PtyPortBaud, ReadsBackBotherRatesUpTo4500000) {
   testing::TempDir dir;
   PtyPort sut(dir.file("ttyDXL0"));
-  const int client = testing::open_client(sut.link_path());
+  const testing::ClientFd client(testing::open_client(sut.link_path()));
   ASSERT_GE(client, 0);
 
   ASSERT_TRUE(set_custom_rate(client, 4'500'000));
@@ -37,7 +37,6 @@ TEST(PtyPortBaud, ReadsBackBotherRatesUpTo4500000) {
   EXPECT_EQ(at_4m5, 4'500'000u);
   EXPECT_EQ(at_2m25, 2'250'000u);
   EXPECT_EQ(at_57k, 57'142u);
-  ::close(client);
 }
 
 }  // namespace

@@ -75,7 +75,7 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   options.timing_mode = TimingMode::kFast;
   BusServer sut(port, devices, options, &sync);
 
-  int client = open_client(port.link_path());
+  testing::ClientFd client(open_client(port.link_path()));
   ASSERT_GE(client, 0);
   termios tio{};
   ASSERT_EQ(tcgetattr(client, &tio), 0);
@@ -108,7 +108,7 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
       served += testing::read_available(client).size();
     }
   }
-  ::close(client);
+  client.close();
   // PING 6 + READ 8 + WRITE 6 + REG_WRITE 6 + BULK READ 3 x 8 + bad-checksum status 6 per round.
   EXPECT_EQ(served, 200u * (6 + 8 + 6 + 6 + 24 + 6));
   EXPECT_GT(sut.diagnostics().packets, 1000u);
