@@ -416,7 +416,8 @@ void World::step() noexcept {
     }
     // The law in servo coordinates, turned into the joint's.
     const DriveLaw servo = motor_drive(m.params, m.command, m.supply_v, m.state.velocity_rad_s);
-    m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque, servo.friction_torque};
+    m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque,
+                     m.command.enabled && !options_.powered_gear_friction ? 0.0 : servo.friction_torque};
     backend_->set_drive(m.joint, m.law);
   }
 

@@ -29,10 +29,18 @@ constexpr double kDatasheetNoLoad = 53.2 * 2.0 * M_PI / 60.0 * kSupply / 15.0;
 
 class ServoTest : public ::testing::TestWithParam<std::string> {};
 
+// These tests model the gear friction while powered too (WorldOptions::powered_gear_friction).
+WorldOptions friction_options() {
+  WorldOptions options = test::bare_options();
+  options.powered_gear_friction = true;
+  return options;
+}
+
 TEST_P(ServoTest, UnloadedServoReachesTheNoLoadSpeed) {
   // A light rotor: 50 g disc of 3 cm radius.
   auto world = make_world(GetParam(), {robot_from_text(servo_rig(
-                                          "shape { cylinder { radius_m: 0.03 length_m: 0.02 } } mass_kg: 0.05"))});
+                                          "shape { cylinder { radius_m: 0.03 length_m: 0.02 } } mass_kg: 0.05"))},
+                          friction_options());
   const MotorHandle sut = *world->find_motor(0, 0, 1);
   world->set_motor(sut, MotorCommand{true, 1.0, 1.0});
 
@@ -49,7 +57,8 @@ TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
   // A 1 kg m^2 flywheel (20 kg, radius 0.316 m): for 0.1 s it barely turns, so the motor is at stall
   // and the torque the engine applied is I * dw / dt.
   auto world = make_world(GetParam(), {robot_from_text(servo_rig(
-                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))});
+                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))},
+                          friction_options());
   const MotorHandle sut = *world->find_motor(0, 0, 1);
   world->set_motor(sut, MotorCommand{true, 1.0, 1.0});
 
@@ -66,7 +75,8 @@ TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
 
 TEST_P(ServoTest, TorqueLimitScalesTheStallTorque) {
   auto world = make_world(GetParam(), {robot_from_text(servo_rig(
-                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))});
+                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))},
+                          friction_options());
   const MotorHandle sut = *world->find_motor(0, 0, 1);
   world->set_motor(sut, MotorCommand{true, -1.0, 0.5});
 
@@ -79,7 +89,8 @@ TEST_P(ServoTest, TorqueLimitScalesTheStallTorque) {
 TEST_P(ServoTest, BelowTheCapTheTorqueFollowsTheDcMotorLine) {
   // 5 % duty: kt V / R = 3.2 * 0.74 / 0.75 = 3.16 N m, under the 4.24 N m cap.
   auto world = make_world(GetParam(), {robot_from_text(servo_rig(
-                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))});
+                                          "shape { cylinder { radius_m: 0.316228 length_m: 0.02 } } mass_kg: 20"))},
+                          friction_options());
   const MotorHandle sut = *world->find_motor(0, 0, 1);
   world->set_motor(sut, MotorCommand{true, 0.05, 1.0});
 
@@ -132,7 +143,7 @@ figure {
   link { name: "A" type: LINK_REVOLUTE parent: "base" child: "ra" anchor_m { x: -0.1 z: 0.1 } axis { z: 1 } motor { bus: 0 id: 1 } }
   link { name: "B" type: LINK_REVOLUTE parent: "base" child: "rb" anchor_m { x: 0.1 z: 0.1 } axis { z: 1 } motor { bus: 1 id: 1 } }
 })";
-  auto world = make_world(GetParam(), {robot_from_text(rig)});
+  auto world = make_world(GetParam(), {robot_from_text(rig)}, friction_options());
   const MotorHandle a = *world->find_motor(0, 0, 1);
   const MotorHandle b = *world->find_motor(0, 1, 1);
   world->set_motor(a, MotorCommand{true, 1.0, 1.0});

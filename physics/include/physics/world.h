@@ -63,6 +63,8 @@ struct WorldOptions {
   double imu_accel_filter_s = 0.005;  // accelerometer low-pass time constant (a MEMS part's
                                       // anti-alias filter, about 30 Hz); 0 = raw finite difference
   int solver_iterations = 10;      // constraint solver sweeps per step (docs/physics.md: why 10)
+  bool powered_gear_friction = false;  // gear friction also while a servo is powered (always when
+                                       // it is not); off by default, docs/physics.md says why
   MaterialSpec ground{0.8, 0.0};   // carpet
   BallOptions ball;
   // Static field objects, normally field_shapes() of field.h: every shape except carpet, lines and
