@@ -49,6 +49,14 @@ inline ServoFeedback feedback_at(const uint8_t* data, std::size_t i, double posi
   return fb;
 }
 
+// The packet of `s`, after the checks every status passes: it is there, with `min_size` to
+// `max_size` bytes.
+inline const StatusPacket& checked_packet(const OutgoingStatus& s, std::size_t min_size, std::size_t max_size) {
+  FUZZ_CHECK(s.packet != nullptr);
+  FUZZ_CHECK(s.packet->size >= min_size && s.packet->size <= max_size);
+  return *s.packet;
+}
+
 // A Protocol 1.0 status: its LENGTH byte and checksum (reference §1.1) agree with its size.
 inline void check_protocol1_frame(const StatusPacket& p) {
   FUZZ_CHECK(p.bytes[3] == p.size - 4);

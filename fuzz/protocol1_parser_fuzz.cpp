@@ -15,9 +15,7 @@ namespace dxl = doppel::dynamixel;
 namespace fuzz = doppel::dynamixel::fuzz;
 
 void check_status(const dxl::OutgoingStatus& s) {
-  FUZZ_CHECK(s.packet != nullptr);
-  const auto& p = *s.packet;
-  FUZZ_CHECK(p.size >= 6 && p.size <= 259);
+  const dxl::StatusPacket& p = fuzz::checked_packet(s, 6, 259);
   if (s.collision) {
     return;  // garbled on purpose
   }
@@ -30,7 +28,7 @@ void check_status(const dxl::OutgoingStatus& s) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  if (size < 2) {
+  if (size < fuzz::kWireStart) {
     return 0;
   }
   static constexpr uint32_t kRates[] = {1000000, 57600, 115200, 2250000};

@@ -19,15 +19,11 @@ namespace fuzz = doppel::dynamixel::fuzz;
 
 // A P2 status (or fast-read block) as it leaves the device.
 void check_status(const dxl::OutgoingStatus& s) {
-  FUZZ_CHECK(s.packet != nullptr);
-  const auto& p = *s.packet;
-  FUZZ_CHECK(p.size >= 4 && p.size <= p.bytes.size());
+  const dxl::StatusPacket& p = fuzz::checked_packet(s, 4, dxl::kMaxStatusBytes);
   if (s.collision || s.continues_previous) {
     return;  // garbled on purpose / a later block of a combined status (no header)
   }
-  if (p.bytes[0] != 0xFF || p.bytes[1] != 0xFF) {
-    FUZZ_CHECK(false);
-  }
+  FUZZ_CHECK(p.bytes[0] == 0xFF && p.bytes[1] == 0xFF);
   if (p.bytes[2] != 0xFD) {
     // Protocol 1.0 status from the MX-28.
     fuzz::check_protocol1_frame(p);
@@ -48,7 +44,7 @@ void check_status(const dxl::OutgoingStatus& s) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  if (size < 2) {
+  if (size < fuzz::kWireStart) {
     return 0;
   }
   static constexpr uint32_t kRates[] = {4000000, 1000000, 57600, 2000000};

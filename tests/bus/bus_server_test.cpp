@@ -108,6 +108,14 @@ int open_sdk_client(const std::string& path, speed_t speed = B1000000) {
   return fd;
 }
 
+// Sends the reference PING from `client`, expects the reference status back, and returns the
+// server's trace of that reply (nullopt when none came).
+std::optional<ReplyTrace> ping_and_trace(ServedBus& bus, int client) {
+  EXPECT_TRUE(write_all(client, kPing1));
+  EXPECT_EQ(read_bytes(client, 6, 1s), kPing1Status);
+  return bus.next_trace();
+}
+
 TEST(BusServer, AnswersPingWithReferenceBytes) {
   FakeDevice servo(1, kPing1Status, {});
   ServedBus sut(fast(), {&servo});
@@ -134,11 +142,8 @@ TEST(BusServer, WireModeAnswersAtModelTimeNeverEarly) {
   const ClientFd client(open_sdk_client(sut.path(), B57600));
   ASSERT_GE(client, 0);
 
-  ASSERT_TRUE(write_all(client, kPing1));
-  const Bytes reply = read_bytes(client, 6, 1s);
-  const std::optional<ReplyTrace> traced = sut.next_trace();
+  const std::optional<ReplyTrace> traced = ping_and_trace(sut, client);
 
-  EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
   const ReplyTrace& trace = *traced;
   // 50 µs processing + 500 µs RDT, then 6 bytes × 173.6 µs (reference §1.6, §4.1).
@@ -166,11 +171,8 @@ TEST(BusServer, WithoutASpinSlotItSleepsToTheDueTimeAndIsStillNeverEarly) {
   const ClientFd client(open_sdk_client(sut.path(), B57600));
   ASSERT_GE(client, 0);
 
-  ASSERT_TRUE(write_all(client, kPing1));
-  const Bytes reply = read_bytes(client, 6, 1s);
-  const std::optional<ReplyTrace> traced = sut.next_trace();
+  const std::optional<ReplyTrace> traced = ping_and_trace(sut, client);
 
-  EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
   const ReplyTrace& trace = *traced;
   EXPECT_GE(trace.written_ns, trace.due_ns);
@@ -185,11 +187,8 @@ TEST(BusServer, AdapterLatencyHoldsReplyUntilATimerExpiry) {
   const ClientFd client(open_sdk_client(sut.path()));
   ASSERT_GE(client, 0);
 
-  ASSERT_TRUE(write_all(client, kPing1));
-  const Bytes reply = read_bytes(client, 6, 1s);
-  const std::optional<ReplyTrace> traced = sut.next_trace();
+  const std::optional<ReplyTrace> traced = ping_and_trace(sut, client);
 
-  EXPECT_EQ(reply, kPing1Status);
   ASSERT_TRUE(traced);
   const ReplyTrace& trace = *traced;
   EXPECT_EQ(trace.due_ns % 16'000'000, 0);  // first timer restart: free-running ticks from t = 0
