@@ -19,6 +19,7 @@
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/protocol1_servo.h"
 #include "dynamixel/protocol2_servo.h"
+#include "bother_line.h"
 #include "pty_test_support.h"
 #include "served_bus.h"
 
@@ -53,17 +54,10 @@ class CountingSync final : public DeviceSync {
 int open_bother_client(const std::string& path, uint32_t baud_bps) {
   const int fd = open_client(path);
   if (fd < 0) return fd;
-  termios2 tio{};
-  ::ioctl(fd, TCGETS2, &tio);
-  tio.c_iflag = IGNPAR;
-  tio.c_oflag = 0;
-  tio.c_lflag = 0;
-  tio.c_cflag = CS8 | CLOCAL | CREAD | BOTHER;
-  tio.c_cc[VMIN] = 0;
-  tio.c_cc[VTIME] = 0;
-  tio.c_ispeed = baud_bps;
-  tio.c_ospeed = baud_bps;
-  ::ioctl(fd, TCSETS2, &tio);
+  if (doppel::testing::set_bother_line(fd, baud_bps) != nullptr) {
+    ::close(fd);
+    return -1;
+  }
   ::ioctl(fd, TCFLSH, TCIFLUSH);
   return fd;
 }

@@ -1,6 +1,5 @@
 #include "reference_client.h"
 
-#include <asm/termbits.h>
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/ioctl.h>
@@ -11,25 +10,14 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "bother_line.h"
+
 namespace doppel::testing {
 namespace {
 
-// <termios.h> clashes with <asm/termbits.h>; the raw ioctls below need only the latter.
 void set_raw_speed(int fd, uint32_t baud_bps) {
-  struct termios2 tio {};
-  if (ioctl(fd, TCGETS2, &tio) != 0) {
-    throw std::runtime_error(std::string("TCGETS2: ") + std::strerror(errno));
-  }
-  tio.c_iflag = IGNPAR;
-  tio.c_oflag = 0;
-  tio.c_lflag = 0;
-  tio.c_cflag = CS8 | CLOCAL | CREAD | BOTHER;
-  tio.c_cc[VMIN] = 0;
-  tio.c_cc[VTIME] = 0;
-  tio.c_ispeed = baud_bps;
-  tio.c_ospeed = baud_bps;
-  if (ioctl(fd, TCSETS2, &tio) != 0) {
-    throw std::runtime_error(std::string("TCSETS2: ") + std::strerror(errno));
+  if (const char* failed = set_bother_line(fd, baud_bps)) {
+    throw std::runtime_error(std::string(failed) + ": " + std::strerror(errno));
   }
 }
 
