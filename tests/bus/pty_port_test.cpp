@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -33,7 +34,7 @@ std::string link_target(const std::string& link) {
   return std::filesystem::read_symlink(link, ec).string();
 }
 
-// Reads from the port until `n` bytes came or one second passed.
+// Reads from the port until `n` bytes came, the client hung up, or one second passed.
 std::vector<uint8_t> port_read(PtyPort& port, std::size_t n) {
   std::vector<uint8_t> out;
   const auto deadline = std::chrono::steady_clock::now() + 1s;
@@ -48,15 +49,7 @@ std::vector<uint8_t> port_read(PtyPort& port, std::size_t n) {
 
 // Reads until the port reports the hang-up (or one second passed); returns the bytes seen.
 std::vector<uint8_t> port_read_until_hang_up(PtyPort& port) {
-  std::vector<uint8_t> out;
-  const auto deadline = std::chrono::steady_clock::now() + 1s;
-  while (!port.hung_up() && std::chrono::steady_clock::now() < deadline) {
-    port.wait(10'000'000, false);
-    uint8_t buffer[64];
-    const std::size_t got = port.read(buffer, sizeof(buffer));
-    out.insert(out.end(), buffer, buffer + got);
-  }
-  return out;
+  return port_read(port, std::numeric_limits<std::size_t>::max());
 }
 
 TEST(PtyPort, CreatesLinkDirectoryAndPointsLinkAtSlave) {
