@@ -25,10 +25,7 @@ namespace {
 
 using doppel::bench::Percentiles;
 using doppel::bench::percentiles;
-using doppel::testing::Bytes;
-using doppel::testing::DoppelProcess;
-using doppel::testing::p1_instruction;
-using doppel::testing::SerialClient;
+using namespace doppel::testing;  // the reference client's Bytes, SerialClient, p1_instruction, ...
 using Clock = std::chrono::steady_clock;
 
 constexpr uint32_t kBaud = 1000000;
