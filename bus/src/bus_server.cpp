@@ -194,9 +194,8 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
 
 void BusServer::write_due() noexcept {
   while (!schedule_.empty() && !write_blocked_) {
-    const int64_t now = now_ns();
-    if (schedule_.front_due_ns() > now) return;
-    const auto pending = schedule_.front_bytes();
+    const auto pending = schedule_.due_bytes(now_ns());
+    if (pending.empty()) return;
     const std::size_t written = port_.write(pending.data(), pending.size());
     if (written == 0) {
       // Full client queue (or the client just left: the next read reports the hang-up).
@@ -204,23 +203,30 @@ void BusServer::write_due() noexcept {
       return;
     }
     add(counters_.bytes_out, written);
-    const ReplySchedule::Progress progress = schedule_.consume(written);
     if (written < pending.size()) write_blocked_ = true;
-    if (!progress.segment_done) continue;
     const int64_t written_ns = now_ns();
-    const int64_t lateness_ns = written_ns - progress.due_ns;
-    if (lateness_ns > options_.late_threshold_ns) add(counters_.late_deliveries);
-    const auto bin = static_cast<std::size_t>(std::clamp<int64_t>(lateness_ns / kLatenessBinNs, 0, kLatenessBins - 1));
-    add(counters_.lateness_bins[bin]);
-    if (lateness_ns > counters_.max_lateness_ns.load(std::memory_order_relaxed)) {
-      counters_.max_lateness_ns.store(lateness_ns, std::memory_order_relaxed);
+    for (std::size_t left = written; left > 0;) {
+      const ReplySchedule::Progress progress = schedule_.consume(left);
+      if (progress.bytes == 0) break;
+      left -= progress.bytes;
+      if (progress.segment_done) account_delivery(progress, written_ns);
     }
-    if (progress.reply_done && options_.record_traces) {
-      ReplyTrace trace = progress.trace;
-      trace.due_ns = progress.due_ns;
-      trace.written_ns = written_ns;
-      traces_.try_push(trace);
-    }
+  }
+}
+
+void BusServer::account_delivery(const ReplySchedule::Progress& progress, int64_t written_ns) noexcept {
+  const int64_t lateness_ns = written_ns - progress.due_ns;
+  if (lateness_ns > options_.late_threshold_ns) add(counters_.late_deliveries);
+  const auto bin = static_cast<std::size_t>(std::clamp<int64_t>(lateness_ns / kLatenessBinNs, 0, kLatenessBins - 1));
+  add(counters_.lateness_bins[bin]);
+  if (lateness_ns > counters_.max_lateness_ns.load(std::memory_order_relaxed)) {
+    counters_.max_lateness_ns.store(lateness_ns, std::memory_order_relaxed);
+  }
+  if (progress.reply_done && options_.record_traces) {
+    ReplyTrace trace = progress.trace;
+    trace.due_ns = progress.due_ns;
+    trace.written_ns = written_ns;
+    traces_.try_push(trace);
   }
 }
 

@@ -57,11 +57,22 @@ std::span<const uint8_t> ReplySchedule::front_bytes() const noexcept {
   return {bytes_.data() + byte_head_, contiguous};
 }
 
+std::span<const uint8_t> ReplySchedule::due_bytes(int64_t now_ns) const noexcept {
+  std::size_t due = 0;
+  for (std::size_t k = 0; k < segment_count_; ++k) {
+    const Segment& segment = segments_[(segment_head_ + k) % kSegmentCapacity];
+    if (segment.due_ns > now_ns) break;
+    due += segment.count;
+  }
+  return {bytes_.data() + byte_head_, std::min(due, kByteCapacity - byte_head_)};
+}
+
 ReplySchedule::Progress ReplySchedule::consume(std::size_t n) noexcept {
   Progress progress;
   if (segment_count_ == 0) return progress;
   Segment& front = segments_[segment_head_];
   n = std::min(n, front.count);
+  progress.bytes = n;
   front.count -= n;
   byte_head_ = (byte_head_ + n) % kByteCapacity;
   byte_count_ -= n;

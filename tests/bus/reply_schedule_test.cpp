@@ -59,6 +59,27 @@ TEST(ReplySchedule, StatusesOfOneReplyDueTogetherLeaveInOneWrite) {
   EXPECT_EQ(sut.front_bytes().size(), sizeof two_statuses);
 }
 
+TEST(ReplySchedule, SegmentsThatFellDueTogetherLeaveInOneWriteAndCompleteInOrder) {
+  ReplySchedule sut;
+  const uint8_t bytes[] = {1, 2, 3, 4, 5};
+  sut.push_bytes(bytes, 5);
+  sut.push_segment(100, 2);
+  sut.push_segment(200, 2);
+  sut.push_segment(300, 1);
+
+  const auto due_at_250 = sut.due_bytes(250);
+  const ReplySchedule::Progress first = sut.consume(due_at_250.size());
+  const ReplySchedule::Progress second = sut.consume(due_at_250.size() - first.bytes);
+
+  EXPECT_EQ(std::vector<uint8_t>(due_at_250.begin(), due_at_250.end()), (std::vector<uint8_t>{1, 2, 3, 4}));
+  EXPECT_TRUE(first.segment_done);
+  EXPECT_EQ(first.due_ns, 100);
+  EXPECT_TRUE(second.segment_done);
+  EXPECT_EQ(second.due_ns, 200);
+  EXPECT_EQ(sut.front_due_ns(), 300);
+  EXPECT_TRUE(sut.due_bytes(299).empty());
+}
+
 TEST(ReplySchedule, ReplyEndsStayApartSoEachReplyIsTraced) {
   ReplySchedule sut;
   const uint8_t bytes[] = {1, 2};

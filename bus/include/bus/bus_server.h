@@ -128,6 +128,7 @@ class BusServer {
   void dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
                 uint32_t baud_bps) noexcept;
   void write_due() noexcept;
+  void account_delivery(const ReplySchedule::Progress& progress, int64_t written_ns) noexcept;
   void await_due(int64_t due_ns) noexcept;
   void on_connect() noexcept;
   void on_hang_up() noexcept;

@@ -34,6 +34,7 @@ class ReplySchedule {
 
   // Result of consume(): whether the front segment / its reply has been fully handed over.
   struct Progress {
+    std::size_t bytes = 0;      // bytes of the front segment taken by this call
     bool segment_done = false;  // the front segment was completed (and removed)
     bool reply_done = false;    // it was the last segment of a reply: trace is valid
     int64_t due_ns = 0;         // due time of the completed segment
@@ -59,7 +60,11 @@ class ReplySchedule {
   // The oldest segment's unwritten bytes that are contiguous in the ring (a wrapped segment comes
   // in two pieces). Empty when empty(). rt-safe.
   std::span<const uint8_t> front_bytes() const noexcept;
-  // Records that the first `n` bytes of front_bytes() were handed over. rt-safe.
+  // The unwritten bytes of every segment due by `now_ns`, as far as they are contiguous in the
+  // ring: deliveries that fell due together (the bus thread woke late) leave in one write. rt-safe.
+  std::span<const uint8_t> due_bytes(int64_t now_ns) const noexcept;
+  // Records that the first `n` bytes of the front segment were handed over (at most the segment:
+  // call again with the rest for bytes that reach into the next). rt-safe.
   Progress consume(std::size_t n) noexcept;
   // Drops everything (the client went away). rt-safe.
   void clear() noexcept;
