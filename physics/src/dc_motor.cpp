@@ -60,6 +60,10 @@ std::optional<DcMotorParams> dc_motor_params(std::string_view model) noexcept {
   if (model == "AX-12" || model == "AX-12+") {
     return dc_motor_params("AX-12A");
   }
+  // MX servos with Protocol 2.0 firmware: the same motor and gears as with Protocol 1.0 firmware.
+  if (model == "MX-28(2.0)") return dc_motor_params("MX-28");
+  if (model == "MX-64(2.0)") return dc_motor_params("MX-64");
+  if (model == "MX-106(2.0)") return dc_motor_params("MX-106");
   return std::nullopt;
 }
 
