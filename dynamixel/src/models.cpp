@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "model_tables.h"
+
 namespace doppel::dynamixel {
 
 namespace {
@@ -187,13 +189,10 @@ constexpr std::array<RegisterSpec, 5> kFootValues{{
 constexpr auto kImuTable = merged(board_header(kFumanoidImuModelNumber, 100, 20), kImuValues);
 constexpr auto kFootTable = merged(board_header(kFumanoidFootModelNumber, 101, 10), kFootValues);
 
-constexpr double rpm_to_rad_s(double rpm) { return rpm * 2.0 * std::numbers::pi / 60.0; }
 constexpr double deg_to_rad(double deg) { return deg * std::numbers::pi / 180.0; }
 
-// DC-motor constants derived as the thesis does for the RX-64 (§4.2.1.2) from a datasheet point
-// (reference §5) at voltage V: no load, all of V is back-EMF -> ke = V / w_no_load; at stall only
-// the armature limits the current -> R = V / I_stall; kt = tau_stall / I_stall. All at the output
-// shaft, so the gear is inside the constants.
+// A Protocol 1.0 servo of `family` with the DC-motor constants of its datasheet point at `volts`
+// (detail::with_datasheet_motor).
 constexpr ServoSpec derived_servo(ServoFamily family, double volts, double no_load_rpm, double stall_n_m,
                                   double stall_a, double gear, double mass_kg) {
   ServoSpec s;
@@ -203,16 +202,7 @@ constexpr ServoSpec derived_servo(ServoFamily family, double volts, double no_lo
   s.position_center_raw = mx ? 2048 : 512;
   s.position_span_rad = deg_to_rad(mx ? 360.0 : 300.0);
   s.speed_unit_rpm = mx ? 0.114 : 0.111;
-  s.nominal_voltage_v = volts;
-  s.no_load_speed_rpm = no_load_rpm;
-  s.stall_torque_n_m = stall_n_m;
-  s.stall_current_a = stall_a;
-  s.ke_v_s_per_rad = volts / rpm_to_rad_s(no_load_rpm);
-  s.resistance_ohm = volts / stall_a;
-  s.kt_n_m_per_a = stall_n_m / stall_a;
-  s.gear_ratio = gear;
-  s.mass_kg = mass_kg;
-  return s;
+  return detail::with_datasheet_motor(s, volts, no_load_rpm, stall_n_m, stall_a, gear, mass_kg);
 }
 
 // RX-28 and RX-64 take ke and kt from thesis Table 7. Its resistances (0.8 and 0.75 ohm) are a
@@ -251,12 +241,7 @@ const std::array<const ModelSpec*, 8> kModels{&kAx12a, &kRx28, &kRx64, &kMx28, &
 }  // namespace
 
 const RegisterSpec* find_register(std::span<const RegisterSpec> registers, uint8_t address) noexcept {
-  for (const RegisterSpec& r : registers) {
-    if (address >= r.address && address < r.address + r.size) {
-      return &r;
-    }
-  }
-  return nullptr;
+  return detail::register_containing(registers, address);
 }
 
 const ModelSpec& model_spec(std::string_view name) {
@@ -265,12 +250,8 @@ const ModelSpec& model_spec(std::string_view name) {
       return *m;
     }
   }
-  std::string known;
-  for (const ModelSpec* m : kModels) {
-    known += known.empty() ? "" : ", ";
-    known += m->name;
-  }
-  throw std::invalid_argument("unknown Dynamixel model \"" + std::string(name) + "\"; known models: " + known);
+  throw std::invalid_argument("unknown Dynamixel model \"" + std::string(name) +
+                              "\"; known models: " + detail::model_names(known_models()));
 }
 
 std::span<const ModelSpec* const> known_models() noexcept { return kModels; }

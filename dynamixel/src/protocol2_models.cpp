@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "model_tables.h"
+
 namespace doppel::dynamixel {
 
 namespace {
@@ -146,10 +148,8 @@ constexpr XTable kMx106Table = x_table({321, kMx2Firmware, 2047, true, false, 80
 
 constexpr uint32_t mode_bit(uint8_t mode) { return uint32_t{1} << mode; }
 
-constexpr double rpm_to_rad_s(double rpm) { return rpm * 2.0 * std::numbers::pi / 60.0; }
-
-// Datasheet point (reference §5) -> DC-motor constants at the output shaft, as models.cpp does for
-// the Protocol 1.0 servos: ke = V / w_no_load, R = V / I_stall, kt = tau_stall / I_stall.
+// An X-series / MX(2.0) servo with the DC-motor constants of its datasheet point (reference §5) at
+// `volts`, derived as for the Protocol 1.0 servos (detail::with_datasheet_motor).
 constexpr ServoSpec x_servo(double volts, double no_load_rpm, double stall_n_m, double stall_a, double gear,
                             double mass_kg) {
   ServoSpec s;
@@ -158,16 +158,7 @@ constexpr ServoSpec x_servo(double volts, double no_load_rpm, double stall_n_m, 
   s.position_center_raw = 2048;
   s.position_span_rad = 2.0 * std::numbers::pi;
   s.speed_unit_rpm = kX430VelocityUnitRpm;
-  s.nominal_voltage_v = volts;
-  s.no_load_speed_rpm = no_load_rpm;
-  s.stall_torque_n_m = stall_n_m;
-  s.stall_current_a = stall_a;
-  s.ke_v_s_per_rad = volts / rpm_to_rad_s(no_load_rpm);
-  s.resistance_ohm = volts / stall_a;
-  s.kt_n_m_per_a = stall_n_m / stall_a;
-  s.gear_ratio = gear;
-  s.mass_kg = mass_kg;
-  return s;
+  return detail::with_datasheet_motor(s, volts, no_load_rpm, stall_n_m, stall_a, gear, mass_kg);
 }
 
 constexpr uint32_t kXModes = mode_bit(0) | mode_bit(1) | mode_bit(3) | mode_bit(4) | mode_bit(5) | mode_bit(16);
@@ -233,23 +224,14 @@ const P2ModelSpec& p2_model_spec(std::string_view name) {
   if (const P2ModelSpec* m = find_p2_model(name)) {
     return *m;
   }
-  std::string known;
-  for (const P2ModelSpec* m : kP2Models) {
-    known += known.empty() ? "" : ", ";
-    known += m->name;
-  }
-  throw std::invalid_argument("unknown Protocol 2.0 model \"" + std::string(name) + "\"; known models: " + known);
+  throw std::invalid_argument("unknown Protocol 2.0 model \"" + std::string(name) +
+                              "\"; known models: " + detail::model_names(known_p2_models()));
 }
 
 std::span<const P2ModelSpec* const> known_p2_models() noexcept { return kP2Models; }
 
 const P2RegisterSpec* find_p2_register(std::span<const P2RegisterSpec> registers, uint16_t address) noexcept {
-  for (const P2RegisterSpec& r : registers) {
-    if (address >= r.address && address < r.address + r.size) {
-      return &r;
-    }
-  }
-  return nullptr;
+  return detail::register_containing(registers, address);
 }
 
 uint32_t p2_baud_bps(uint8_t raw, bool baud7_is_5m) noexcept {
