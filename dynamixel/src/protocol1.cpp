@@ -1,5 +1,7 @@
 #include "dynamixel/protocol1.h"
 
+#include "framed_packet.h"
+
 namespace doppel::dynamixel {
 
 namespace {
@@ -7,6 +9,26 @@ namespace {
 constexpr std::size_t kFramingBytes = 6;
 // LEN is one byte and counts INST/ERR and the checksum.
 constexpr std::size_t kMaxP1Params = 255 - 2;
+
+// Writes `FF FF ID LEN lead params CKSUM` (lead: INST or ERR); returns its size, 0 if it does not
+// fit `capacity` or a P1 packet.
+std::size_t encode_packet(uint8_t id, uint8_t lead, const uint8_t* params, std::size_t n, uint8_t* out,
+                          std::size_t capacity) noexcept {
+  if (n > kMaxP1Params || n + kFramingBytes > capacity) {
+    return 0;
+  }
+  out[0] = 0xFF;
+  out[1] = 0xFF;
+  out[2] = id;
+  out[3] = static_cast<uint8_t>(n + 2);
+  out[4] = lead;
+  for (std::size_t i = 0; i < n; ++i) {
+    out[5 + i] = params[i];
+  }
+  out[5 + n] = protocol1_checksum(out + 2, n + 3);
+  return n + kFramingBytes;
+}
+
 }  // namespace
 
 uint8_t protocol1_checksum(const uint8_t* bytes, std::size_t n) noexcept {
@@ -73,11 +95,7 @@ Protocol1Parser::Result Protocol1Parser::push(uint8_t byte) noexcept {
       }
       return Result::kIncomplete;
     case State::kChecksum:
-      packet_.checksum_ok = static_cast<uint8_t>(~sum_) == byte;
-      ++counters_.packets;
-      if (!packet_.checksum_ok) {
-        ++counters_.bad_checksums;
-      }
+      detail::count_framed_packet(static_cast<uint8_t>(~sum_) == byte, packet_, counters_);
       state_ = State::kHeader1;
       return Result::kPacket;
   }
@@ -97,39 +115,14 @@ bool Protocol1Parser::idle() const noexcept { return state_ == State::kHeader1; 
 
 bool encode_protocol1_status(uint8_t id, uint8_t error, const uint8_t* params, std::size_t n,
                              StatusPacket& out) noexcept {
-  out.size = 0;
-  if (n > kMaxP1Params || n + kFramingBytes > out.bytes.size()) {
-    return false;
-  }
-  auto& b = out.bytes;
-  b[0] = 0xFF;
-  b[1] = 0xFF;
-  b[2] = id;
-  b[3] = static_cast<uint8_t>(n + 2);
-  b[4] = error;
-  for (std::size_t i = 0; i < n; ++i) {
-    b[5 + i] = params[i];
-  }
-  b[5 + n] = protocol1_checksum(&b[2], n + 3);
-  out.size = static_cast<uint16_t>(n + kFramingBytes);
-  return true;
+  const std::size_t size = encode_packet(id, error, params, n, out.bytes.data(), out.bytes.size());
+  out.size = static_cast<uint16_t>(size);
+  return size != 0;
 }
 
 std::size_t encode_protocol1_instruction(uint8_t id, uint8_t instruction, const uint8_t* params,
                                          std::size_t n, uint8_t* out, std::size_t capacity) noexcept {
-  if (n > kMaxP1Params || n + kFramingBytes > capacity) {
-    return 0;
-  }
-  out[0] = 0xFF;
-  out[1] = 0xFF;
-  out[2] = id;
-  out[3] = static_cast<uint8_t>(n + 2);
-  out[4] = instruction;
-  for (std::size_t i = 0; i < n; ++i) {
-    out[5 + i] = params[i];
-  }
-  out[5 + n] = protocol1_checksum(out + 2, n + 3);
-  return n + kFramingBytes;
+  return encode_packet(id, instruction, params, n, out, capacity);
 }
 
 }  // namespace doppel::dynamixel

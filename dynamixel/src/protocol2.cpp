@@ -2,6 +2,8 @@
 
 #include <array>
 
+#include "framed_packet.h"
+
 namespace doppel::dynamixel {
 
 namespace {
@@ -237,11 +239,7 @@ Protocol2Parser::Result Protocol2Parser::push(uint8_t byte) noexcept {
       state_ = State::kCrcHigh;
       return Result::kIncomplete;
     case State::kCrcHigh:
-      packet_.checksum_ok = static_cast<uint16_t>(crc_low_ | (byte << 8)) == crc_;
-      ++counters_.packets;
-      if (!packet_.checksum_ok) {
-        ++counters_.bad_checksums;
-      }
+      detail::count_framed_packet(static_cast<uint16_t>(crc_low_ | (byte << 8)) == crc_, packet_, counters_);
       state_ = State::kHeader1;
       return Result::kPacket;
   }
