@@ -7,9 +7,14 @@
 #include <stdexcept>
 #include <string>
 
+#include "servo_feedback.h"
+
 namespace doppel::dynamixel {
 
 namespace {
+
+using detail::clamp_round;
+using detail::floor_div;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr uint16_t kDirectionBit = 0x400;  // Present Speed/Load, wheel Moving Speed, Goal Torque: 1 = CW
@@ -19,20 +24,6 @@ constexpr double kMxCurrentUnitA = 0.0045;  // MX-64/106 Current and Goal Torque
 constexpr int32_t kMxCurrentZero = 2048;
 constexpr double kMxAccelerationUnitRadS2 = 8.583 * std::numbers::pi / 180.0;
 constexpr double kLoadFull = 1023.0;        // Present Load / Torque Limit full scale (~0.1 % per unit)
-constexpr double kSaturationMargin = 0.01;  // |load| this close to the Torque Limit counts as saturated
-
-int64_t clamp_round(double v, int64_t lo, int64_t hi) noexcept {
-  if (!(v == v)) {  // NaN
-    return lo < 0 && hi > 0 ? 0 : lo;
-  }
-  const double c = std::clamp(v, static_cast<double>(lo), static_cast<double>(hi));
-  return std::llround(c);
-}
-
-int64_t floor_div(int64_t a, int64_t b) noexcept {
-  const int64_t q = a / b;
-  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
-}
 
 // Magnitude in bits 0..9, bit 10 set for CW (negative) values (reference §3.4).
 uint16_t direction_magnitude(double magnitude_units, bool cw) noexcept {
@@ -249,13 +240,8 @@ void Protocol1Servo::apply(const ServoFeedback& feedback) noexcept {
     conditions |= p1_error::kInputVoltage;
   }
   const double limit_ratio = register_raw(p1::kTorqueLimit) / kLoadFull;
-  const bool saturated = torque_on && limit_ratio > 0.0 && std::abs(ratio) >= limit_ratio - kSaturationMargin;
-  if (!saturated) {
-    saturated_ = false;
-  } else if (!saturated_) {
-    saturated_ = true;
-    saturated_since_ns_ = feedback.sim_time_ns;
-  } else if (feedback.sim_time_ns - saturated_since_ns_ >= kOverloadHoldNs) {
+  if (detail::overload_held(torque_on, ratio, limit_ratio, feedback.sim_time_ns, kOverloadHoldNs, saturated_,
+                            saturated_since_ns_)) {
     conditions |= p1_error::kOverload;
   }
   conditions_ = conditions;

@@ -7,32 +7,24 @@
 #include <stdexcept>
 #include <string>
 
+#include "servo_feedback.h"
+
 namespace doppel::dynamixel {
 
 namespace {
+
+using detail::clamp_round;
+using detail::floor_div;
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 constexpr double kUnitsPerRad = kX430PulsesPerRev / kTwoPi;
 constexpr double kVelocityUnitRadS = kX430VelocityUnitRpm * kTwoPi / 60.0;
 constexpr double kAccelerationUnitRadS2 = kX430AccelerationUnitRpm2 * kTwoPi / 3600.0;
 constexpr int64_t kExtendedLimit = 1048575;  // Goal Position in modes 4 and 5, pulses
-constexpr double kSaturationMargin = 0.01;
 constexpr uint8_t kDriveReverse = x430::kDriveReverse;
 constexpr uint8_t kDriveTimeBased = x430::kDriveTimeBased;
 constexpr uint8_t kDriveTorqueOnByGoal = x430::kDriveTorqueOnByGoal;
 constexpr uint8_t kStartupTorqueOn = 0x01;
-
-int64_t clamp_round(double v, int64_t lo, int64_t hi) noexcept {
-  if (!std::isfinite(v)) {
-    return v > 0 ? hi : (v < 0 ? lo : std::clamp<int64_t>(0, lo, hi));
-  }
-  return std::llround(std::clamp(v, static_cast<double>(lo), static_cast<double>(hi)));
-}
-
-int64_t floor_div(int64_t a, int64_t b) noexcept {
-  const int64_t q = a / b;
-  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
-}
 
 bool is_position_mode(uint8_t mode) noexcept {
   return mode == x430::kPositionMode || mode == x430::kExtendedPositionMode || mode == x430::kCurrentBasedPositionMode;
@@ -333,13 +325,8 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
     conditions |= x430::kInputVoltageError;
   }
   const double limit_ratio = static_cast<double>(register_value(x430::kPwmLimit)) / kX430PwmFull;
-  const bool saturated = torque_on && limit_ratio > 0.0 && std::abs(ratio) >= limit_ratio - kSaturationMargin;
-  if (!saturated) {
-    saturated_ = false;
-  } else if (!saturated_) {
-    saturated_ = true;
-    saturated_since_ns_ = feedback.sim_time_ns;
-  } else if (feedback.sim_time_ns - saturated_since_ns_ >= kOverloadHoldNs) {
+  if (detail::overload_held(torque_on, ratio, limit_ratio, feedback.sim_time_ns, kOverloadHoldNs, saturated_,
+                            saturated_since_ns_)) {
     conditions |= x430::kOverloadError;
   }
   const auto latched = static_cast<uint8_t>(hardware_error() | (conditions & register_value(x430::kShutdown)));
