@@ -1,10 +1,11 @@
 #include "dynamixel/protocol1_device.h"
 
-#include <bitset>
 #include <stdexcept>
 #include <string>
 
 #include "dynamixel/protocol1.h"
+
+#include "protocol1_lists.h"
 
 namespace doppel::dynamixel {
 
@@ -262,50 +263,20 @@ void Protocol1Device::handle(const InstructionPacket& packet, Response& response
 }
 
 void Protocol1Device::handle_sync_write(const InstructionPacket& packet) noexcept {
-  const std::size_t n = packet.param_count;
-  if (n < 2) {
+  const uint8_t* data = detail::p1_sync_write_data(packet, id());
+  if (data == nullptr) {
     return;
   }
-  const uint8_t start = packet.params[0];
-  const std::size_t length = packet.params[1];
-  if (length == 0 || (n - 2) % (length + 1) != 0) {
-    return;  // malformed: no device can find its block
-  }
-  const uint8_t own_id = id();
-  for (std::size_t block = 2; block < n; block += length + 1) {
-    if (packet.params[block] == own_id) {
-      ++counters_.handled;
-      if (write(start, &packet.params[block + 1], length, true) != 0) {
-        ++counters_.errors;
-      }
-      return;
-    }
+  ++counters_.handled;
+  if (write(packet.params[0], data, packet.params[1], true) != 0) {
+    ++counters_.errors;
   }
 }
 
 void Protocol1Device::handle_bulk_read(const InstructionPacket& packet, Response& response) noexcept {
-  const std::size_t n = packet.param_count;
-  if (n < 1 || (n - 1) % 3 != 0) {
-    return;  // malformed list
-  }
-  // Blocks are [length, ID, address]; only the first block of an ID counts, so a repeated ID
-  // takes no place in the reply chain.
   const uint8_t own_id = id();
-  std::bitset<256> seen;
   uint16_t position = 0;
-  const uint8_t* block = nullptr;
-  for (std::size_t i = 1; i < n; i += 3) {
-    const uint8_t listed_id = packet.params[i + 1];
-    if (seen.test(listed_id)) {
-      continue;
-    }
-    seen.set(listed_id);
-    if (listed_id == own_id) {
-      block = &packet.params[i];
-      break;
-    }
-    ++position;
-  }
+  const uint8_t* block = detail::p1_bulk_read_block(packet, own_id, position);
   if (block == nullptr) {
     return;
   }

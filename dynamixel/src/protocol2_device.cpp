@@ -7,6 +7,8 @@
 #include "dynamixel/protocol1.h"
 #include "dynamixel/protocol2.h"
 
+#include "protocol1_lists.h"
+
 namespace doppel::dynamixel {
 
 namespace {
@@ -735,50 +737,22 @@ void Protocol2Device::handle_protocol1(const InstructionPacket& packet, Response
 }
 
 void Protocol2Device::handle_protocol1_sync_write(const InstructionPacket& packet) noexcept {
-  const std::size_t n = packet.param_count;
-  if (n < 2) {
+  const uint8_t* data = detail::p1_sync_write_data(packet, id());
+  if (data == nullptr) {
     return;
   }
-  const uint8_t* p = packet.params.data();
-  const std::size_t length = p[1];
-  if (length == 0 || (n - 2) % (length + 1) != 0) {
-    return;  // malformed: no device can find its block
-  }
-  const uint8_t own_id = id();
-  for (std::size_t block = 2; block < n; block += length + 1) {
-    if (p[block] == own_id) {
-      ++counters_.handled;
-      on_communication();
-      if (p[0] + length > kP1AddressEnd || write(p[0], p + block + 1, length, true, false) != 0) {
-        ++counters_.errors;
-      }
-      return;
-    }
+  ++counters_.handled;
+  on_communication();
+  const uint8_t start = packet.params[0];
+  const uint8_t length = packet.params[1];
+  if (start + std::size_t{length} > kP1AddressEnd || write(start, data, length, true, false) != 0) {
+    ++counters_.errors;
   }
 }
 
 void Protocol2Device::handle_protocol1_bulk_read(const InstructionPacket& packet, Response& response) noexcept {
-  const std::size_t n = packet.param_count;
-  if (n < 1 || (n - 1) % 3 != 0) {
-    return;  // malformed list
-  }
-  // Blocks are [length, ID, address] (§1.2); only an ID's first block counts.
-  const uint8_t* p = packet.params.data();
-  const uint8_t own_id = id();
-  std::bitset<256> seen;
   uint16_t position = 0;
-  const uint8_t* block = nullptr;
-  for (std::size_t i = 1; i < n; i += 3) {
-    if (seen.test(p[i + 1])) {
-      continue;
-    }
-    seen.set(p[i + 1]);
-    if (p[i + 1] == own_id) {
-      block = p + i;
-      break;
-    }
-    ++position;
-  }
+  const uint8_t* block = detail::p1_bulk_read_block(packet, id(), position);
   if (block == nullptr) {
     return;
   }
