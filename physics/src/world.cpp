@@ -16,6 +16,17 @@ constexpr double kHoldRate_1_s = 20.0;     // how fast a held joint is pulled ba
 constexpr double kHoldDamping = 50.0;      // N m s/rad: a firm grip, soft enough for the iterative solvers
 const Rgb kTeamColours[2] = {kTeamCyan, kTeamMagenta};
 
+// The handle of the motor, IMU or foot slot of device `id` on `bus` of `robot`; nullopt for none. rt-safe.
+template <class Handle, class Slot>
+std::optional<Handle> find_slot(const std::vector<Slot>& slots, size_t robot, uint32_t bus, uint8_t id) noexcept {
+  for (size_t i = 0; i < slots.size(); ++i) {
+    if (slots[i].robot == robot && slots[i].bus == bus && slots[i].id == id) {
+      return Handle{static_cast<uint32_t>(i)};
+    }
+  }
+  return std::nullopt;
+}
+
 // Lowest z of a shape placed at X_WS.
 double lowest_point(const ShapeSpec& s, const Eigen::Isometry3d& X_WS) {
   switch (s.type) {
@@ -292,30 +303,15 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
 }
 
 std::optional<MotorHandle> World::find_motor(size_t robot, uint32_t bus, uint8_t id) const noexcept {
-  for (size_t i = 0; i < motors_.size(); ++i) {
-    if (motors_[i].robot == robot && motors_[i].bus == bus && motors_[i].id == id) {
-      return MotorHandle{static_cast<uint32_t>(i)};
-    }
-  }
-  return std::nullopt;
+  return find_slot<MotorHandle>(motors_, robot, bus, id);
 }
 
 std::optional<ImuHandle> World::find_imu(size_t robot, uint32_t bus, uint8_t id) const noexcept {
-  for (size_t i = 0; i < imus_.size(); ++i) {
-    if (imus_[i].robot == robot && imus_[i].bus == bus && imus_[i].id == id) {
-      return ImuHandle{static_cast<uint32_t>(i)};
-    }
-  }
-  return std::nullopt;
+  return find_slot<ImuHandle>(imus_, robot, bus, id);
 }
 
 std::optional<FootHandle> World::find_foot(size_t robot, uint32_t bus, uint8_t id) const noexcept {
-  for (size_t i = 0; i < feet_.size(); ++i) {
-    if (feet_[i].robot == robot && feet_[i].bus == bus && feet_[i].id == id) {
-      return FootHandle{static_cast<uint32_t>(i)};
-    }
-  }
-  return std::nullopt;
+  return find_slot<FootHandle>(feet_, robot, bus, id);
 }
 
 void World::set_motor(MotorHandle motor, const MotorCommand& command) noexcept {

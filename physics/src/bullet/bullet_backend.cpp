@@ -295,27 +295,12 @@ class BulletBackend final : public Backend {
   void add_static(const ShapeSpec& shape, const MaterialSpec& material) override {
     btCollisionShape* geometry = make_primitive(shape);
     if (geometry == nullptr) return;
-    auto object = std::make_unique<btCollisionObject>();
-    object->setCollisionShape(geometry);
-    object->setWorldTransform(bt(shape.X_BS));
-    object->setFriction(material.friction);
-    object->setRestitution(material.restitution);
-    object->setUserIndex(-1);
-    const int bit = 1 << kGroupStatic;
-    world_->addCollisionObject(object.get(), bit, ~bit);
-    statics_.push_back(std::move(object));
+    add_static_object(geometry, bt(shape.X_BS), material);
   }
 
   void add_ground(const MaterialSpec& material) override {
     shapes_.push_back(std::make_unique<btStaticPlaneShape>(btVector3(0.0, 0.0, 1.0), 0.0));
-    auto object = std::make_unique<btCollisionObject>();
-    object->setCollisionShape(shapes_.back().get());
-    object->setFriction(material.friction);
-    object->setRestitution(material.restitution);
-    object->setUserIndex(-1);
-    const int bit = 1 << kGroupStatic;
-    world_->addCollisionObject(object.get(), bit, ~bit);
-    statics_.push_back(std::move(object));
+    add_static_object(shapes_.back().get(), btTransform::getIdentity(), material);
   }
 
   int add_joint(const JointDesc& desc) override {
@@ -504,6 +489,19 @@ class BulletBackend final : public Backend {
   std::string_view name() const noexcept override { return "bullet"; }
 
  private:
+  // A fixed collision object of `geometry` at X_WS in the static group, which collides with every body.
+  void add_static_object(btCollisionShape* geometry, const btTransform& X_WS, const MaterialSpec& material) {
+    auto object = std::make_unique<btCollisionObject>();
+    object->setCollisionShape(geometry);
+    object->setWorldTransform(X_WS);
+    object->setFriction(material.friction);
+    object->setRestitution(material.restitution);
+    object->setUserIndex(-1);
+    const int bit = 1 << kGroupStatic;
+    world_->addCollisionObject(object.get(), bit, ~bit);
+    statics_.push_back(std::move(object));
+  }
+
   // A rigid bond: all six degrees of a btGeneric6DofConstraint locked.
   static std::unique_ptr<btGeneric6DofConstraint> make_lock(btRigidBody& a, btRigidBody& b, const btTransform& frame_a,
                                                             const btTransform& frame_b) {
