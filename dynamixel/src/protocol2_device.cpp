@@ -234,6 +234,20 @@ uint8_t Protocol2Device::write(uint16_t start, const uint8_t* data, std::size_t 
   return 0;
 }
 
+void Protocol2Device::hold_reg_write(uint16_t start, const uint8_t* data, std::size_t n) noexcept {
+  has_pending_ = true;
+  pending_address_ = start;
+  pending_size_ = static_cast<uint16_t>(n);
+  std::copy_n(data, n, pending_data_.begin());
+  table_[x430::kRegisteredInstruction] = 1;
+}
+
+uint8_t Protocol2Device::apply_reg_write(bool via_secondary) noexcept {
+  has_pending_ = false;
+  table_[x430::kRegisteredInstruction] = 0;
+  return write(pending_address_, pending_data_.data(), pending_size_, true, via_secondary);
+}
+
 bool Protocol2Device::answers(uint8_t instruction_code) const noexcept {
   const uint8_t level = table_[x430::kStatusReturnLevel];
   switch (instruction_code) {
@@ -369,20 +383,14 @@ void Protocol2Device::handle_unicast(const InstructionPacket& packet, bool answe
     case instruction::kRegWrite:
       error = n < 3 ? p2_error::kDataLength : write(le16(p), p + 2, n - 2, false, via_secondary);
       if (error == 0) {
-        has_pending_ = true;
-        pending_address_ = le16(p);
-        pending_size_ = static_cast<uint16_t>(n - 2);
-        std::copy_n(p + 2, n - 2, pending_data_.begin());
-        table_[x430::kRegisteredInstruction] = 1;
+        hold_reg_write(le16(p), p + 2, n - 2);
       }
       break;
     case instruction::kAction:
       if (!has_pending_) {
         error = p2_error::kInstruction;
       } else {
-        has_pending_ = false;
-        table_[x430::kRegisteredInstruction] = 0;
-        error = write(pending_address_, pending_data_.data(), pending_size_, true, via_secondary);
+        error = apply_reg_write(via_secondary);
       }
       break;
     case instruction::kFactoryReset: {
@@ -695,11 +703,7 @@ void Protocol2Device::handle_protocol1(const InstructionPacket& packet, Response
         bits = p1_bits(write(p[0], p + 1, n - 1, commit, false), covers_goal_position(p[0], n - 1));
       }
       if (bits == 0 && !commit) {
-        has_pending_ = true;
-        pending_address_ = p[0];
-        pending_size_ = static_cast<uint16_t>(n - 1);
-        std::copy_n(p + 1, n - 1, pending_data_.begin());
-        table_[x430::kRegisteredInstruction] = 1;
+        hold_reg_write(p[0], p + 1, n - 1);
       }
       break;
     }
@@ -707,10 +711,7 @@ void Protocol2Device::handle_protocol1(const InstructionPacket& packet, Response
       if (!has_pending_) {
         bits = p1_error::kInstruction;
       } else {
-        has_pending_ = false;
-        table_[x430::kRegisteredInstruction] = 0;
-        bits = p1_bits(write(pending_address_, pending_data_.data(), pending_size_, true, false),
-                       covers_goal_position(pending_address_, pending_size_));
+        bits = p1_bits(apply_reg_write(false), covers_goal_position(pending_address_, pending_size_));
       }
       break;
     case instruction::kFactoryReset:

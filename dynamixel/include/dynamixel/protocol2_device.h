@@ -93,6 +93,10 @@ class Protocol2Device : public Device {
   // Target of a host byte address: Indirect Data n -> Indirect Address n, else the address.
   uint16_t resolve(uint16_t address) const noexcept;
   uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit, bool via_secondary) noexcept;
+  // REG WRITE (either protocol): keeps n validated bytes for `start` until ACTION, Registered Instruction = 1.
+  void hold_reg_write(uint16_t start, const uint8_t* data, std::size_t n) noexcept;
+  // ACTION with a held REG WRITE: writes and forgets it; returns the write's error number.
+  uint8_t apply_reg_write(bool via_secondary) noexcept;
   // Copies n bytes starting at `start` as the host sees them; false if outside the table.
   bool read(uint16_t start, std::size_t n, uint8_t* out) const noexcept;
   bool answers(uint8_t instruction) const noexcept;
