@@ -9,30 +9,28 @@
 namespace doppel::physics {
 namespace {
 
-VisualShape make_box(ObjectKind kind, uint16_t id, const Eigen::Vector3d& centre, const Eigen::Vector3d& size,
-                     Rgb colour) {
+// An axis-aligned shape centred at `centre` (world frame).
+VisualShape make_shape(ShapeType type, ObjectKind kind, uint16_t id, const Eigen::Vector3d& centre,
+                       const Eigen::Vector3d& size_m, Rgb colour) {
   VisualShape s;
-  s.type = ShapeType::kBox;
+  s.type = type;
   s.kind = kind;
   s.X_WS = Eigen::Isometry3d::Identity();
   s.X_WS.translation() = centre;
-  s.size_m = size;
+  s.size_m = size_m;
   s.colour = colour;
   s.object_id = id;
   return s;
 }
 
+VisualShape make_box(ObjectKind kind, uint16_t id, const Eigen::Vector3d& centre, const Eigen::Vector3d& size,
+                     Rgb colour) {
+  return make_shape(ShapeType::kBox, kind, id, centre, size, colour);
+}
+
 VisualShape make_cylinder(ObjectKind kind, uint16_t id, const Eigen::Vector3d& centre, double radius, double length,
                           Rgb colour) {
-  VisualShape s;
-  s.type = ShapeType::kCylinder;
-  s.kind = kind;
-  s.X_WS = Eigen::Isometry3d::Identity();
-  s.X_WS.translation() = centre;
-  s.size_m = {radius, length, 0.0};
-  s.colour = colour;
-  s.object_id = id;
-  return s;
+  return make_shape(ShapeType::kCylinder, kind, id, centre, {radius, length, 0.0}, colour);
 }
 
 void check(const FieldSpec& spec) {
