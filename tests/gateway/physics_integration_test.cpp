@@ -41,13 +41,31 @@ Pose read_pose(SerialClient& client) {
   return pose;
 }
 
+// Waits until `seconds` of simulation time have passed, counted by the IMU's Sample Counter (48,
+// +1 per 20 ms sample): on a loaded machine the simulation may run behind the wall clock, and the
+// robot must be judged after the simulated time, not after the wall-clock time. Gives up after 30 s.
+void wait_sim_time(SerialClient& client, double seconds) {
+  auto counter = [&] {
+    const Bytes reply = client.transact(p1_instruction(100, 0x02, {48, 2}), 8);
+    EXPECT_EQ(reply.size(), 8u);
+    return reply.size() == 8u ? static_cast<uint16_t>(word(reply, 5)) : uint16_t{0};
+  };
+  const uint16_t start = counter();
+  const auto samples = static_cast<uint16_t>(seconds / 0.020);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (static_cast<uint16_t>(counter() - start) < samples) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the simulation did not advance " << seconds << " s";
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
 class Body : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(Body, StandsWithTorqueOnAndTheFeetCarryItsWeight) {
   DoppelProcess doppel({"--physics", GetParam(), "--timing", "fast"});
   SerialClient client(doppel.link(), kBaud);
   client.send(p1_instruction(0xFE, 0x03, {24, 1}));  // Torque Enable on every servo: the handler lets go
-  std::this_thread::sleep_for(std::chrono::seconds(2));
+  wait_sim_time(client, 2.0);
   Pose pose = read_pose(client);
   // Standing upright: the IMU reads the body level (its 22° head mount is compensated in the file).
   EXPECT_LT(std::fabs(pose.pitch_deg), 5.0) << pose.pitch_deg;
@@ -62,7 +80,7 @@ TEST_P(Body, StandsWithTorqueOnAndTheFeetCarryItsWeight) {
 TEST_P(Body, ALimpRobotCollapses) {
   DoppelProcess doppel({"--physics", GetParam(), "--timing", "fast", "--no-hold"});
   SerialClient client(doppel.link(), kBaud);
-  std::this_thread::sleep_for(std::chrono::seconds(3));
+  wait_sim_time(client, 3.0);
   Pose pose = read_pose(client);
   // Lying on the carpet: the trunk is far from upright, or at least the feet no longer carry it all.
   EXPECT_TRUE(std::fabs(pose.pitch_deg) > 30.0 || std::fabs(pose.roll_deg) > 30.0 ||
@@ -73,7 +91,7 @@ TEST_P(Body, ALimpRobotCollapses) {
 TEST_P(Body, HeldUntilTheDriverEnablesTorque) {
   DoppelProcess doppel({"--physics", GetParam(), "--timing", "fast"});
   SerialClient client(doppel.link(), kBaud);
-  std::this_thread::sleep_for(std::chrono::seconds(1));
+  wait_sim_time(client, 1.0);
   Pose pose = read_pose(client);
   EXPECT_LT(std::fabs(pose.pitch_deg), 5.0);
   EXPECT_LT(std::fabs(pose.roll_deg), 5.0);
