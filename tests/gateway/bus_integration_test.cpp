@@ -86,11 +86,16 @@ TEST_F(MxBus, PresentPositionMovesGraduallyAtMovingSpeed) {
   write(2, {24, 1});
   write(2, {32, 100, 0});                                          // Moving Speed 100 x 0.114 rpm = 1.19 rad/s
   write(2, {30, 0x00, 0x0C});                                      // Goal 3072, 1024 units (90 deg) away
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Polled every few ms (not after a fixed wall-clock time, which a loaded machine stretches): once
+  // the joint has left its start it must be on its way, far from the goal, and report Moving. At
+  // 1.19 rad/s (0.78 units per ms) it needs 1.3 s for the 1024 units.
+  uint16_t position = 2048;
+  for (int i = 0; i < 2000 && position <= 2048 + 50; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    position = word(read(2, 36, 2), 5);
+  }
   Bytes moving = read(2, 46, 1);
-  uint16_t position = word(read(2, 36, 2), 5);
   EXPECT_EQ(moving, status(2, 0, {1}));
-  // After 0.3 s at 1.19 rad/s the joint has turned about 0.36 rad = 232 units: well short of the goal.
   EXPECT_GT(position, 2048 + 50);
   EXPECT_LT(position, 3072 - 300);
 }
