@@ -1,40 +1,20 @@
 // The real-time path allocates nothing: after setup, BusServer serving a bus of real servo models
 // (reads, writes, REG_WRITE/ACTION, SYNC WRITE, BULK READ, bad checksums, garbage) calls no
-// operator new on its thread. Its own executable, because it replaces the global operator new.
+// operator new on its thread. Its own executable, because counting replaces the global operator new.
 #include <termios.h>
 
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <cstdlib>
 #include <memory>
-#include <new>
 #include <vector>
 
+#include "allocation_counter.h"
 #include "bus/bus_server.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device_factory.h"
 #include "pty_test_support.h"
 #include "reference_client.h"
-
-namespace {
-
-thread_local bool counting = false;
-std::atomic<uint64_t> allocations{0};
-
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (counting) {
-    allocations.fetch_add(1, std::memory_order_relaxed);
-  }
-  if (void* p = std::malloc(size == 0 ? 1 : size)) {
-    return p;
-  }
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace doppel::bus {
 namespace {
@@ -102,9 +82,9 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   for (int round = 0; round < 200; ++round) {
     for (const auto& bytes : traffic) {
       ASSERT_TRUE(write_all(client, bytes));
-      counting = true;
+      doppel::testing::count_allocations_on_this_thread(true);
       for (int i = 0; i < 4; ++i) sut.run_once(200'000);
-      counting = false;
+      doppel::testing::count_allocations_on_this_thread(false);
       served += testing::read_available(client).size();
     }
   }
@@ -112,7 +92,7 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   // PING 6 + READ 8 + WRITE 6 + REG_WRITE 6 + BULK READ 3 x 8 + bad-checksum status 6 per round.
   EXPECT_EQ(served, 200u * (6 + 8 + 6 + 6 + 24 + 6));
   EXPECT_GT(sut.diagnostics().packets, 1000u);
-  EXPECT_EQ(allocations.load(), 0u) << "operator new called on the bus thread while serving packets";
+  EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "operator new called on the bus thread while serving packets";
 }
 
 }  // namespace

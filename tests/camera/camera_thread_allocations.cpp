@@ -6,32 +6,12 @@
 
 #include <atomic>
 #include <chrono>
-#include <cstdlib>
-#include <new>
 #include <thread>
 
+#include "allocation_counter.h"
 #include "camera/client.h"
 #include "camera/renderer.h"
 #include "camera/streaming.h"
-
-namespace {
-
-thread_local bool counting = false;
-std::atomic<uint64_t> allocations{0};
-
-}  // namespace
-
-void* operator new(std::size_t size) {
-  if (counting) {
-    allocations.fetch_add(1, std::memory_order_relaxed);
-  }
-  if (void* p = std::malloc(size == 0 ? 1 : size)) {
-    return p;
-  }
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace doppel::camera {
 namespace {
@@ -60,13 +40,13 @@ TEST(CameraThreadAllocations, FramesAndSettingsChangesAllocateNothing) {
     sut.render_and_publish(scene, X_WC, 0.0);  // the first frame sizes the renderer's buffers
     sut.poll_settings();
     warm = true;
-    counting = true;
+    doppel::testing::count_allocations_on_this_thread(true);
     for (uint64_t i = 1; !stop; ++i) {
       if (sut.render_and_publish(scene, X_WC, 0.05 * static_cast<double>(i))) ++counted_frames;
       ++frames;
       std::this_thread::sleep_for(2ms);
     }
-    counting = false;
+    doppel::testing::count_allocations_on_this_thread(false);
   });
   while (!warm) std::this_thread::sleep_for(1ms);
 
@@ -83,7 +63,7 @@ TEST(CameraThreadAllocations, FramesAndSettingsChangesAllocateNothing) {
 
   EXPECT_EQ(sut.stats().settings_applied, 4u);
   EXPECT_GT(counted_frames.load(), 10u);
-  EXPECT_EQ(allocations.load(), 0u) << "over " << frames.load() << " frames";
+  EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over " << frames.load() << " frames";
 }
 
 }  // namespace
