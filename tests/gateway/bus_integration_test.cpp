@@ -347,17 +347,7 @@ TEST(Doppel, UsbLatencyTimerDelaysReplies) {
 }
 
 TEST(Doppel, CommandLineErrorsAreClear) {
-  auto run = [](const std::string& args) {
-    std::string command = doppel_executable() + " " + args + " 2>&1";
-    FILE* pipe = popen(command.c_str(), "r");
-    std::string output;
-    char buffer[512];
-    while (fgets(buffer, sizeof(buffer), pipe) != nullptr) {
-      output += buffer;
-    }
-    int status = pclose(pipe);
-    return std::make_pair(WEXITSTATUS(status), output);
-  };
+  auto run = [](const std::string& args) { return run_command(doppel_executable() + " " + args); };
   auto [help_code, help] = run("--help");
   EXPECT_EQ(help_code, 0);
   EXPECT_NE(help.find("--link-dir"), std::string::npos);

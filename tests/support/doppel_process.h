@@ -5,6 +5,7 @@
 #include <sys/types.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace doppel::testing {
@@ -39,5 +40,9 @@ class DoppelProcess {
 
 // Path of the doppel executable under test.
 std::string doppel_executable();
+
+// Runs `command` in a shell as a user would type it; returns its exit code and everything it wrote
+// to stdout and stderr.
+std::pair<int, std::string> run_command(const std::string& command);
 
 }  // namespace doppel::testing

@@ -1,10 +1,7 @@
 // The default robot's head camera streams as soon as doppel runs, and a vision developer gets its
 // frames with doppel-camera. Its own executable: it starts RouDi, so it holds the `roudi` lock.
-#include <sys/wait.h>
-
 #include <gtest/gtest.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
@@ -13,25 +10,14 @@
 namespace doppel::testing {
 namespace {
 
-std::pair<int, std::string> run(const std::string& command) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  std::string output;
-  char buffer[512];
-  while (fgets(buffer, sizeof(buffer), pipe) != nullptr) {
-    output += buffer;
-  }
-  int status = pclose(pipe);
-  return {WEXITSTATUS(status), output};
-}
-
 TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
   DoppelProcess doppel({"--timing", "fast"}, "ttyDXL0", /*camera=*/true);
-  auto [list_code, list] = run(std::string(DOPPEL_CAMERA_TOOL) + " list");
+  auto [list_code, list] = run_command(std::string(DOPPEL_CAMERA_TOOL) + " list");
   ASSERT_EQ(list_code, 0) << list;
   EXPECT_NE(list.find("HEAD_CAMERA"), std::string::npos) << list;
 
   std::string out = doppel.link_dir() + "/frames";
-  auto [save_code, save] = run(std::string(DOPPEL_CAMERA_TOOL) + " save --camera HEAD_CAMERA --count 2 --out " + out);
+  auto [save_code, save] = run_command(std::string(DOPPEL_CAMERA_TOOL) + " save --camera HEAD_CAMERA --count 2 --out " + out);
   ASSERT_EQ(save_code, 0) << save;
   int pngs = 0;
   for (const auto& entry : std::filesystem::directory_iterator(out)) {

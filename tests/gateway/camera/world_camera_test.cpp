@@ -2,14 +2,11 @@
 // pinhole of its pose says, and its noise changes while doppel runs (doppel-camera noise), taking
 // effect from the frame the tool reports. Drives doppel and doppel-camera as a user would; doppel
 // starts RouDi, so this executable holds the `roudi` lock.
-#include <sys/wait.h>
-
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <numbers>
 #include <string>
@@ -20,17 +17,6 @@
 
 namespace doppel::testing {
 namespace {
-
-std::pair<int, std::string> run(const std::string& command) {
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  std::string output;
-  char buffer[512];
-  while (fgets(buffer, sizeof(buffer), pipe) != nullptr) {
-    output += buffer;
-  }
-  int status = pclose(pipe);
-  return {WEXITSTATUS(status), output};
-}
 
 std::string tool(const std::string& args) { return std::string(DOPPEL_CAMERA_TOOL) + " " + args; }
 
@@ -50,7 +36,7 @@ struct Saved {
 // Saves the next frame of `camera` into `dir` (fresh) and reads it back.
 Saved save_one(const std::string& camera, const std::string& dir) {
   std::filesystem::remove_all(dir);
-  auto [code, output] = run(tool("save --camera " + camera + " --count 1 --out " + dir));
+  auto [code, output] = run_command(tool("save --camera " + camera + " --count 1 --out " + dir));
   EXPECT_EQ(code, 0) << output;
   Saved saved;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
@@ -92,14 +78,14 @@ TEST(WorldCamera, SidelineCameraSeesTheFieldAndItsNoiseChangesWhileRunning) {
                        "ttyDXL0", /*camera=*/true);
   const std::string started = doppel.wait_for_output("running until");
   EXPECT_NE(started.find("camera 'SIDELINE' fixed in the field at (0, -3, 2.5) m"), std::string::npos) << started;
-  auto [list_code, list] = run(tool("list"));
+  auto [list_code, list] = run_command(tool("list"));
   ASSERT_EQ(list_code, 0) << list;
   EXPECT_NE(list.find("SIDELINE"), std::string::npos) << list;
   EXPECT_NE(list.find("(world)"), std::string::npos) << list;
   EXPECT_NE(list.find("gaussian 1.5, seed 11"), std::string::npos) << list;  // from the session file
 
   // Noise off: consecutive frames of the still field are identical.
-  auto [off_code, off] = run(tool("noise --camera SIDELINE --off"));
+  auto [off_code, off] = run_command(tool("noise --camera SIDELINE --off"));
   ASSERT_EQ(off_code, 0) << off;
   const long off_from = from_frame(off);
   const Saved clean = save_one("SIDELINE", doppel.link_dir() + "/clean");
@@ -127,7 +113,7 @@ TEST(WorldCamera, SidelineCameraSeesTheFieldAndItsNoiseChangesWhileRunning) {
   EXPECT_GT(carpet.g, carpet.b + 50);
 
   // Noise on while running: frames from the reported one on differ from the clean frame.
-  auto [on_code, on] = run(tool("noise --camera SIDELINE --gaussian 8 --salt-pepper 0.01"));
+  auto [on_code, on] = run_command(tool("noise --camera SIDELINE --gaussian 8 --salt-pepper 0.01"));
   ASSERT_EQ(on_code, 0) << on;
   const long on_from = from_frame(on);
   EXPECT_GT(on_from, clean_again.sequence) << on;
@@ -138,23 +124,23 @@ TEST(WorldCamera, SidelineCameraSeesTheFieldAndItsNoiseChangesWhileRunning) {
   std::size_t differing = 0;
   for (std::size_t i = 0; i < clean.rgb.size(); ++i) differing += clean.rgb[i] != noisy.rgb[i] ? 1 : 0;
   EXPECT_GT(differing, clean.rgb.size() / 2);  // sigma 8 changes most values
-  auto [list_on_code, list_on] = run(tool("list"));
+  auto [list_on_code, list_on] = run_command(tool("list"));
   EXPECT_NE(list_on.find("gaussian 8, salt-pepper 0.01"), std::string::npos) << list_on;
 
   // Off again: the clean frame comes back byte for byte.
-  auto [off_again_code, off_again] = run(tool("noise --camera SIDELINE --off"));
+  auto [off_again_code, off_again] = run_command(tool("noise --camera SIDELINE --off"));
   ASSERT_EQ(off_again_code, 0) << off_again;
   const Saved clean_later = save_one("SIDELINE", doppel.link_dir() + "/clean_later");
   EXPECT_GE(clean_later.sequence, from_frame(off_again));
   EXPECT_TRUE(clean_later.rgb == clean.rgb);
 
   // Bad values never reach doppel: a usage error naming the option and its range.
-  auto [bad_code, bad] = run(tool("noise --camera SIDELINE --salt-pepper 2"));
+  auto [bad_code, bad] = run_command(tool("noise --camera SIDELINE --salt-pepper 2"));
   EXPECT_EQ(bad_code, 2) << bad;
   EXPECT_NE(bad.find("--salt-pepper 2: NoiseConfig.salt_pepper_fraction must lie in [0, 1], got 2"),
             std::string::npos)
       << bad;
-  auto [unknown_code, unknown] = run(tool("noise --camera NO_SUCH_CAMERA --gaussian 1"));
+  auto [unknown_code, unknown] = run_command(tool("noise --camera NO_SUCH_CAMERA --gaussian 1"));
   EXPECT_EQ(unknown_code, 1) << unknown;
   EXPECT_NE(unknown.find("no camera 'NO_SUCH_CAMERA'"), std::string::npos) << unknown;
 }
@@ -163,12 +149,12 @@ TEST(WorldCamera, StreamsBesideTheRobotsHeadCamera) {
   DoppelProcess doppel({"--timing", "fast", "--session", std::string(DOPPEL_SESSIONS_DIR) + "/sideline-camera.textproto"},
                        "ttyDXL0", /*camera=*/true);
   doppel.wait_for_output("running until");  // every camera is offered
-  auto [list_code, list] = run(tool("list"));
+  auto [list_code, list] = run_command(tool("list"));
 
   ASSERT_EQ(list_code, 0) << list;
   EXPECT_NE(list.find("HEAD_CAMERA"), std::string::npos) << list;
   EXPECT_NE(list.find("SIDELINE"), std::string::npos) << list;
-  auto [noise_code, noise] = run(tool("noise --camera HEAD_CAMERA --vignetting 0.4"));
+  auto [noise_code, noise] = run_command(tool("noise --camera HEAD_CAMERA --vignetting 0.4"));
   EXPECT_EQ(noise_code, 0) << noise;
   EXPECT_NE(noise.find("vignetting 0.4"), std::string::npos) << noise;
 }
@@ -180,7 +166,7 @@ TEST(WorldCamera, BadSessionFileStopsDoppelWithFileAndLine) {
     std::fputs("camera {\n  name: \"TV\"\n  pose { }\n  noise { salt_pepper_fraction: 3 }\n}\n", file);
     std::fclose(file);
   }
-  auto [code, output] = run(doppel_executable() + " --no-camera --link-dir " + ::testing::TempDir() +
+  auto [code, output] = run_command(doppel_executable() + " --no-camera --link-dir " + ::testing::TempDir() +
                             "bad_session_links --session " + session);
 
   EXPECT_NE(code, 0) << output;
