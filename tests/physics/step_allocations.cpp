@@ -16,7 +16,7 @@ std::atomic<bool> g_counting{false};
 std::atomic<long> g_allocations{0};
 
 // A place for a debugger breakpoint: every counted allocation passes here.
-[[gnu::noinline]] void count_allocation() { g_allocations.fetch_add(1, std::memory_order_relaxed); }
+[[gnu::noinline, maybe_unused]] void count_allocation() { g_allocations.fetch_add(1, std::memory_order_relaxed); }
 }  // namespace
 
 #if defined(__SANITIZE_ADDRESS__)
