@@ -23,19 +23,18 @@ bool ReplySchedule::push_segment(int64_t due_ns, std::size_t count) noexcept {
   last_due_ns_ = due_ns;
   assigned_bytes_ += count;
   if (segment_count_ > 0) {
+    Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
     // Bytes of the same reply due at the same time (fast mode, or chained statuses the adapter
     // hands over together) leave in one write: one wake-up of the client instead of several.
-    Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
     if (!last.reply_end && last.due_ns == due_ns) {
       last.count += count;
       return true;
     }
-  }
-  if (segment_count_ == kSegmentCapacity) {
-    Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
-    last.count += count;
-    last.due_ns = due_ns;
-    return false;
+    if (segment_count_ == kSegmentCapacity) {
+      last.count += count;
+      last.due_ns = due_ns;
+      return false;
+    }
   }
   Segment& segment = segments_[(segment_head_ + segment_count_) % kSegmentCapacity];
   segment = Segment{due_ns, count, false, {}};
@@ -48,13 +47,6 @@ void ReplySchedule::mark_reply_end(const ReplyTrace& trace) noexcept {
   Segment& last = segments_[(segment_head_ + segment_count_ - 1) % kSegmentCapacity];
   last.reply_end = true;
   last.trace = trace;
-}
-
-std::span<const uint8_t> ReplySchedule::front_bytes() const noexcept {
-  if (segment_count_ == 0) return {};
-  const Segment& front = segments_[segment_head_];
-  const std::size_t contiguous = std::min(front.count, kByteCapacity - byte_head_);
-  return {bytes_.data() + byte_head_, contiguous};
 }
 
 std::span<const uint8_t> ReplySchedule::due_bytes(int64_t now_ns) const noexcept {

@@ -11,11 +11,10 @@ namespace {
 // Hands over everything due by `now_ns`, in pieces of at most `max_write` bytes.
 std::vector<uint8_t> drain(ReplySchedule& sut, int64_t now_ns, std::size_t max_write = SIZE_MAX) {
   std::vector<uint8_t> out;
-  while (!sut.empty() && sut.front_due_ns() <= now_ns) {
-    const auto bytes = sut.front_bytes();
+  for (auto bytes = sut.due_bytes(now_ns); !bytes.empty(); bytes = sut.due_bytes(now_ns)) {
     const std::size_t n = std::min(bytes.size(), max_write);
     out.insert(out.end(), bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(n));
-    sut.consume(n);
+    for (std::size_t left = n; left > 0;) left -= sut.consume(left).bytes;  // segment by segment
   }
   return out;
 }
@@ -56,7 +55,7 @@ TEST(ReplySchedule, StatusesOfOneReplyDueTogetherLeaveInOneWrite) {
   sut.push_segment(100, 6);
   sut.push_segment(100, 6);
 
-  EXPECT_EQ(sut.front_bytes().size(), sizeof two_statuses);
+  EXPECT_EQ(sut.due_bytes(100).size(), sizeof two_statuses);
 }
 
 TEST(ReplySchedule, SegmentsThatFellDueTogetherLeaveInOneWriteAndCompleteInOrder) {
@@ -112,7 +111,7 @@ TEST(ReplySchedule, PartialWritesKeepTheRestAndReportCompletion) {
   sut.mark_reply_end(trace);
 
   const auto first = sut.consume(2);
-  const auto rest = sut.front_bytes();
+  const auto rest = sut.due_bytes(10);
   const auto second = sut.consume(3);
 
   EXPECT_FALSE(first.segment_done);
@@ -183,7 +182,7 @@ TEST(ReplySchedule, ClearDropsEverything) {
 
   EXPECT_TRUE(sut.empty());
   EXPECT_EQ(sut.pending_bytes(), 0u);
-  EXPECT_TRUE(sut.front_bytes().empty());
+  EXPECT_TRUE(sut.due_bytes(INT64_MAX).empty());
 }
 
 }  // namespace

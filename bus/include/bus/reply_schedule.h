@@ -57,9 +57,6 @@ class ReplySchedule {
   std::size_t pending_bytes() const noexcept { return byte_count_; }
   // Due time of the oldest segment; only when !empty(). rt-safe.
   int64_t front_due_ns() const noexcept { return segments_[segment_head_].due_ns; }
-  // The oldest segment's unwritten bytes that are contiguous in the ring (a wrapped segment comes
-  // in two pieces). Empty when empty(). rt-safe.
-  std::span<const uint8_t> front_bytes() const noexcept;
   // The unwritten bytes of every segment due by `now_ns`, as far as they are contiguous in the
   // ring: deliveries that fell due together (the bus thread woke late) leave in one write. rt-safe.
   std::span<const uint8_t> due_bytes(int64_t now_ns) const noexcept;
