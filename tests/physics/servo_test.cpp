@@ -29,6 +29,26 @@ constexpr double kDatasheetNoLoad = 53.2 * 2.0 * M_PI / 60.0 * kSupply / 15.0;
 
 class ServoTest : public ::testing::TestWithParam<std::string> {};
 
+// A horizontal arm along x on a post, turning about y at its root, driven by one RX-64; nothing
+// holds it (released at start). Its weight pulls with m g L / 2 about the joint.
+std::unique_ptr<World> make_pendulum(const std::string& engine, double arm_length_m, double arm_mass_kg) {
+  const std::string rig = R"(name: "pendulum"
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { x: )" + std::to_string(arm_length_m / 2.0) + R"( y: 0.05 z: 0.5 } }
+         shape { box { size_m { x: )" + std::to_string(arm_length_m) + R"( y: 0.02 z: 0.02 } } } mass_kg: )" +
+                          std::to_string(arm_mass_kg) + R"( }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         motor { bus: 0 id: 1 } }
+})";
+  WorldOptions options = test::bare_options();
+  options.hold = HoldMode::kReleased;
+  return make_world(engine, {robot_from_text(rig)}, options);
+}
+
 // These tests model the gear friction while powered too (WorldOptions::powered_gear_friction).
 WorldOptions friction_options() {
   WorldOptions options = test::bare_options();
@@ -105,19 +125,7 @@ TEST_P(ServoTest, BelowTheCapTheTorqueFollowsTheDcMotorLine) {
 
 TEST_P(ServoTest, TorqueOffLeavesTheJointLimp) {
   // A horizontal pendulum arm about y: 0.5 kg at 0.15 m needs 0.74 N m, far more than gear friction.
-  const std::string rig = R"(name: "pendulum"
-bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
-figure {
-  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
-  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
-  body { name: "arm" pose { position_m { x: 0.15 y: 0.05 z: 0.5 } } shape { box { size_m { x: 0.3 y: 0.02 z: 0.02 } } } mass_kg: 0.5 }
-  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
-  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
-         motor { bus: 0 id: 1 } }
-})";
-  WorldOptions options = test::bare_options();
-  options.hold = HoldMode::kReleased;
-  auto world = make_world(GetParam(), {robot_from_text(rig)}, options);
+  auto world = make_pendulum(GetParam(), 0.3, 0.5);
   test::Firmware firmware(*world, 0);
 
   firmware.enable_all();
@@ -162,19 +170,7 @@ figure {
 TEST_P(ServoTest, GearFrictionHoldsAnUnpoweredJointAgainstASmallLoad) {
   // A horizontal arm about y whose weight pulls with 0.05 N m, less than the 0.106 N m of Coulomb
   // friction: with torque off it stays; the same arm with 0.5 kg (0.74 N m) swings down (above).
-  const std::string rig = R"(name: "light-pendulum"
-bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
-figure {
-  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
-  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
-  body { name: "arm" pose { position_m { x: 0.1 y: 0.05 z: 0.5 } } shape { box { size_m { x: 0.2 y: 0.02 z: 0.02 } } } mass_kg: 0.051 }
-  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
-  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
-         motor { bus: 0 id: 1 } }
-})";
-  WorldOptions options = test::bare_options();
-  options.hold = HoldMode::kReleased;
-  auto world = make_world(GetParam(), {robot_from_text(rig)}, options);
+  auto world = make_pendulum(GetParam(), 0.2, 0.051);
 
   for (int i = 0; i < 500; ++i) world->step();
 
