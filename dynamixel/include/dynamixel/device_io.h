@@ -47,7 +47,9 @@ struct ServoFeedback {
   double torque_ratio = 0.0;     // load as a fraction of the maximum torque, + = CCW, -1..1
   double voltage_v = 14.8;       // supply at the servo
   double temperature_c = 25.0;   // motor temperature
-  int64_t sim_time_ns = 0;       // simulation time of the measurement (overload timing, MX Realtime Tick)
+  double current_a = 0.0;        // motor current, + = CCW torque (Present Current of servos that sense it)
+  bool overload = false;         // the firmware's motor controller reports overload (ControllerOutput)
+  int64_t sim_time_ns = 0;       // simulation time of the measurement (MX Realtime Tick)
 };
 
 // What an IMU measures, in the IMU's own frame S (x forward, y left, z up when mounted level).
