@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "body/motor_params.h"
 #include "dynamixel/servo_controller.h"
 #include "physics/engines.h"
 #include "physics/field.h"
@@ -20,7 +21,8 @@ using namespace doppel::physics;
 
 RobotModel robot() {
   static const RobotModel model =
-      compile_robot(doppel::proto::RobotFile::load(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto"));
+      compile_robot(doppel::proto::RobotFile::load(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto"),
+                    doppel::body::motor_catalog());
   return model;
 }
 

@@ -182,7 +182,7 @@ void BitbotsBoard::handle(const InstructionPacket& packet, Response& response) n
   response.chain_position = 0;
 }
 
-BitbotsImu::BitbotsImu(uint8_t id, uint8_t baud_raw) : BitbotsBoard(p2_model_spec("BITBOTS-IMU"), kImuItems, id, baud_raw) {
+BitbotsImu::BitbotsImu(uint8_t id, uint8_t baud_raw) : BitbotsBoard(p2_board_spec(P2DeviceKind::kBitbotsImu), kImuItems, id, baud_raw) {
   store_u8(bitbots::kGyroOdr, 5);
   store_u8(bitbots::kAccelOdr, 15);
   store_u8(bitbots::kGyroRange, 3);
@@ -211,10 +211,10 @@ void BitbotsImu::apply(const ImuFeedback& feedback) noexcept {
 }
 
 BitFoot::BitFoot(uint8_t id, uint8_t baud_raw, const BitFootCalibration& calibration)
-    : BitbotsBoard(p2_model_spec("BITFOOT"), kFootItems, id, baud_raw), calibration_(calibration) {
+    : BitbotsBoard(p2_board_spec(P2DeviceKind::kBitFoot), kFootItems, id, baud_raw), calibration_(calibration) {
   if (!(calibration.newton_per_count != 0.0) || !std::isfinite(calibration.newton_per_count) ||
       !std::isfinite(calibration.zero_counts)) {
-    throw std::invalid_argument("BITFOOT: newton_per_count must be finite and non-zero");
+    throw std::invalid_argument(std::string(model_name()) + ": newton_per_count must be finite and non-zero");
   }
   apply(FootFeedback{});
 }
@@ -234,7 +234,7 @@ void BitFoot::apply(const FootFeedback& feedback) noexcept {
 }
 
 BitbotsCore::BitbotsCore(uint8_t id, uint8_t baud_raw)
-    : BitbotsBoard(p2_model_spec("BITBOTS-CORE"), kCoreItems, id, baud_raw) {
+    : BitbotsBoard(p2_board_spec(P2DeviceKind::kBitbotsCore), kCoreItems, id, baud_raw) {
   store_u8(bitbots::kPower, 1);
   apply(0.0, 0.0);
 }

@@ -77,7 +77,7 @@ void FumanoidBoard::after_factory_reset() noexcept {
 }
 
 FumanoidImu::FumanoidImu(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw)
-    : FumanoidBoard(model_spec("FUMANOID-IMU"), DeviceKind::kImu, id, baud_raw, return_delay_raw) {}
+    : FumanoidBoard(board_spec(DeviceKind::kImu), DeviceKind::kImu, id, baud_raw, return_delay_raw) {}
 
 void FumanoidImu::apply(const ImuFeedback& feedback) noexcept {
   if (!sample_due(feedback.sim_time_ns)) {
@@ -95,7 +95,7 @@ void FumanoidImu::apply(const ImuFeedback& feedback) noexcept {
 }
 
 FumanoidFootBoard::FumanoidFootBoard(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw)
-    : FumanoidBoard(model_spec("FUMANOID-FOOT"), DeviceKind::kFootBoard, id, baud_raw, return_delay_raw) {}
+    : FumanoidBoard(board_spec(DeviceKind::kFootBoard), DeviceKind::kFootBoard, id, baud_raw, return_delay_raw) {}
 
 void FumanoidFootBoard::apply(const FootFeedback& feedback) noexcept {
   if (!sample_due(feedback.sim_time_ns)) {

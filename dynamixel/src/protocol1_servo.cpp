@@ -87,10 +87,9 @@ double Protocol1Servo::speed_rad_s_from_raw(uint16_t magnitude_raw) const noexce
 void Protocol1Servo::power_on(double position_rad) noexcept {
   load_defaults(true);
   conditions_ = 0;
-  saturated_ = false;
   ServoFeedback at_rest;
   at_rest.position_rad = std::isfinite(position_rad) ? position_rad : 0.0;
-  at_rest.voltage_v = spec().servo.nominal_voltage_v;
+  at_rest.voltage_v = spec().servo.motor->rated_voltage_v;
   apply(at_rest);
   conditions_ = 0;
   set_register(p1::kGoalPosition, register_raw(p1::kPresentPosition));
@@ -167,7 +166,7 @@ ServoCommand Protocol1Servo::command() const noexcept {
     c.goal_acceleration_rad_s2 = register_raw(p1::kGoalAcceleration) * kMxAccelerationUnitRadS2;
     if (has_register(p1::kTorqueCtrlModeEnable)) {
       c.torque_control = register_raw(p1::kTorqueCtrlModeEnable) != 0;
-      c.goal_torque_ratio = signed_from_direction(register_raw(p1::kGoalTorque)) * kMxCurrentUnitA / s.stall_current_a;
+      c.goal_current_a = signed_from_direction(register_raw(p1::kGoalTorque)) * kMxCurrentUnitA;
     }
   } else {
     c.cw_compliance_margin_raw = static_cast<uint8_t>(register_raw(p1::kCwComplianceMargin));
@@ -210,8 +209,9 @@ void Protocol1Servo::apply(const ServoFeedback& feedback) noexcept {
   set_register(p1::kPresentVoltage, voltage_raw);
   set_register(p1::kPresentTemperature, temperature_raw);
   if (has_register(p1::kCurrent)) {
-    set_register(p1::kCurrent, static_cast<uint16_t>(clamp_round(
-                                   kMxCurrentZero + ratio * s.stall_current_a / kMxCurrentUnitA, 0, 4095)));
+    const double current_a = std::isfinite(feedback.current_a) ? feedback.current_a : 0.0;
+    set_register(p1::kCurrent,
+                 static_cast<uint16_t>(clamp_round(kMxCurrentZero + current_a / kMxCurrentUnitA, 0, 4095)));
   }
   if (has_register(p1::kRealtimeTick)) {
     const int64_t ms = feedback.sim_time_ns / 1'000'000;
@@ -239,9 +239,7 @@ void Protocol1Servo::apply(const ServoFeedback& feedback) noexcept {
   if (voltage_raw < register_raw(p1::kMinVoltageLimit) || voltage_raw > register_raw(p1::kMaxVoltageLimit)) {
     conditions |= p1_error::kInputVoltage;
   }
-  const double limit_ratio = register_raw(p1::kTorqueLimit) / kLoadFull;
-  if (detail::overload_held(torque_on, ratio, limit_ratio, feedback.sim_time_ns, kOverloadHoldNs, saturated_,
-                            saturated_since_ns_)) {
+  if (torque_on && feedback.overload) {
     conditions |= p1_error::kOverload;
   }
   conditions_ = conditions;

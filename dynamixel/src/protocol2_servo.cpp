@@ -64,12 +64,11 @@ void Protocol2Servo::fold_position() noexcept {
 }
 
 void Protocol2Servo::power_on() noexcept {
-  saturated_ = false;
   turn_offset_raw_ = 2048;
   fold_position();
   ServoFeedback at_rest;
   at_rest.position_rad = last_position_rad_;
-  at_rest.voltage_v = spec().servo.nominal_voltage_v;
+  at_rest.voltage_v = spec().servo.motor->rated_voltage_v;
   at_rest.sim_time_ns = now_ns_;
   apply(at_rest);
   set_register(x430::kGoalPosition, register_value(x430::kPresentPosition));
@@ -211,22 +210,27 @@ ServoCommand Protocol2Servo::command() const noexcept {
   }
 
   c.torque_limit_ratio = std::clamp(static_cast<double>(register_value(x430::kPwmLimit)) / kX430PwmFull, 0.0, 1.0);
-  if (spec().has_current && s.stall_current_a > 0.0) {
-    const double current_limit_ratio =
-        static_cast<double>(register_value(x430::kCurrentLimit)) * spec().current_unit_a / s.stall_current_a;
-    c.torque_limit_ratio = std::min(c.torque_limit_ratio, current_limit_ratio);
-    const double goal_current_ratio =
-        static_cast<double>(register_value(x430::kGoalCurrent)) * spec().current_unit_a / s.stall_current_a;
+  if (spec().has_current) {
+    const double stall_current_a = s.motor->stall_current_a;
+    const double current_limit_a = static_cast<double>(register_value(x430::kCurrentLimit)) * spec().current_unit_a;
+    c.torque_limit_ratio = std::min(c.torque_limit_ratio, current_limit_a / stall_current_a);
+    const double goal_current_a = static_cast<double>(register_value(x430::kGoalCurrent)) * spec().current_unit_a;
     if (mode == x430::kCurrentBasedPositionMode) {
-      c.torque_limit_ratio = std::min(c.torque_limit_ratio, std::abs(goal_current_ratio));
+      c.torque_limit_ratio = std::min(c.torque_limit_ratio, std::abs(goal_current_a) / stall_current_a);
+      c.current_limit_a = std::abs(goal_current_a);
     } else if (mode == x430::kCurrentMode) {
       c.torque_control = true;
-      c.goal_torque_ratio = std::clamp(dir * goal_current_ratio, -1.0, 1.0);
+      c.goal_current_a = dir * goal_current_a;
     }
   }
   if (mode == x430::kPwmMode) {
-    c.torque_control = true;
-    c.goal_torque_ratio = std::clamp(dir * static_cast<double>(register_value(x430::kGoalPwm)) / kX430PwmFull, -1.0, 1.0);
+    c.pwm_control = true;
+    c.goal_pwm_ratio = std::clamp(dir * static_cast<double>(register_value(x430::kGoalPwm)) / kX430PwmFull, -1.0, 1.0);
+  }
+  if (mode == x430::kVelocityMode) {
+    c.velocity_control = true;
+    c.velocity_pi = x_velocity_pi_gains(static_cast<uint16_t>(register_value(x430::kVelocityPGain)),
+                                        static_cast<uint16_t>(register_value(x430::kVelocityIGain)));
   }
   c.torque_limit_ratio = std::clamp(c.torque_limit_ratio, 0.0, 1.0);
   c.pid = x_pid_gains(static_cast<uint16_t>(register_value(x430::kPositionPGain)),
@@ -240,13 +244,13 @@ ServoCommand Protocol2Servo::command() const noexcept {
     if (c.wheel_mode) {
       c.moving_speed_rad_s = 0.0;
     }
-    c.goal_torque_ratio = 0.0;
+    c.goal_current_a = 0.0;
+    c.goal_pwm_ratio = 0.0;
   }
   return c;
 }
 
 void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
-  const ServoSpec& s = spec().servo;
   now_ns_ = feedback.sim_time_ns;
   if (std::isfinite(feedback.position_rad)) {
     last_position_rad_ = feedback.position_rad;
@@ -259,7 +263,8 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
   set_register(x430::kPresentVelocity, velocity_raw);
   const double ratio = std::isfinite(feedback.torque_ratio) ? std::clamp(feedback.torque_ratio, -1.0, 1.0) : 0.0;
   if (spec().has_current) {
-    set_register(x430::kPresentCurrent, clamp_round(dir * ratio * s.stall_current_a / spec().current_unit_a, -32768, 32767));
+    const double current_a = std::isfinite(feedback.current_a) ? feedback.current_a : 0.0;
+    set_register(x430::kPresentCurrent, clamp_round(dir * current_a / spec().current_unit_a, -32768, 32767));
   } else {
     set_register(x430::kPresentLoad, clamp_round(dir * ratio * 1000.0, -1000, 1000));
   }
@@ -324,9 +329,7 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
   if (voltage_raw < register_value(x430::kMinVoltageLimit) || voltage_raw > register_value(x430::kMaxVoltageLimit)) {
     conditions |= x430::kInputVoltageError;
   }
-  const double limit_ratio = static_cast<double>(register_value(x430::kPwmLimit)) / kX430PwmFull;
-  if (detail::overload_held(torque_on, ratio, limit_ratio, feedback.sim_time_ns, kOverloadHoldNs, saturated_,
-                            saturated_since_ns_)) {
+  if (torque_on && feedback.overload) {
     conditions |= x430::kOverloadError;
   }
   const auto latched = static_cast<uint8_t>(hardware_error() | (conditions & register_value(x430::kShutdown)));

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamixel/model_registry.h"
+
 namespace doppel::dynamixel {
 namespace {
 
@@ -13,34 +15,29 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kRpm = 2.0 * kPi / 60.0;
 constexpr double kStallTravel_rad = 0.05;       // a saturated joint that moves less than this is stalled
 constexpr double kMovingSpeed_rad_s = 0.02;     // Moving stays 1 while the joint turns faster
+constexpr double kFirmwareCyclesPerS = 1000.0;  // X velocity loop rate (assumption: 1 ms, as the MX I gain's 1000)
 
 double sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
 }  // namespace
 
-ServoControllerConfig servo_controller_config(std::string_view model) {
+ServoControllerConfig servo_controller_config(const ServoSpec& servo) noexcept {
   ServoControllerConfig c;
-  const double mx_units = 4096.0 / (2.0 * kPi);
-  if (model == "AX-12A" || model == "AX-12" || model == "AX-12+" || model == "RX-28" || model == "RX-64") {
-    c.law = ControlLaw::kCompliance;
-    c.units_per_rad = 1023.0 / (300.0 * kPi / 180.0);
-    c.wheel_full_speed_rad_s = 1023.0 * 0.111 * kRpm;
-    c.pwm_full_scale = 1023.0;
-  } else if (model == "MX-28" || model == "MX-64" || model == "MX-106" || model == "MX-28(2.0)" ||
-             model == "MX-64(2.0)" || model == "MX-106(2.0)") {
-    c.law = ControlLaw::kPid;
-    c.units_per_rad = mx_units;
-    c.wheel_full_speed_rad_s = 1023.0 * 0.114 * kRpm;
-    c.pwm_full_scale = model.find("(2.0)") != std::string_view::npos ? 885.0 : 1023.0;
-  } else if (model == "XM430-W350" || model == "XM430-W210" || model == "XL430-W250") {
-    c.law = ControlLaw::kPid;
-    c.units_per_rad = mx_units;
-    c.wheel_full_speed_rad_s = 1023.0 * 0.229 * kRpm;
-    c.pwm_full_scale = 885.0;
-  } else {
-    throw std::invalid_argument("no servo controller for model '" + std::string(model) + "'");
+  c.law = servo.law;
+  c.units_per_rad = servo.units_per_rad();
+  c.velocity_unit_rad_s = servo.speed_unit_rpm * kRpm;
+  c.wheel_full_speed_rad_s = 1023.0 * c.velocity_unit_rad_s;
+  c.pwm_full_scale = servo.pwm_full_scale;
+  if (servo.motor != nullptr) {
+    c.back_emf_v_s_rad = servo.motor->back_emf_v_s_rad;
+    c.resistance_ohm = servo.motor->resistance_ohm;
+    c.torque_constant_nm_a = servo.motor->torque_constant_nm_a;
   }
   return c;
+}
+
+ServoControllerConfig servo_controller_config(std::string_view model) {
+  return servo_controller_config(servo_spec(model));
 }
 
 PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept {
@@ -49,6 +46,10 @@ PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept {
 
 PidGains x_pid_gains(uint16_t p_raw, uint16_t i_raw, uint16_t d_raw) noexcept {
   return PidGains{p_raw / 128.0, i_raw / 65536.0, d_raw / 16.0};
+}
+
+PidGains x_velocity_pi_gains(uint16_t p_raw, uint16_t i_raw) noexcept {
+  return PidGains{p_raw / 128.0, i_raw / 65536.0 * kFirmwareCyclesPerS, 0.0};
 }
 
 int compliance_slope_step(uint8_t slope_raw) noexcept {
@@ -65,6 +66,7 @@ void ServoController::reset(double position_rad) noexcept {
   setpoint_rad_ = position_rad;
   setpoint_velocity_rad_s_ = 0.0;
   integral_units_s_ = 0.0;
+  velocity_integral_units_ = 0.0;
   saturated_s_ = 0.0;
 }
 
@@ -85,16 +87,30 @@ ControllerOutput ServoController::update(const ServoCommand& command, double pos
     reset(position_rad);
   }
 
+  const ServoControllerConfig& c = config_;
+  const bool motor_known = c.back_emf_v_s_rad > 0.0 && c.resistance_ohm > 0.0 && supply_v > 0.0;
   double pwm = 0.0;
   if (command.torque_control) {
-    // Current control: the duty that gives the goal torque at the present speed.
-    const ServoControllerConfig& c = config_;
-    if (c.back_emf_v_s_rad > 0.0 && c.resistance_ohm > 0.0 && c.torque_constant_nm_a > 0.0 && supply_v > 0.0) {
-      const double torque = command.goal_torque_ratio * c.max_torque_nm;
-      pwm = (torque * c.resistance_ohm / c.torque_constant_nm_a + c.back_emf_v_s_rad * velocity_rad_s) / supply_v;
-    } else {
-      pwm = command.goal_torque_ratio;
+    // Current control: the duty whose voltage V = ke w + R i drives the goal current at the present speed.
+    if (motor_known) {
+      pwm = (command.goal_current_a * c.resistance_ohm + c.back_emf_v_s_rad * velocity_rad_s) / supply_v;
     }
+    setpoint_rad_ = position_rad;
+  } else if (command.pwm_control) {
+    pwm = command.goal_pwm_ratio;
+    setpoint_rad_ = position_rad;
+  } else if (command.wheel_mode && command.velocity_control) {
+    // Velocity PI on the speed error in Goal Velocity units; the integral is capped at full duty.
+    const double error_units = (command.moving_speed_rad_s - velocity_rad_s) / c.velocity_unit_rad_s;
+    const PidGains& pi = command.velocity_pi;
+    velocity_integral_units_ += error_units * dt_s;
+    if (pi.ki > 0.0) {
+      const double cap = c.pwm_full_scale / pi.ki;
+      velocity_integral_units_ = std::clamp(velocity_integral_units_, -cap, cap);
+    } else {
+      velocity_integral_units_ = 0.0;
+    }
+    pwm = (pi.kp * error_units + pi.ki * velocity_integral_units_) / c.pwm_full_scale;
     setpoint_rad_ = position_rad;
   } else if (command.wheel_mode) {
     pwm = command.moving_speed_rad_s / config_.wheel_full_speed_rad_s;
@@ -149,6 +165,12 @@ ControllerOutput ServoController::update(const ServoCommand& command, double pos
       pwm = u / config_.pwm_full_scale;
     }
     out.moving = std::abs(goal - setpoint_rad_) > 0.0 || std::abs(velocity_rad_s) > kMovingSpeed_rad_s;
+  }
+  if (command.current_limit_a > 0.0 && motor_known) {
+    // Current limit: the duty window that keeps |i| = |V - ke w| / R within the limit.
+    const double back_emf_v = c.back_emf_v_s_rad * velocity_rad_s;
+    const double headroom_v = command.current_limit_a * c.resistance_ohm;
+    pwm = std::clamp(pwm, (back_emf_v - headroom_v) / supply_v, (back_emf_v + headroom_v) / supply_v);
   }
   pwm = std::clamp(pwm, -1.0, 1.0);
 

@@ -7,6 +7,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "body/motor_params.h"
 #include "camera/lens.h"
 #include "camera/pixel_format.h"
 #include "dynamixel/models.h"
@@ -255,7 +256,7 @@ RobotConfig check_robot(const proto::RobotFile& file) {
     config.buses.push_back(check_bus(file, robot, b));
   }
   if (robot.has_figure()) {
-    config.body = physics::compile_robot(file);
+    config.body = physics::compile_robot(file, body::motor_catalog());
     config.cameras = check_cameras(file, *config.body);
   }
   return config;

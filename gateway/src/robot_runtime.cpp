@@ -22,7 +22,8 @@ uint8_t default_return_delay_raw(const dynamixel::ModelSpec& spec) {
 
 double no_load_speed_rad_s(const dynamixel::ServoSpec& servo, double supply_voltage_v) {
   // A DC motor's no-load speed grows with its supply voltage.
-  return servo.no_load_speed_rpm * 2.0 * std::numbers::pi / 60.0 * supply_voltage_v / servo.nominal_voltage_v;
+  return servo.motor->no_load_speed_rpm * 2.0 * std::numbers::pi / 60.0 * supply_voltage_v /
+         servo.motor->rated_voltage_v;
 }
 
 const char* protocol_name(dynamixel::Protocol protocol) {
@@ -147,6 +148,7 @@ void BusRuntime::drive(double dt_s) noexcept {
         slot.controller.update(command, slot.position_rad, slot.velocity_rad_s, dt_s, config_.supply_voltage_v);
     body_.world->set_motor(*slot.motor, physics::MotorCommand{command.torque_enabled, out.pwm_ratio,
                                                               command.torque_limit_ratio});
+    slot.overload = out.overload;
   }
 }
 
@@ -162,13 +164,16 @@ void BusRuntime::sense(int64_t sim_time_ns, double kinematic_cell_force_n) noexc
       servo.torque_ratio = state.torque_ratio;
       servo.voltage_v = state.voltage_v;
       servo.temperature_c = state.temperature_c;
+      servo.current_a = std::copysign(state.current_a, state.torque_nm);
     } else {
       servo.position_rad = slot.joint.position_rad();
       servo.velocity_rad_s = slot.joint.velocity_rad_s();
       servo.torque_ratio = 0.0;
+      servo.current_a = 0.0;
       servo.voltage_v = config_.supply_voltage_v;
       servo.temperature_c = 25.0;
     }
+    servo.overload = slot.overload;
     servo.sim_time_ns = sim_time_ns;
     slot.position_rad = servo.position_rad;
     slot.velocity_rad_s = servo.velocity_rad_s;

@@ -93,6 +93,7 @@ class BusRuntime final : public bus::DeviceSync {
     KinematicJoint joint;                        // used when there is no motor
     double position_rad = 0.0;                   // last measured, for the controller
     double velocity_rad_s = 0.0;
+    bool overload = false;                       // the controller's Overload at the last drive()
   };
   struct ImuSlot {
     dynamixel::SimulatedImu* device = nullptr;

@@ -1,71 +1,10 @@
 #include "physics/dc_motor.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 
 namespace doppel::physics {
-namespace {
-
-constexpr double kRpm = 2.0 * 3.14159265358979323846 / 60.0;
-
-struct NamedParams {
-  std::string_view model;
-  DcMotorParams params;
-};
-
-constexpr double kFrictionShare = 0.02;  // gear friction: Coulomb, and viscous at no-load speed, per stall torque
-
-// Table 7 motor constants (ke, R, kt) with the datasheet's stall torque and no-load speed at `volts`.
-constexpr DcMotorParams from_table7(double ke, double r, double kt, double volts, double no_load_rpm,
-                                    double stall_nm, double r_th, double tau_th) {
-  return DcMotorParams{ke, r, kt, stall_nm, volts, kFrictionShare * stall_nm, r_th, tau_th,
-                       kFrictionShare * stall_nm / (no_load_rpm * kRpm)};
-}
-
-// Datasheet line: no-load speed and stall torque/current at a rated voltage. The no-load speed is
-// measured against the gear's friction: kt (V - ke w) / R = Coulomb + viscous w at w = no-load speed.
-constexpr DcMotorParams from_datasheet(double volts, double no_load_rpm, double stall_nm, double stall_a,
-                                       double r_th, double tau_th) {
-  const double w = no_load_rpm * kRpm;
-  const double r = volts / stall_a, kt = stall_nm / stall_a;
-  const double coulomb = kFrictionShare * stall_nm, viscous = kFrictionShare * stall_nm / w;
-  return DcMotorParams{(volts - r * (coulomb + viscous * w) / kt) / w, r, kt, stall_nm, volts, coulomb, r_th, tau_th,
-                       viscous};
-}
-
-// Thermal constants are assumptions (no datasheet gives them): chosen so that a stall at the full
-// Torque Limit passes the 80 C limit within about a minute, while holding a standing pose warms a
-// motor by only a few kelvin.
-const std::array<NamedParams, 8> kModels{{
-    {"RX-64", from_table7(2.82, 0.75, 3.2, 18.5, 64.0, 5.3, 60.0, 60.0)},  // Table 7 of the thesis
-    {"RX-28", from_table7(2.02, 0.8, 1.9, 18.5, 85.0, 3.7, 50.0, 50.0)},   // Table 7 of the thesis
-    {"AX-12A", from_datasheet(12.0, 59.0, 1.5, 1.5, 30.0, 40.0)},
-    {"MX-28", from_datasheet(12.0, 55.0, 2.5, 1.4, 30.0, 50.0)},
-    {"MX-64", from_datasheet(12.0, 63.0, 6.0, 4.1, 12.0, 60.0)},
-    {"MX-106", from_datasheet(12.0, 45.0, 8.4, 5.2, 10.0, 70.0)},
-    {"XM430-W350", from_datasheet(12.0, 46.0, 4.1, 2.3, 18.0, 60.0)},
-    {"XL430-W250", from_datasheet(12.0, 61.0, 1.5, 1.4, 30.0, 40.0)},  // 1.4 A: assumed, not in the reference
-}};
-
-}  // namespace
-
-std::optional<DcMotorParams> dc_motor_params(std::string_view model) noexcept {
-  for (const NamedParams& named : kModels) {
-    if (named.model == model) {
-      return named.params;
-    }
-  }
-  if (model == "AX-12" || model == "AX-12+") {
-    return dc_motor_params("AX-12A");
-  }
-  // MX servos with Protocol 2.0 firmware: the same motor and gears as with Protocol 1.0 firmware.
-  if (model == "MX-28(2.0)") return dc_motor_params("MX-28");
-  if (model == "MX-64(2.0)") return dc_motor_params("MX-64");
-  if (model == "MX-106(2.0)") return dc_motor_params("MX-106");
-  return std::nullopt;
-}
 
 double max_torque_nm(const DcMotorParams& params, double supply_v) noexcept {
   return params.stall_torque_nm * std::max(0.0, supply_v) / params.rated_voltage_v;

@@ -137,7 +137,8 @@ std::vector<std::pair<int, int>> exempt_pairs(const RobotModel& model) {
 
 class Compiler {
  public:
-  explicit Compiler(const proto::RobotFile& file) : file_(file), description_(file.description()), figure_(description_.figure()) {}
+  Compiler(const proto::RobotFile& file, const MotorCatalog& motors)
+      : file_(file), motors_(motors), description_(file.description()), figure_(description_.figure()) {}
 
   RobotModel run() {
     model_.name = description_.name();
@@ -417,7 +418,7 @@ class Compiler {
           fail(m, "model", -1, "model '" + m.model() + "' does not match the bus device ID " + std::to_string(m.id()) +
                                    " ('" + device.model() + "')");
         }
-        auto params = dc_motor_params(device.model());
+        std::optional<DcMotorParams> params = motors_ ? motors_(device.model()) : std::nullopt;
         if (!params) {
           fail(m, "id", -1, "bus device ID " + std::to_string(m.id()) + " is a '" + device.model() +
                                 "', not a servo with known motor constants");
@@ -534,6 +535,7 @@ class Compiler {
   }
 
   const proto::RobotFile& file_;
+  const MotorCatalog& motors_;
   const proto::RobotDescription& description_;
   const proto::Figure& figure_;
   RobotModel model_;
@@ -551,9 +553,11 @@ Eigen::Matrix3d rotation_from_rpy_deg(double roll_deg, double pitch_deg, double 
       .toRotationMatrix();
 }
 
-RobotModel compile_robot(const proto::RobotFile& file) { return Compiler(file).run(); }
+RobotModel compile_robot(const proto::RobotFile& file, const MotorCatalog& motors) {
+  return Compiler(file, motors).run();
+}
 
-void validate_body(const proto::RobotFile& file) { (void)compile_robot(file); }
+void validate_body(const proto::RobotFile& file, const MotorCatalog& motors) { (void)compile_robot(file, motors); }
 
 std::vector<Eigen::Isometry3d> body_poses(const RobotModel& model, const std::vector<double>& q) {
   if (q.size() != model.links.size()) {

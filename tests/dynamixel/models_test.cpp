@@ -9,6 +9,7 @@
 
 #include "dynamixel/device_factory.h"
 #include "dynamixel/fumanoid_boards.h"
+#include "dynamixel/model_registry.h"
 #include "dynamixel/protocol1_servo.h"
 
 namespace doppel::dynamixel {
@@ -72,47 +73,99 @@ TEST(Models, PositionAndSpeedUnits) {
   EXPECT_DOUBLE_EQ(mx.speed_unit_rpm, 0.114);
 }
 
-TEST(Models, GearRatiosOfReference) {
-  EXPECT_EQ(model_spec("AX-12A").servo.gear_ratio, 254);
-  EXPECT_EQ(model_spec("RX-28").servo.gear_ratio, 193);
-  EXPECT_EQ(model_spec("RX-64").servo.gear_ratio, 200);
-  EXPECT_EQ(model_spec("MX-28").servo.gear_ratio, 193);
-  EXPECT_EQ(model_spec("MX-64").servo.gear_ratio, 200);
-  EXPECT_EQ(model_spec("MX-106").servo.gear_ratio, 225);
-}
+// The registry's motor entries: what the physics simulates (body/motor_params.h) and the firmware's
+// current control computes with (servo_controller_config). Golden values: reference §5 and the
+// thesis' Table 7.
+struct DatasheetRow {
+  const char* name;
+  double volts, no_load_rpm, stall_nm, stall_a, gear;
+};
+constexpr DatasheetRow kDatasheet[] = {
+    {"AX-12A", 12.0, 59, 1.5, 1.5, 254},      {"RX-28", 18.5, 85, 3.7, 1.9, 193},
+    {"RX-64", 18.5, 64, 5.3, 2.6, 200},       {"MX-28", 12.0, 55, 2.5, 1.4, 193},
+    {"MX-64", 12.0, 63, 6.0, 4.1, 200},       {"MX-106", 12.0, 45, 8.4, 5.2, 225},
+    {"XM430-W350", 12.0, 46, 4.1, 2.3, 353.5}, {"XL430-W250", 12.0, 61, 1.5, 1.4, 258.5},
+};
 
-TEST(Models, ThesisMotorConstantsForRx) {
-  const ServoSpec& rx64 = model_spec("RX-64").servo;
-  const ServoSpec& rx28 = model_spec("RX-28").servo;
-  EXPECT_DOUBLE_EQ(rx64.ke_v_s_per_rad, 2.82);
-  EXPECT_DOUBLE_EQ(rx64.kt_n_m_per_a, 3.2);
-  EXPECT_DOUBLE_EQ(rx28.ke_v_s_per_rad, 2.02);
-  EXPECT_DOUBLE_EQ(rx28.kt_n_m_per_a, 1.9);
-}
-
-TEST(Models, MotorModelReproducesDatasheetPoint) {
-  for (const ModelSpec* m : known_models()) {
-    if (m->kind != DeviceKind::kServo) {
-      continue;
-    }
-    const ServoSpec& s = m->servo;
-    const double v = s.nominal_voltage_v;
-    // No load: back-EMF takes the whole supply. Stall: tau = kt * V / R.
-    const double no_load_rad_s = v / s.ke_v_s_per_rad;
-    const double stall_n_m = s.kt_n_m_per_a * v / s.resistance_ohm;
-    EXPECT_NEAR(no_load_rad_s, rpm_to_rad_s(s.no_load_speed_rpm), 0.05 * rpm_to_rad_s(s.no_load_speed_rpm)) << m->name;
-    // Exact for the derived models; the thesis' RX constants (fitted at 15 V) stay within 1.5x.
-    EXPECT_GT(stall_n_m, s.stall_torque_n_m / 1.5) << m->name;
-    EXPECT_LT(stall_n_m, s.stall_torque_n_m * 1.5) << m->name;
+TEST(Models, EveryServoHasTheDatasheetPointOfReference) {
+  for (const DatasheetRow& row : kDatasheet) {
+    const MotorSpec& m = *servo_spec(row.name).motor;
+    EXPECT_DOUBLE_EQ(m.rated_voltage_v, row.volts) << row.name;
+    EXPECT_DOUBLE_EQ(m.no_load_speed_rpm, row.no_load_rpm) << row.name;
+    EXPECT_DOUBLE_EQ(m.stall_torque_nm, row.stall_nm) << row.name;
+    EXPECT_DOUBLE_EQ(m.stall_current_a, row.stall_a) << row.name;
+    EXPECT_DOUBLE_EQ(m.gear_ratio, row.gear) << row.name;
   }
 }
 
+TEST(Models, EveryServoModelOfBothProtocolsHasAMotor) {
+  std::size_t servos = 0;
+  for (const ModelSpec* m : known_models()) {
+    if (m->kind != DeviceKind::kServo) continue;
+    ++servos;
+    ASSERT_NE(m->servo.motor, nullptr) << m->name;
+    EXPECT_GT(m->servo.motor->torque_constant_nm_a, 0.0) << m->name;
+  }
+  for (const P2ModelSpec* m : known_p2_models()) {
+    if (m->kind != P2DeviceKind::kServo) continue;
+    ++servos;
+    ASSERT_NE(m->servo.motor, nullptr) << m->name;
+    EXPECT_GT(m->servo.motor->torque_constant_nm_a, 0.0) << m->name;
+  }
+  EXPECT_EQ(servos, 11u);
+  EXPECT_EQ(find_servo_spec("FUMANOID-IMU"), nullptr);
+  EXPECT_EQ(find_servo_spec("BITBOTS-CORE"), nullptr);
+  EXPECT_THROW((void)servo_spec("AX-18A"), std::invalid_argument);
+}
+
+TEST(Models, MxKeepsItsMotorUnderProtocol2Firmware) {
+  EXPECT_EQ(p2_model_spec("MX-28(2.0)").servo.motor, model_spec("MX-28").servo.motor);
+  EXPECT_EQ(p2_model_spec("MX-64(2.0)").servo.motor, model_spec("MX-64").servo.motor);
+  EXPECT_EQ(p2_model_spec("MX-106(2.0)").servo.motor, model_spec("MX-106").servo.motor);
+}
+
+TEST(Models, ThesisTable7ConstantsForRx) {
+  const MotorSpec& rx64 = *model_spec("RX-64").servo.motor;
+  const MotorSpec& rx28 = *model_spec("RX-28").servo.motor;
+  EXPECT_DOUBLE_EQ(rx64.back_emf_v_s_rad, 2.82);
+  EXPECT_DOUBLE_EQ(rx64.resistance_ohm, 0.75);
+  EXPECT_DOUBLE_EQ(rx64.torque_constant_nm_a, 3.2);
+  EXPECT_DOUBLE_EQ(rx28.back_emf_v_s_rad, 2.02);
+  EXPECT_DOUBLE_EQ(rx28.resistance_ohm, 0.8);
+  EXPECT_DOUBLE_EQ(rx28.torque_constant_nm_a, 1.9);
+  // Table 7's ke gives the RX-64's no-load speed within 6 % of the datasheet's (docs/physics.md).
+  EXPECT_NEAR(18.5 / rx64.back_emf_v_s_rad, rpm_to_rad_s(64.0), 0.06 * rpm_to_rad_s(64.0));
+}
+
+TEST(Models, DerivedMotorsReproduceTheirDatasheetPoint) {
+  for (const DatasheetRow& row : kDatasheet) {
+    if (std::string(row.name).starts_with("RX")) continue;  // Table 7, above
+    const MotorSpec& m = *servo_spec(row.name).motor;
+    // Stall: only the armature limits the current, tau = kt V / R = the datasheet's stall torque.
+    EXPECT_NEAR(m.torque_constant_nm_a * row.volts / m.resistance_ohm, row.stall_nm, 1e-9) << row.name;
+    EXPECT_NEAR(row.volts / m.resistance_ohm, row.stall_a, 1e-9) << row.name;
+    // No load: the motor's torque just balances the gear friction at the datasheet speed.
+    const double w = rpm_to_rad_s(row.no_load_rpm);
+    EXPECT_NEAR(m.torque_constant_nm_a * (row.volts - m.back_emf_v_s_rad * w) / m.resistance_ohm,
+                m.friction_nm + m.viscous_friction_nm_s_rad * w, 1e-9)
+        << row.name;
+  }
+}
+
+TEST(Models, GearFrictionAssumption) {
+  // docs/physics.md: Coulomb 2 % of the stall torque, viscous another 2 % at the no-load speed.
+  const MotorSpec& rx64 = *model_spec("RX-64").servo.motor;
+  EXPECT_NEAR(rx64.friction_nm, 0.106, 1e-12);
+  EXPECT_NEAR(rx64.viscous_friction_nm_s_rad * rpm_to_rad_s(64.0), 0.106, 1e-12);
+}
+
 TEST(Models, DerivedConstantsOfAx12a) {
-  const ServoSpec& s = model_spec("AX-12A").servo;
-  // 12 V, 59 rpm, 1.5 N m at 1.5 A (reference §5).
-  EXPECT_NEAR(s.ke_v_s_per_rad, 12.0 / rpm_to_rad_s(59.0), 1e-12);
-  EXPECT_NEAR(s.resistance_ohm, 8.0, 1e-12);
-  EXPECT_NEAR(s.kt_n_m_per_a, 1.0, 1e-12);
+  const MotorSpec& m = *model_spec("AX-12A").servo.motor;
+  // 12 V, 59 rpm, 1.5 N m at 1.5 A (reference §5): R = 12 V / 1.5 A, kt = 1.5 N m / 1.5 A.
+  EXPECT_NEAR(m.resistance_ohm, 8.0, 1e-12);
+  EXPECT_NEAR(m.torque_constant_nm_a, 1.0, 1e-12);
+  // ke = (V - R (Fc + Fv w) / kt) / w with Fc = Fv w = 0.03 N m: (12 - 8 x 0.06) / 6.1785 rad/s.
+  EXPECT_NEAR(m.back_emf_v_s_rad, (12.0 - 0.48) / rpm_to_rad_s(59.0), 1e-12);
 }
 
 TEST(Baud, RegisterToRate) {

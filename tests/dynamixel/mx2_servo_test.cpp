@@ -107,7 +107,7 @@ TEST(Mx2Models, Mx28HasNoCurrentItemsAndReportsLoad) {
 TEST(Mx2Models, Mx64PresentCurrentIn336MilliampUnits) {
   Protocol2Servo sut(p2_model_spec("MX-64(2.0)"), 1, 3, 0);
   ServoFeedback f;
-  f.torque_ratio = 0.5;  // half of the 4.1 A stall current (§5, 12 V) = 2.05 A = 610 x 3.36 mA
+  f.current_a = 2.05;  // 610 x 3.36 mA
   sut.apply(f);
   EXPECT_EQ(sut.register_value(x430::kPresentCurrent), 610);
 }
@@ -157,7 +157,7 @@ TEST(Mx2Models, CurrentModeCommandsTorqueFromGoalCurrent) {
   ASSERT_EQ(write(sut, x430::kTorqueEnable, 1, 1), status(1, 0));
   const ServoCommand c = sut.command();
   EXPECT_TRUE(c.torque_control);
-  EXPECT_NEAR(c.goal_torque_ratio, 774 * 0.00336 / 5.2, 1e-9);
+  EXPECT_NEAR(c.goal_current_a, 774 * 0.00336, 1e-9);
 }
 
 TEST(Mx2Models, NoStartupConfigurationBackupOrFastReads) {
@@ -210,14 +210,18 @@ TEST(Mx2Models, PhysicalDataFromTheDatasheet) {
   };
   for (const Row& r : {Row{"MX-28(2.0)", 2.5, 1.4, 55, 193}, Row{"MX-64(2.0)", 6.0, 4.1, 63, 200},
                        Row{"MX-106(2.0)", 8.4, 5.2, 45, 225}}) {
-    const ServoSpec& s = p2_model_spec(r.name).servo;
-    EXPECT_DOUBLE_EQ(s.stall_torque_n_m, r.torque) << r.name;
-    EXPECT_DOUBLE_EQ(s.stall_current_a, r.current) << r.name;
-    EXPECT_DOUBLE_EQ(s.no_load_speed_rpm, r.rpm) << r.name;
-    EXPECT_DOUBLE_EQ(s.gear_ratio, r.gear) << r.name;
-    EXPECT_NEAR(s.kt_n_m_per_a, r.torque / r.current, 1e-12) << r.name;
-    EXPECT_NEAR(s.resistance_ohm, 12.0 / r.current, 1e-12) << r.name;
-    EXPECT_NEAR(s.ke_v_s_per_rad, 12.0 / (r.rpm * 2.0 * std::numbers::pi / 60.0), 1e-12) << r.name;
+    const MotorSpec& m = *p2_model_spec(r.name).servo.motor;
+    EXPECT_DOUBLE_EQ(m.stall_torque_nm, r.torque) << r.name;
+    EXPECT_DOUBLE_EQ(m.stall_current_a, r.current) << r.name;
+    EXPECT_DOUBLE_EQ(m.no_load_speed_rpm, r.rpm) << r.name;
+    EXPECT_DOUBLE_EQ(m.gear_ratio, r.gear) << r.name;
+    EXPECT_NEAR(m.torque_constant_nm_a, r.torque / r.current, 1e-12) << r.name;
+    EXPECT_NEAR(m.resistance_ohm, 12.0 / r.current, 1e-12) << r.name;
+    // At the no-load speed the motor's torque just balances its gear friction.
+    const double w = r.rpm * 2.0 * std::numbers::pi / 60.0;
+    EXPECT_NEAR(m.torque_constant_nm_a * (12.0 - m.back_emf_v_s_rad * w) / m.resistance_ohm,
+                m.friction_nm + m.viscous_friction_nm_s_rad * w, 1e-9)
+        << r.name;
   }
 }
 

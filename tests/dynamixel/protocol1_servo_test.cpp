@@ -1,4 +1,5 @@
 #include "dynamixel/protocol1_servo.h"
+#include "dynamixel/servo_controller.h"
 
 #include <gtest/gtest.h>
 
@@ -462,7 +463,7 @@ TEST(Protocol1ServoFeedback, MovingFlag) {
 TEST(Protocol1ServoFeedback, MxCurrentAndRealtimeTick) {
   auto sut = make_servo("MX-64");
   ServoFeedback f = at(0.0);
-  f.torque_ratio = 0.5;  // half of the 4.1 A stall current = 2.05 A = 455.6 units of 4.5 mA
+  f.current_a = 2.05;  // 455.6 units of 4.5 mA
   f.sim_time_ns = 40'000'123'000;  // 40000 ms -> 40000 % 32768 = 7232
   sut.apply(f);
 
@@ -512,23 +513,41 @@ TEST(Protocol1ServoConditions, InputVoltageIsReportedButNotInDefaultShutdownMask
   EXPECT_EQ(sut.conditions(), p1_error::kInputVoltage);
 }
 
-TEST(Protocol1ServoConditions, SustainedSaturationIsOverload) {
+TEST(Protocol1ServoConditions, BlockedAtTheTorqueLimitIsOverloadAfterTheControllersTime) {
+  // The firmware as a whole: the motor controller drives a joint blocked at 0 rad toward a far
+  // goal at full duty (= Torque Limit); after its overload time the Overload bit appears.
   auto sut = make_servo("RX-64");
+  ServoController controller(servo_controller_config("RX-64"));
+  ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kGoalPosition, 0xFF, 0x03}))[4], 0);
   ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kTorqueEnable, 1}))[4], 0);
   ServoFeedback f = at(0.0);
-  f.torque_ratio = 1.0;
-  f.sim_time_ns = 5'000'000'000;
-  sut.apply(f);
-  f.sim_time_ns += Protocol1Servo::kOverloadHoldNs - 1;
-  sut.apply(f);
-  EXPECT_EQ(sut.conditions(), 0);
+  int overload_ms = 0;
+  for (int ms = 1; ms <= 1500 && sut.conditions() == 0; ++ms) {
+    const ControllerOutput out = controller.update(sut.command(), 0.0, 0.0, 0.001);
+    f.overload = out.overload;
+    f.torque_ratio = out.pwm_ratio;
+    f.sim_time_ns = ms * 1'000'000LL;
+    sut.apply(f);
+    overload_ms = ms;
+  }
 
-  f.sim_time_ns += 1;
-  sut.apply(f);
-
+  EXPECT_GE(overload_ms, 999);  // ServoControllerConfig::overload_time_s = 1 s (assumption)
+  EXPECT_LE(overload_ms, 1001);
   // ~(01 + 02 + 20) = 0xDC
   EXPECT_EQ(transact(sut, make_packet(1, instruction::kPing)), (Bytes{0xFF, 0xFF, 0x01, 0x02, 0x20, 0xDC}));
   EXPECT_EQ(sut.register_raw(p1::kTorqueEnable), 0);  // Alarm Shutdown default 36 includes overload
+}
+
+TEST(Protocol1ServoConditions, ControllerOverloadCountsOnlyWithTorqueOn) {
+  auto sut = make_servo("RX-64");
+  ServoFeedback f = at(0.0);
+  f.overload = true;
+  sut.apply(f);
+  EXPECT_EQ(sut.conditions(), 0);
+
+  ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kTorqueEnable, 1}))[4], 0);
+  sut.apply(f);
+  EXPECT_EQ(sut.conditions(), p1_error::kOverload);
 }
 
 TEST(Protocol1ServoConditions, OverloadAndOverheatingTogetherAsInReference) {
@@ -536,8 +555,7 @@ TEST(Protocol1ServoConditions, OverloadAndOverheatingTogetherAsInReference) {
   ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kTorqueEnable, 1}))[4], 0);
   ServoFeedback f = at(0.0);
   f.torque_ratio = -1.0;
-  sut.apply(f);
-  f.sim_time_ns = Protocol1Servo::kOverloadHoldNs;
+  f.overload = true;
   f.temperature_c = 85.0;
   sut.apply(f);
 
@@ -606,8 +624,8 @@ TEST(Protocol1ServoCommand, MxGoalTorque) {
   ASSERT_EQ(transact(sut, make_packet(1, instruction::kWrite, {p1::kTorqueCtrlModeEnable, 1, 0x00, 0x05}))[4], 0);
   const ServoCommand c = sut.command();
   EXPECT_TRUE(c.torque_control);
-  // 0x500: CW, magnitude 256 x 4.5 mA = 1.152 A of the 5.2 A stall current.
-  EXPECT_NEAR(c.goal_torque_ratio, -1.152 / 5.2, 1e-12);
+  // 0x500: CW, magnitude 256 x 4.5 mA = 1.152 A.
+  EXPECT_NEAR(c.goal_current_a, -1.152, 1e-12);
 }
 
 }  // namespace

@@ -188,6 +188,21 @@ TEST_F(XmServo, ConditionsOutsideShutdownDoNotLatch) {
   EXPECT_EQ(sut.hardware_error(), x430::kInputVoltageError);
 }
 
+TEST_F(XmServo, ControllerOverloadLatchesWithTorqueOn) {
+  // Overload is the motor controller's (ServoFeedback.overload); Shutdown 52 includes it (§3.7).
+  ServoFeedback blocked;
+  blocked.overload = true;
+  sut.apply(blocked);
+  EXPECT_EQ(sut.hardware_error(), 0);  // torque off: the controller's flag does not count
+  ASSERT_EQ(write(x430::kTorqueEnable, 1, 1), status(1, 0));
+
+  sut.apply(blocked);
+
+  EXPECT_EQ(sut.hardware_error(), x430::kOverloadError);
+  EXPECT_FALSE(sut.torque_enabled());
+  EXPECT_EQ(transact(sut, instruction(1, instruction::kPing)), status(1, 0x80, {0xFC, 0x03, 0x2D}));
+}
+
 TEST_F(XmServo, StatusReturnLevel) {
   ASSERT_EQ(write(x430::kStatusReturnLevel, 1, 1), status(1, 0));  // answered under the old level
   EXPECT_TRUE(write(x430::kLed, 1, 1).empty());
@@ -306,12 +321,17 @@ TEST_F(XmServo, CommandFollowsTheOperatingMode) {
   c = sut.command();
   EXPECT_TRUE(c.wheel_mode);
   EXPECT_NEAR(c.moving_speed_rad_s, -100 * 0.229 * 2 * std::numbers::pi / 60, 1e-9);
+  // Velocity PI from Velocity P/I Gain 100 / 1920 (§3.7 defaults): KvP = P / 128, KvI = I / 65536
+  // per 1 ms cycle.
+  EXPECT_TRUE(c.velocity_control);
+  EXPECT_NEAR(c.velocity_pi.kp, 100.0 / 128.0, 1e-12);
+  EXPECT_NEAR(c.velocity_pi.ki, 1920.0 / 65536.0 * 1000.0, 1e-9);
 
   ASSERT_EQ(write(x430::kOperatingMode, x430::kCurrentMode, 1), status(1, 0));
   ASSERT_EQ(write(x430::kGoalCurrent, 428, 2), status(1, 0));  // 428 x 2.69 mA = 1.151 A = half of 2.3 A
   c = sut.command();
   EXPECT_TRUE(c.torque_control);
-  EXPECT_NEAR(c.goal_torque_ratio, 428 * 0.00269 / 2.3, 1e-9);
+  EXPECT_NEAR(c.goal_current_a, 428 * 0.00269, 1e-9);
 
   ASSERT_EQ(write(x430::kOperatingMode, x430::kExtendedPositionMode, 1), status(1, 0));
   ASSERT_EQ(write(x430::kGoalPosition, 2048 + 2 * 4096, 4), status(1, 0));
@@ -338,13 +358,14 @@ TEST_F(XmServo, ApplyFillsPresentItemsInXUnits) {
   f.position_rad = std::numbers::pi / 2.0;
   f.velocity_rad_s = -100 * 0.229 * 2 * std::numbers::pi / 60;
   f.torque_ratio = 0.5;
+  f.current_a = 1.15;
   f.voltage_v = 12.3;
   f.temperature_c = 41.0;
   f.sim_time_ns = 40'000'000'000;
   sut.apply(f);
   EXPECT_EQ(sut.register_value(x430::kPresentPosition), 3072);
   EXPECT_EQ(sut.register_value(x430::kPresentVelocity), -100);
-  EXPECT_EQ(sut.register_value(x430::kPresentCurrent), 428);  // 0.5 x 2.3 A / 2.69 mA
+  EXPECT_EQ(sut.register_value(x430::kPresentCurrent), 428);  // 1.15 A / 2.69 mA
   EXPECT_EQ(sut.register_value(x430::kPresentInputVoltage), 123);
   EXPECT_EQ(sut.register_value(x430::kPresentTemperature), 41);
   EXPECT_EQ(sut.register_value(x430::kRealtimeTick), 40000 % 32768);

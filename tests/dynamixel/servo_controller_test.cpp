@@ -5,13 +5,15 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "dynamixel/model_registry.h"
+
 namespace doppel::dynamixel {
 namespace {
 
 constexpr double kDt = 0.001;
 constexpr double kPi = 3.14159265358979323846;
-// AX/RX position unit (e-Manual: 0..1023 over 300 deg) and MX/X (4096 per turn).
-constexpr double kRxUnit = 300.0 / 1023.0 * kPi / 180.0;
+// AX/RX position unit (reference §5: 1024 steps over 300 deg, 0.29 deg) and MX/X (4096 per turn).
+constexpr double kRxUnit = 300.0 / 1024.0 * kPi / 180.0;
 constexpr double kMxUnit = 2.0 * kPi / 4096.0;
 
 ServoCommand compliance_command(double goal_rad) {
@@ -158,22 +160,83 @@ TEST(ServoControllerTest, StalledAtFullDriveRaisesOverloadAfterOverloadTime) {
   EXPECT_TRUE(after);
 }
 
-TEST(ServoControllerTest, TorqueControlComputesTheDutyFromTheMotorLine) {
+TEST(ServoControllerTest, CurrentControlComputesTheDutyFromTheMotorLine) {
   ServoControllerConfig config = servo_controller_config("MX-64");
   config.back_emf_v_s_rad = 2.0;
   config.resistance_ohm = 3.0;
   config.torque_constant_nm_a = 1.5;
-  config.max_torque_nm = 6.0;
   ServoController sut(config);
   ServoCommand command;
   command.torque_enabled = true;
   command.torque_control = true;
-  command.goal_torque_ratio = 0.5;
+  command.goal_current_a = 2.0;
 
   const ControllerOutput out = sut.update(command, 0.0, 1.0, kDt, 12.0);
 
-  // V = R tau / kt + ke w = 3 * 3 / 1.5 + 2 * 1 = 8 V of 12 V.
+  // V = R i + ke w = 3 * 2 + 2 * 1 = 8 V of 12 V.
   EXPECT_NEAR(out.pwm_ratio, 8.0 / 12.0, 1e-12);
+}
+
+TEST(ServoControllerTest, ConfigCarriesTheRegistrysMotor) {
+  const ServoSpec& spec = servo_spec("MX-64(2.0)");
+
+  const ServoControllerConfig sut = servo_controller_config("MX-64(2.0)");
+
+  EXPECT_EQ(sut.back_emf_v_s_rad, spec.motor->back_emf_v_s_rad);
+  EXPECT_EQ(sut.resistance_ohm, spec.motor->resistance_ohm);
+  EXPECT_EQ(sut.torque_constant_nm_a, spec.motor->torque_constant_nm_a);
+  EXPECT_GT(sut.resistance_ohm, 0.0);
+  EXPECT_EQ(sut.pwm_full_scale, 885.0);                                   // X / MX(2.0): PWM 885 = 100 %
+  EXPECT_NEAR(sut.velocity_unit_rad_s, 0.229 * 2.0 * kPi / 60.0, 1e-12);  // Goal Velocity unit
+  EXPECT_EQ(servo_controller_config("MX-64").pwm_full_scale, 1023.0);
+  EXPECT_EQ(servo_controller_config("RX-64").law, ControlLaw::kCompliance);
+}
+
+TEST(ServoControllerTest, CurrentLimitBoundsThePositionDrive) {
+  // Current-based position: the PID wants full duty, the goal current (1 A) allows only
+  // V = R i + ke w = 3 V at rest.
+  ServoControllerConfig config = servo_controller_config("XM430-W350");
+  config.back_emf_v_s_rad = 2.0;
+  config.resistance_ohm = 3.0;
+  ServoController sut(config);
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.goal_position_rad = 1.0;
+  command.pid = x_pid_gains(800, 0, 0);
+  command.current_limit_a = 1.0;
+
+  EXPECT_NEAR(sut.update(command, 0.0, 0.0, kDt, 12.0).pwm_ratio, 3.0 / 12.0, 1e-12);
+  EXPECT_NEAR(sut.update(command, 0.0, 0.5, kDt, 12.0).pwm_ratio, 4.0 / 12.0, 1e-12);  // + ke w
+}
+
+TEST(ServoControllerTest, PwmModeIsTheGoalDuty) {
+  ServoController sut(servo_controller_config("XL430-W250"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.pwm_control = true;
+  command.goal_pwm_ratio = -0.3;
+
+  EXPECT_NEAR(sut.update(command, 0.0, 2.0, kDt, 12.0).pwm_ratio, -0.3, 1e-12);
+}
+
+TEST(ServoControllerTest, VelocityPiOfTheManual) {
+  // e-Manual velocity controller: PWM = KvP e + KvI sum(e), e in Goal Velocity units (0.229 rpm).
+  ServoController sut(servo_controller_config("XM430-W350"));
+  ServoCommand command;
+  command.torque_enabled = true;
+  command.wheel_mode = true;
+  command.velocity_control = true;
+  command.velocity_pi = x_velocity_pi_gains(128, 0);  // KvP = 1 PWM unit per velocity unit
+  const double unit_rad_s = 0.229 * 2.0 * kPi / 60.0;
+  command.moving_speed_rad_s = 100 * unit_rad_s;
+
+  EXPECT_NEAR(sut.update(command, 0.0, 20 * unit_rad_s, kDt, 12.0).pwm_ratio, 80.0 / 885.0, 1e-9);
+
+  command.velocity_pi = x_velocity_pi_gains(0, 65536 / 16);  // KvI = 1/16 PWM unit per unit and 1 ms cycle
+  ServoController integrating(servo_controller_config("XM430-W350"));
+  double pwm = 0.0;
+  for (int i = 0; i < 10; ++i) pwm = integrating.update(command, 0.0, 20 * unit_rad_s, kDt, 12.0).pwm_ratio;
+  EXPECT_NEAR(pwm, 10 * 80.0 / 16.0 / 885.0, 1e-9);  // ten cycles of an 80-unit error
 }
 
 TEST(ServoControllerTest, UnknownModelIsRejected) {

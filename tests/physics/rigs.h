@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "body/motor_params.h"
 #include "dynamixel/servo_controller.h"
 #include "physics/engines.h"
 #include "physics/robot_model.h"
@@ -17,11 +18,11 @@ namespace doppel::physics::test {
 inline std::string robots_dir() { return DOPPEL_ROBOTS_DIR; }
 
 inline RobotModel robot_from_text(const std::string& text) {
-  return compile_robot(proto::RobotFile::parse(text, "rig.textproto"));
+  return compile_robot(proto::RobotFile::parse(text, "rig.textproto"), doppel::body::motor_catalog());
 }
 
 inline RobotModel shipped_robot(const std::string& name) {
-  return compile_robot(proto::RobotFile::load(robots_dir() + "/" + name + ".textproto"));
+  return compile_robot(proto::RobotFile::load(robots_dir() + "/" + name + ".textproto"), doppel::body::motor_catalog());
 }
 
 inline WorldOptions bare_options() {
@@ -96,7 +97,8 @@ class Firmware {
     for (Servo& s : servos_) {
       const MotorState state = world_.motor(s.handle);
       const dynamixel::ControllerOutput out =
-          s.controller.update(s.command, state.position_rad, state.velocity_rad_s, world_.options().step_s);
+          s.controller.update(s.command, state.position_rad, state.velocity_rad_s, world_.options().step_s,
+                              state.voltage_v);
       world_.set_motor(s.handle, MotorCommand{s.command.torque_enabled, out.pwm_ratio, s.command.torque_limit_ratio});
     }
     world_.step();

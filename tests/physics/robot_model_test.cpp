@@ -10,6 +10,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "body/motor_params.h"
+
 namespace doppel::physics {
 namespace {
 
@@ -44,7 +46,7 @@ const char* kGoodFigure = R"(figure {
 std::string error_of(const std::string& text) {
   try {
     const proto::RobotFile file = proto::RobotFile::parse(text, "bad.textproto");
-    validate_body(file);
+    validate_body(file, doppel::body::motor_catalog());
   } catch (const std::invalid_argument& e) {
     return e.what();
   }
@@ -64,7 +66,7 @@ int line_of(const std::string& text, const std::string& needle) {
 TEST(RobotModelTest, DefaultHumanoidHas22Bodies21ServosOfTheThesisModels) {
   const proto::RobotFile file = proto::RobotFile::load(robot_path("fumanoid-2011"));
 
-  const RobotModel sut = compile_robot(file);
+  const RobotModel sut = compile_robot(file, doppel::body::motor_catalog());
 
   EXPECT_EQ(sut.bodies.size(), 22U);
   EXPECT_EQ(sut.links.size(), 21U);
@@ -91,7 +93,7 @@ TEST(RobotModelTest, DefaultHumanoidHas22Bodies21ServosOfTheThesisModels) {
 }
 
 TEST(RobotModelTest, DefaultHumanoidIsAbout60CmTallAtTheDesignPose) {
-  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-2011")));
+  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-2011")), doppel::body::motor_catalog());
 
   double top = -1.0, bottom = 1.0;
   for (const BodyModel& body : sut.bodies) {
@@ -112,7 +114,7 @@ TEST(RobotModelTest, DefaultHumanoidIsAbout60CmTallAtTheDesignPose) {
 }
 
 TEST(RobotModelTest, PitchModelHas10Bodies9MotorsAllAboutTheYAxis) {
-  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-pitch")));
+  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-pitch")), doppel::body::motor_catalog());
 
   EXPECT_EQ(sut.bodies.size(), 10U);  // thesis figure 36
   EXPECT_EQ(sut.motors.size(), 9U);
@@ -129,7 +131,7 @@ TEST(RobotModelTest, CompoundBodyHasCentreOfMassAndParallelAxisInertia) {
          mass_kg: 2 }
 })");
 
-  const RobotModel sut = compile_robot(proto::RobotFile::parse(text, "dumbbell.textproto"));
+  const RobotModel sut = compile_robot(proto::RobotFile::parse(text, "dumbbell.textproto"), doppel::body::motor_catalog());
 
   // Two equal spheres: centre of mass midway (x = 0.1), each 1 kg at 0.4 m from it.
   const BodyModel& body = sut.bodies[0];
@@ -149,13 +151,13 @@ TEST(RobotModelTest, DensityGivesMassFromVolume) {
   body { name: "block" shape { box { size_m { x: 0.1 y: 0.2 z: 0.5 } } } density_kg_m3: 1000 }
 })");
 
-  const RobotModel sut = compile_robot(proto::RobotFile::parse(text, "block.textproto"));
+  const RobotModel sut = compile_robot(proto::RobotFile::parse(text, "block.textproto"), doppel::body::motor_catalog());
 
   EXPECT_NEAR(sut.bodies[0].mass_kg, 10.0, 1e-9);
 }
 
 TEST(RobotModelTest, BodyPosesFollowTheLinkPositions) {
-  const RobotModel sut = compile_robot(proto::RobotFile::parse(arm_text(kGoodFigure), "arm.textproto"));
+  const RobotModel sut = compile_robot(proto::RobotFile::parse(arm_text(kGoodFigure), "arm.textproto"), doppel::body::motor_catalog());
 
   const auto X = body_poses(sut, {90.0 * kDeg, 0.0});
 
@@ -166,7 +168,7 @@ TEST(RobotModelTest, BodyPosesFollowTheLinkPositions) {
 }
 
 TEST(RobotModelTest, MotorKeepsItsServoIdAndDirection) {
-  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-2011")));
+  const RobotModel sut = compile_robot(proto::RobotFile::load(robot_path("fumanoid-2011")), doppel::body::motor_catalog());
 
   for (const MotorModel& m : sut.motors) {
     const std::string& name = sut.links[static_cast<size_t>(m.link)].name;
@@ -273,7 +275,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(RobotModelTest, ShippedRobotsPassValidation) {
   for (const char* name : {"fumanoid-2011", "fumanoid-pitch"}) {
-    EXPECT_NO_THROW(validate_body(proto::RobotFile::load(robot_path(name)))) << name;
+    EXPECT_NO_THROW(validate_body(proto::RobotFile::load(robot_path(name)), doppel::body::motor_catalog())) << name;
   }
 }
 

@@ -35,8 +35,13 @@ struct ServoCommand {
   uint16_t punch_raw = 0;                 // AX/RX/MX: minimum drive
   PidGains pid{};                         // MX and X series: position PID from the gain registers
   bool multi_turn = false;                // MX: both angle limits 4095; goal may span several turns
-  bool torque_control = false;            // MX-64/106 Torque Ctrl Mode Enable: follow goal_torque_ratio
-  double goal_torque_ratio = 0.0;         // MX-64/106 Goal Torque as a fraction of the stall torque, + = CCW
+  bool torque_control = false;            // MX-64/106 Torque Ctrl Mode Enable, X current mode: follow goal_current_a
+  double goal_current_a = 0.0;            // MX-64/106 Goal Torque, X Goal Current: motor current, + = CCW
+  double current_limit_a = 0.0;           // X current-based position: |motor current| at most this (0 = none)
+  bool pwm_control = false;               // X PWM mode: the duty is goal_pwm_ratio, no feedback
+  double goal_pwm_ratio = 0.0;            // X Goal PWM as a fraction of full duty, + = CCW
+  bool velocity_control = false;          // X velocity mode: PI on the speed error toward moving_speed_rad_s
+  PidGains velocity_pi{};                 // X velocity mode: from Velocity P/I Gain (x_velocity_pi_gains)
   double goal_acceleration_rad_s2 = 0.0;  // MX Goal Acceleration (0 = no limit)
 };
 

@@ -1,8 +1,9 @@
 #pragma once
-// What Doppel knows about each Protocol 1.0 device model: identity (model number, firmware
-// version), control table, which instructions its firmware understands, and for servos the
-// physical data the simulation needs (resolution, speed unit, DC-motor constants, gear, mass).
-// Static data with a lookup by model name; not a device (see protocol1_servo.h, fumanoid_boards.h).
+// The shapes of what Doppel knows about a Protocol 1.0 device model: identity (model number,
+// firmware version), control table, which instructions its firmware understands, and for servos
+// the firmware's units and control law and the motor (MotorSpec). The models themselves are entries
+// of the one registry, model_registry.cpp (see model_registry.h); not a device (see
+// protocol1_servo.h, fumanoid_boards.h).
 
 #include <cstdint>
 #include <span>
@@ -15,30 +16,48 @@ namespace doppel::dynamixel {
 enum class DeviceKind : uint8_t { kServo, kImu, kFootBoard };
 enum class ServoFamily : uint8_t { kNone, kAxRx, kMx };
 
-// Physical data of a servo (reference §3.4/3.5/§5, thesis Table 7).
+// How the firmware's motor controller turns a goal into a duty (servo_controller.h).
+enum class ControlLaw : uint8_t {
+  kCompliance,  // AX/RX: compliance margin, slope and punch
+  kPid,         // MX (Protocol 1.0 and 2.0 firmware), X series: PID on the position error
+};
+
+// A servo's geared DC motor as the simulation needs it, referred to the output shaft (gear
+// inside): V = ke w + R i, tau = kt i (thesis section 4.2.1.2). The datasheet point comes with its
+// source in the registry entry; the constants derived from it are explained where they are derived.
+struct MotorSpec {
+  double rated_voltage_v = 0.0;           // supply of the datasheet figures
+  double no_load_speed_rpm = 0.0;         // datasheet, output shaft, at rated_voltage_v
+  double stall_torque_nm = 0.0;           // datasheet, at rated_voltage_v: what Torque Limit 100 % means
+  double stall_current_a = 0.0;           // datasheet, at rated_voltage_v
+  double gear_ratio = 0.0;                // motor turns per output turn
+  double mass_kg = 0.0;                   // whole servo
+  double back_emf_v_s_rad = 0.0;          // ke, V per rad/s
+  double resistance_ohm = 0.0;            // R, armature
+  double torque_constant_nm_a = 0.0;      // kt, N m per A
+  double friction_nm = 0.0;               // Coulomb gear friction, N m (assumption, see the registry)
+  double viscous_friction_nm_s_rad = 0.0; // viscous gear friction, N m per rad/s (assumption)
+  double thermal_resistance_k_w = 0.0;    // winding to ambient, K/W (assumption)
+  double thermal_time_constant_s = 0.0;   // winding + case, s (assumption)
+};
+
+// A servo's firmware units and control law, and its motor.
 struct ServoSpec {
-  ServoFamily family = ServoFamily::kNone;
-  uint16_t position_max_raw = 0;     // largest Present Position: 1023 (AX/RX), 4095 (MX)
-  uint16_t position_center_raw = 0;  // register value of 0 rad: 512 (AX/RX), 2048 (MX)
+  ServoFamily family = ServoFamily::kNone;  // Protocol 1.0 register semantics; kNone for Protocol 2.0 servos
+  ControlLaw law = ControlLaw::kPid;
+  uint16_t position_max_raw = 0;     // largest single-turn position: 1023 (AX/RX), 4095 (MX, X)
+  uint16_t position_center_raw = 0;  // register value of 0 rad: 512 (AX/RX), 2048 (MX, X)
   double position_span_rad = 0.0;    // angle covered by position_max_raw + 1 units: 300 deg / 360 deg
-  double speed_unit_rpm = 0.0;       // Moving/Present Speed unit: 0.111 (AX/RX), 0.114 (MX) rpm
-  double nominal_voltage_v = 0.0;    // supply of the datasheet figures below
-  double no_load_speed_rpm = 0.0;    // output shaft, at nominal_voltage_v
-  double stall_torque_n_m = 0.0;     // output shaft, at nominal_voltage_v
-  double stall_current_a = 0.0;      // at nominal_voltage_v
-  // DC-motor model seen at the output shaft (thesis §4.2.1.2): V = ke*w + R*i, tau = kt*i.
-  double ke_v_s_per_rad = 0.0;       // back-EMF constant
-  double resistance_ohm = 0.0;       // armature resistance
-  double kt_n_m_per_a = 0.0;         // torque constant
-  double gear_ratio = 0.0;           // motor turns per output turn
-  double mass_kg = 0.0;
+  double speed_unit_rpm = 0.0;       // speed register unit: 0.111 (AX/RX), 0.114 (MX), 0.229 (X, MX(2.0)) rpm
+  double pwm_full_scale = 0.0;       // controller output that means full duty: 1023 (P1), 885 (P2 firmware)
+  const MotorSpec* motor = nullptr;  // servos: never null
 
   // Position register units per radian.
   double units_per_rad() const noexcept { return (position_max_raw + 1.0) / position_span_rad; }
 };
 
 struct ModelSpec {
-  std::string_view name;        // model name as used in robot descriptions, e.g. "RX-64"
+  std::string_view name;        // model name as used in robot descriptions
   uint16_t model_number = 0;    // Model Number register (0)
   uint8_t firmware_version = 0; // Firmware Version register (2)
   DeviceKind kind = DeviceKind::kServo;
@@ -49,12 +68,14 @@ struct ModelSpec {
   ServoSpec servo;              // kind == kServo only
 };
 
-// The spec of `name` ("AX-12A", "RX-28", "RX-64", "MX-28", "MX-64", "MX-106", "FUMANOID-IMU",
-// "FUMANOID-FOOT"). Throws std::invalid_argument naming the known models. Setup only.
+// The spec of Protocol 1.0 model `name` (model_registry.cpp). Throws std::invalid_argument naming
+// the known models. Setup only.
 const ModelSpec& model_spec(std::string_view name);
 
-// Every known model, in the order above.
+// Every known Protocol 1.0 model, servos first.
 std::span<const ModelSpec* const> known_models() noexcept;
+// The spec of Doppel's board of `kind` (not kServo), for the board classes. Setup only.
+const ModelSpec& board_spec(DeviceKind kind);
 
 // Model numbers of Doppel's own boards (unused by ROBOTIS and by the boards of reference §8).
 inline constexpr uint16_t kFumanoidImuModelNumber = 0x4649;   // 17993, "FI"

@@ -1,5 +1,5 @@
 #pragma once
-// A Protocol 1.0 Dynamixel servo (AX-12A, RX-28, RX-64, MX-28, MX-64, MX-106) as its firmware
+// A Protocol 1.0 Dynamixel servo (AX/RX and MX with Protocol 1.0 firmware) as its firmware
 // behaves on the bus, plus the link to the simulation: command() turns the registers into SI
 // set-points for the motor model, apply() turns measured SI values into the Present registers and
 // the condition error bits. It does not simulate the motor; the physics side does.
@@ -20,10 +20,6 @@ enum class ServoMode : uint8_t {
 
 class Protocol1Servo final : public Protocol1Device, public SimulatedServo {
  public:
-  // Saturation at the torque limit lasting this long raises the Overload condition (assumption:
-  // the manuals give no figure).
-  static constexpr int64_t kOverloadHoldNs = 1'000'000'000;
-
   // Powers on a servo of `spec` (kind kServo) with the given ID (0..253), Baud Rate register value
   // and Return Delay Time register value, its output at `initial_position_rad`. Throws
   // std::invalid_argument for a non-servo spec or an out-of-range value. Setup only.
@@ -37,7 +33,8 @@ class Protocol1Servo final : public Protocol1Device, public SimulatedServo {
   // Registers -> what the motor controller should do (SI; conventions in device_io.h). rt-safe.
   ServoCommand command() const noexcept override;
   // Measured values -> Present Position/Speed/Load/Voltage/Temperature, Moving, (MX) Realtime
-  // Tick and Current; updates the condition bits and applies Alarm Shutdown. rt-safe.
+  // Tick and Current (from current_a); updates the condition bits (Overload: the motor
+  // controller's, feedback.overload) and applies Alarm Shutdown. rt-safe.
   void apply(const ServoFeedback& feedback) noexcept override;
 
   ServoMode mode() const noexcept;
@@ -61,8 +58,6 @@ class Protocol1Servo final : public Protocol1Device, public SimulatedServo {
 
   uint8_t conditions_ = 0;
   double last_position_rad_ = 0.0;
-  bool saturated_ = false;
-  int64_t saturated_since_ns_ = 0;
 };
 
 }  // namespace doppel::dynamixel

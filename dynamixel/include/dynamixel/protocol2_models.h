@@ -1,11 +1,10 @@
 #pragma once
-// What Doppel knows about each Protocol 2.0 device model: the X-series control table of reference
-// §3.7 (XM430-W350, XL430-W250: 16-bit addresses, 1/2/4-byte items, EEPROM below 64) and the
-// MX(2.0) firmware tables of §3.6 (MX-28(2.0), MX-64(2.0), MX-106(2.0): the same layout with their
-// own items and defaults) with defaults, ranges and access, the operating modes and instructions
-// each model has, the physical data the simulation needs, and the identity of the Bit-Bots boards of §8. Static data with a lookup by
-// model name; not a device (see protocol2_servo.h, bitbots_boards.h). Register names follow the
-// ROBOTIS e-Manual.
+// The shapes of what Doppel knows about a Protocol 2.0 device model: the X-series control-table
+// layout of reference §3.7 (16-bit addresses, 1/2/4-byte items, EEPROM below 64), shared by the
+// MX(2.0) firmware tables of §3.6 with their own items and defaults, the operating modes and
+// instructions each model has, and the identity of the Bit-Bots boards of §8. The models
+// themselves are entries of the one registry, model_registry.cpp; not a device (see
+// protocol2_servo.h, bitbots_boards.h). Register names follow the ROBOTIS e-Manual.
 
 #include <cstdint>
 #include <span>
@@ -34,7 +33,7 @@ inline constexpr uint16_t kTemperatureLimit = 31;
 inline constexpr uint16_t kMaxVoltageLimit = 32;
 inline constexpr uint16_t kMinVoltageLimit = 34;
 inline constexpr uint16_t kPwmLimit = 36;
-inline constexpr uint16_t kCurrentLimit = 38;       // XM, MX-64(2.0), MX-106(2.0)
+inline constexpr uint16_t kCurrentLimit = 38;       // models with has_current
 inline constexpr uint16_t kAccelerationLimit = 40;  // XL and MX(2.0) (older X tables)
 inline constexpr uint16_t kVelocityLimit = 44;
 inline constexpr uint16_t kMaxPositionLimit = 48;
@@ -55,7 +54,7 @@ inline constexpr uint16_t kFeedforward2ndGain = 88;
 inline constexpr uint16_t kFeedforward1stGain = 90;
 inline constexpr uint16_t kBusWatchdog = 98;
 inline constexpr uint16_t kGoalPwm = 100;
-inline constexpr uint16_t kGoalCurrent = 102;  // XM, MX-64(2.0), MX-106(2.0)
+inline constexpr uint16_t kGoalCurrent = 102;  // models with has_current
 inline constexpr uint16_t kGoalVelocity = 104;
 inline constexpr uint16_t kProfileAcceleration = 108;
 inline constexpr uint16_t kProfileVelocity = 112;
@@ -64,7 +63,7 @@ inline constexpr uint16_t kRealtimeTick = 120;
 inline constexpr uint16_t kMoving = 122;
 inline constexpr uint16_t kMovingStatus = 123;
 inline constexpr uint16_t kPresentPwm = 124;
-inline constexpr uint16_t kPresentCurrent = 126;  // XM, MX-64/106(2.0): current; XL, MX-28(2.0): Present Load
+inline constexpr uint16_t kPresentCurrent = 126;  // models with Current Limit: current; others: Present Load
 inline constexpr uint16_t kPresentLoad = 126;
 inline constexpr uint16_t kPresentVelocity = 128;
 inline constexpr uint16_t kPresentPosition = 132;
@@ -138,32 +137,33 @@ enum class P2DeviceKind : uint8_t {
 };
 
 struct P2ModelSpec {
-  std::string_view name;          // model name as used in robot descriptions, e.g. "XM430-W350"
+  std::string_view name;          // model name as used in robot descriptions
   uint16_t model_number = 0;      // Model Number (0), PING params 1-2
   uint8_t firmware_version = 0;   // Firmware Version (6), PING param 3
   P2DeviceKind kind = P2DeviceKind::kServo;
   std::span<const P2RegisterSpec> registers;  // servos: every item, ascending address; boards: empty
   uint16_t table_bytes = 0;       // servos: addresses 0..table_bytes-1 exist; beyond -> Access Error
   uint32_t operating_modes = 0;   // servos: bit m set = Operating Mode m allowed
-  bool has_current = false;       // servos: Current Limit / Goal Current / Present Current (XM, MX-64/106(2.0))
+  bool has_current = false;       // servos: Current Limit / Goal Current / Present Current
   bool baud7_is_5m = false;       // Baud Rate 7 = 5 Mbps (Bit-Bots CORE) instead of 4.5 Mbps
   uint8_t default_id = 1;         // factory ID
   uint8_t default_baud_raw = 1;   // factory Baud Rate index (reference §3.3 / §8.1)
-  ServoSpec servo;                // kind == kServo only (family kNone: the X series has its own units)
+  ServoSpec servo;                // kind == kServo only (family kNone: Protocol 2.0 register semantics)
   double current_unit_a = 0.0;    // servos with has_current: A per Current Limit / Goal / Present Current unit
   uint8_t drive_mode_bits = 0;    // servos: Drive Mode (10) bits the firmware accepts (others: Data Range)
   bool fast_read = false;         // servos: FAST SYNC READ / FAST BULK READ (X430 fw >= 45, §2.4)
   bool table_backup = false;      // servos: CONTROL TABLE BACKUP (X430 fw >= 45, §2.4)
 };
 
-// The spec of `name` ("XM430-W350", "XL430-W250", "MX-28(2.0)", "MX-64(2.0)", "MX-106(2.0)",
-// "BITBOTS-IMU", "BITFOOT", "BITBOTS-CORE").
-// Throws std::invalid_argument naming the known Protocol 2.0 models. Setup only.
+// The spec of Protocol 2.0 model `name` (model_registry.cpp). Throws std::invalid_argument naming
+// the known Protocol 2.0 models. Setup only.
 const P2ModelSpec& p2_model_spec(std::string_view name);
 // nullptr when `name` is not a Protocol 2.0 model. Setup only.
 const P2ModelSpec* find_p2_model(std::string_view name) noexcept;
-// Every known Protocol 2.0 model, in the order above.
+// Every known Protocol 2.0 model, servos first.
 std::span<const P2ModelSpec* const> known_p2_models() noexcept;
+// The spec of the board of `kind` (not kServo), for the board classes. Setup only.
+const P2ModelSpec& p2_board_spec(P2DeviceKind kind);
 
 // The item containing `address`, nullptr for a reserved byte. rt-safe.
 const P2RegisterSpec* find_p2_register(std::span<const P2RegisterSpec> registers, uint16_t address) noexcept;
@@ -179,8 +179,6 @@ uint8_t p2_baud_register(uint32_t bps, const P2ModelSpec& model);
 inline constexpr double kX430PulsesPerRev = 4096.0;       // Present/Goal Position
 inline constexpr double kX430VelocityUnitRpm = 0.229;     // Goal/Present Velocity, Profile Velocity
 inline constexpr double kX430AccelerationUnitRpm2 = 214.577;  // Profile Acceleration, rev/min^2
-inline constexpr double kX430CurrentUnitA = 0.00269;      // XM Goal/Present Current, Current Limit
-inline constexpr double kMx2CurrentUnitA = 0.00336;       // MX-64/106(2.0) Goal/Present Current, Current Limit
 inline constexpr double kX430PwmFull = 885.0;             // PWM 100 %
 inline constexpr double kX430VoltageUnitV = 0.1;          // Present Input Voltage, voltage limits
 inline constexpr int64_t kX430WatchdogUnitNs = 20'000'000;  // Bus Watchdog: 20 ms per unit

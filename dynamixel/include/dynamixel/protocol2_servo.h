@@ -1,11 +1,13 @@
 #pragma once
-// An X-series Protocol 2.0 servo (XM430-W350, XL430-W250) as its firmware behaves on the bus,
+// A Protocol 2.0 servo (X series, MX(2.0)) as its firmware behaves on the bus,
 // plus the link to the simulation through the same structs as the Protocol 1.0 servos
 // (device_io.h): command() turns the registers of the active Operating Mode into SI set-points,
 // apply() turns measured SI values into the Present items, Moving / Moving Status, Hardware Error
 // Status and Shutdown, and runs the Bus Watchdog. It does not simulate the motor.
-// Mode rules (reference §3.7): current (0, XM), velocity (1), position (3), extended position
-// (4), current-based position (5, XM), PWM (16). Choices where the manual is silent are listed in
+// Mode rules (reference §3.7): current (0), velocity (1, Velocity P/I gains), position (3),
+// extended position (4), current-based position (5), PWM (16); modes 0 and 5 only on models with
+// a current sensor. Present Current comes from the measured motor current, the Overload bit from
+// the motor controller (ServoFeedback). Choices where the manual is silent are listed in
 // docs/devices.md (Protocol 2.0 part).
 
 #include <cstdint>
@@ -17,8 +19,6 @@ namespace doppel::dynamixel {
 
 class Protocol2Servo final : public Protocol2Device, public SimulatedServo {
  public:
-  // Saturation at the drive limit lasting this long raises Overload (assumption, as for P1).
-  static constexpr int64_t kOverloadHoldNs = 1'000'000'000;
   // |Goal Position - Present Position| at or below this sets In-Position (assumption: the
   // e-Manual names no threshold), pulses.
   static constexpr int32_t kInPositionWindowRaw = 10;
@@ -67,8 +67,6 @@ class Protocol2Servo final : public Protocol2Device, public SimulatedServo {
   int64_t last_communication_ns_ = 0;     // last packet that concerned this servo (Bus Watchdog)
   double watchdog_hold_rad_ = 0.0;        // where the servo stopped when the watchdog tripped
   double time_based_speed_rad_s_ = 0.0;   // Drive Mode bit 2: speed that reaches the goal in Profile Velocity ms
-  bool saturated_ = false;
-  int64_t saturated_since_ns_ = 0;
 };
 
 }  // namespace doppel::dynamixel

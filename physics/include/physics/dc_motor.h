@@ -4,11 +4,10 @@
 // and a first-order thermal model of the winding. It is not the servo's firmware (that turns a goal
 // into a voltage: dynamixel/servo_controller.h) and knows no engine: a backend applies the torque
 // as an implicit drive (see DriveCommand in backend.h), which keeps the stiff back-EMF damping
-// stable at a 1 ms step.
+// stable at a 1 ms step. It knows no servo models: its constants come from the device model
+// registry through body/motor_params.h.
 
 #include <cstdint>
-#include <optional>
-#include <string_view>
 
 namespace doppel::physics {
 
@@ -23,14 +22,6 @@ struct DcMotorParams {
   double thermal_time_constant_s = 0.0; // of the winding + case, s
   double viscous_friction_nm_s_rad = 0.0;  // viscous gear friction at the output, N·m per rad/s
 };
-
-// Constants for a servo model name as in the bus part ("RX-64", "MX-28", ...), nullopt if unknown.
-// RX-64 and RX-28 take ke, R, kt from the thesis' Table 7; the others are derived from their
-// datasheets (kt = stall torque / stall current, R = V / stall current, ke such that the motor
-// reaches the datasheet's no-load speed against its own gear friction). Gear friction (an
-// assumption, no datasheet gives it): Coulomb 2 % of the stall torque, viscous another 2 % of it
-// at the no-load speed (docs/physics.md: why not more).
-std::optional<DcMotorParams> dc_motor_params(std::string_view model) noexcept;
 
 // What the firmware applies to the motor during one step.
 struct MotorCommand {

@@ -8,7 +8,10 @@
 #include <Eigen/Geometry>
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -47,7 +50,7 @@ enum class JointType : uint8_t { kRevolute, kPrismatic, kSpherical, kFixed };
 struct MotorModel {
   uint32_t bus = 0;        // bus index in the description
   uint8_t id = 0;          // servo bus ID
-  std::string model;       // servo model, e.g. "RX-64"
+  std::string model;       // servo model, as its bus device names it
   int link = -1;           // index of the driven link
   DcMotorParams params;    // motor constants (model defaults with the file's overrides)
   double direction = 1.0;  // +1, or -1 when reversed: servo angle = direction * q + offset
@@ -109,12 +112,19 @@ struct RobotModel {
   std::vector<std::pair<int, int>> collision_exempt;
 };
 
-// Compiles and checks the figure of `file`. Throws std::invalid_argument naming file, line and
-// field (no figure, unknown body/material/device, loop, motor ID used twice, missing mass, ...).
-RobotModel compile_robot(const proto::RobotFile& file);
+// The motor constants of a servo model, nullopt when `model` is no servo with known constants.
+// The caller supplies it (body/motor_params.h reads the device model registry): physics receives
+// numbers, never knows model names.
+using MotorCatalog = std::function<std::optional<DcMotorParams>(std::string_view model)>;
+
+// Compiles and checks the figure of `file`; each motor's constants come from `motors` (by the
+// model of its bus device), then the file's overrides. Throws std::invalid_argument naming file,
+// line and field (no figure, unknown body/material/device, loop, motor ID used twice, missing
+// mass, a device without motor constants, ...).
+RobotModel compile_robot(const proto::RobotFile& file, const MotorCatalog& motors);
 
 // Checks only (same errors as compile_robot).
-void validate_body(const proto::RobotFile& file);
+void validate_body(const proto::RobotFile& file, const MotorCatalog& motors);
 
 // Pose of every body's inertial frame B in the robot frame for the link positions `q` (one per
 // link, rad or m; spherical links take 0 = design orientation). Setup code (allocates).

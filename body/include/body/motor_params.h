@@ -1,0 +1,24 @@
+#pragma once
+// The one place where a servo model of the device registry (dynamixel/model_registry.h) becomes
+// the plain motor numbers the physics simulates (physics::DcMotorParams): physics knows no model
+// names, the registry knows no physics. Setup code.
+
+#include <optional>
+#include <string_view>
+
+#include "physics/dc_motor.h"
+#include "physics/robot_model.h"
+
+namespace doppel::body {
+
+// The motor constants of servo model `model`. Throws std::invalid_argument naming `model` and the
+// known servo models when it is no servo.
+physics::DcMotorParams motor_params(std::string_view model);
+
+// As motor_params, nullopt for a name that is no servo model.
+std::optional<physics::DcMotorParams> find_motor_params(std::string_view model) noexcept;
+
+// The lookup physics::compile_robot takes: find_motor_params.
+physics::MotorCatalog motor_catalog();
+
+}  // namespace doppel::body
