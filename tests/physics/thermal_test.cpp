@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "body/motor_params.h"
 #include "physics/dc_motor.h"
 #include "rigs.h"
 
@@ -13,7 +14,7 @@ namespace doppel::physics {
 namespace {
 
 TEST(ThermalModelTest, ApproachesAmbientPlusLossTimesThermalResistance) {
-  const DcMotorParams params = *dc_motor_params("RX-64");
+  const DcMotorParams params = doppel::body::motor_params("RX-64");
   ThermalModel sut(params, 25.0, 0.001);
   const double torque = 2.0;
 
@@ -25,7 +26,7 @@ TEST(ThermalModelTest, ApproachesAmbientPlusLossTimesThermalResistance) {
 }
 
 TEST(ThermalModelTest, CoolsTowardAmbientWithoutCurrent) {
-  ThermalModel sut(*dc_motor_params("RX-28"), 25.0, 0.001);
+  ThermalModel sut(doppel::body::motor_params("RX-28"), 25.0, 0.001);
   sut.set_temperature_c(85.0);
 
   for (int i = 0; i < 50000; ++i) sut.step(0.0);  // one time constant (50 s)
