@@ -109,7 +109,7 @@ class BitbotsBoard : public Device {
   uint64_t restarts_ = 0;
 };
 
-// "BITBOTS-IMU": gyro, accelerometer and orientation quaternion of the current (BMI088) firmware,
+// The Bit-Bots IMU: gyro, accelerometer and orientation quaternion of the current (BMI088) firmware,
 // latched at every apply().
 class BitbotsImu final : public BitbotsBoard, public SimulatedImu {
  public:
@@ -127,7 +127,7 @@ struct BitFootCalibration {
   bool float32 = false;             // items as IEEE-754 float instead of int32 counts
 };
 
-// "BITFOOT": four load cells (front left, front right, back left, back right), latched at every apply().
+// The Bit-Bots BitFoot: four load cells (front left, front right, back left, back right), latched at every apply().
 class BitFoot final : public BitbotsBoard, public SimulatedFootBoard {
  public:
   // Throws std::invalid_argument for an ID above 252, a bad baud index or a zero scale. Setup only.
@@ -140,7 +140,7 @@ class BitFoot final : public BitbotsBoard, public SimulatedFootBoard {
   BitFootCalibration calibration_;
 };
 
-// "BITBOTS-CORE": power switch, supply voltages and current as the raw ADC values its driver decodes.
+// The Bit-Bots CORE board: power switch, supply voltages and current as the raw ADC values its driver decodes.
 class BitbotsCore final : public BitbotsBoard {
  public:
   static constexpr double kAdcVoltsPerCount = 3.3 / 1024.0 * 6.0;  // driver: V = raw * 3.3 / 1024 * 6

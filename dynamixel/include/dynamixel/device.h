@@ -40,7 +40,7 @@ class Device {
   virtual uint8_t id() const noexcept = 0;                 // current ID register
   virtual uint32_t baud_bps() const noexcept = 0;          // rate its UART listens at, from its Baud Rate register
   virtual uint32_t return_delay_us() const noexcept = 0;   // Return Delay Time register in µs (2 µs per unit)
-  virtual std::string_view model_name() const noexcept = 0;  // e.g. "RX-64"
+  virtual std::string_view model_name() const noexcept = 0;  // its registry name (model_registry.h)
   virtual uint16_t model_number() const noexcept = 0;
 
   // Reacts to one instruction packet seen on the bus and fills `response` (response.transmits is

@@ -34,7 +34,7 @@ class FumanoidBoard : public Protocol1Device {
   uint64_t samples_ = 0;
 };
 
-// "FUMANOID-IMU": pitch, roll, yaw, 3-axis gyro, 3-axis accelerometer, latched every Sample
+// The FUmanoid IMU board: pitch, roll, yaw, 3-axis gyro, 3-axis accelerometer, latched every Sample
 // Period (default 20 ms = 50 Hz, like the thesis' Kalman-filter IMU).
 class FumanoidImu final : public FumanoidBoard, public SimulatedImu {
  public:
@@ -49,7 +49,7 @@ class FumanoidImu final : public FumanoidBoard, public SimulatedImu {
   void apply(const ImuFeedback& feedback) noexcept override;
 };
 
-// "FUMANOID-FOOT": four load cells and their sum, latched every Sample Period (default 10 ms).
+// The FUmanoid foot board: four load cells and their sum, latched every Sample Period (default 10 ms).
 class FumanoidFootBoard final : public FumanoidBoard, public SimulatedFootBoard {
  public:
   static constexpr double kForceUnitN = 0.01;  // Force registers: 0.01 N, 0..655.35 N

@@ -16,7 +16,7 @@ namespace doppel::gateway {
 
 struct DeviceConfig {
   uint8_t id = 0;                               // bus ID
-  std::string model;                            // model name, e.g. "RX-64"
+  std::string model;                            // model name of the device registry (dynamixel/model_registry.h)
   std::string name;                             // role on the robot, e.g. "HEAD_YAW"
   std::optional<uint8_t> return_delay_raw;      // Return Delay Time register at power-on, unset = model default
 };
