@@ -483,14 +483,29 @@ const std::array<const ModelSpec*, 8> kModels{&kAx12a, &kRx28, &kRx64, &kMx28, &
 const std::array<const P2ModelSpec*, 8> kP2Models{&kXm430W350, &kXl430W250, &kMx28V2,  &kMx64V2,
                                                   &kMx106V2,   &kBitbotsImu, &kBitFoot, &kBitbotsCore};
 
-const ModelSpec* find_p1_model(std::string_view name) noexcept {
-  for (const ModelSpec* m : kModels) {
+// The entry of `name` in `models` (ModelSpec or P2ModelSpec), nullptr for none.
+template <class Model, std::size_t N>
+const Model* find_named(const std::array<const Model*, N>& models, std::string_view name) noexcept {
+  for (const Model* m : models) {
     if (m->name == name) {
       return m;
     }
   }
   return nullptr;
 }
+
+// The board of `kind` (never the servos' kind) in `models`; throws naming `protocol`.
+template <class Model, std::size_t N, class Kind>
+const Model& board_of(const std::array<const Model*, N>& models, Kind kind, Kind servo, const char* protocol) {
+  for (const Model* m : models) {
+    if (m->kind == kind && kind != servo) {
+      return *m;
+    }
+  }
+  throw std::invalid_argument(std::string("no ") + protocol + " board of this kind");
+}
+
+const ModelSpec* find_p1_model(std::string_view name) noexcept { return find_named(kModels, name); }
 
 }  // namespace
 
@@ -504,23 +519,9 @@ const ModelSpec& model_spec(std::string_view name) {
 
 std::span<const ModelSpec* const> known_models() noexcept { return kModels; }
 
-const ModelSpec& board_spec(DeviceKind kind) {
-  for (const ModelSpec* m : kModels) {
-    if (m->kind == kind && kind != DeviceKind::kServo) {
-      return *m;
-    }
-  }
-  throw std::invalid_argument("no Protocol 1.0 board of this kind");
-}
+const ModelSpec& board_spec(DeviceKind kind) { return board_of(kModels, kind, DeviceKind::kServo, "Protocol 1.0"); }
 
-const P2ModelSpec* find_p2_model(std::string_view name) noexcept {
-  for (const P2ModelSpec* m : kP2Models) {
-    if (m->name == name) {
-      return m;
-    }
-  }
-  return nullptr;
-}
+const P2ModelSpec* find_p2_model(std::string_view name) noexcept { return find_named(kP2Models, name); }
 
 const P2ModelSpec& p2_model_spec(std::string_view name) {
   if (const P2ModelSpec* m = find_p2_model(name)) {
@@ -533,12 +534,7 @@ const P2ModelSpec& p2_model_spec(std::string_view name) {
 std::span<const P2ModelSpec* const> known_p2_models() noexcept { return kP2Models; }
 
 const P2ModelSpec& p2_board_spec(P2DeviceKind kind) {
-  for (const P2ModelSpec* m : kP2Models) {
-    if (m->kind == kind && kind != P2DeviceKind::kServo) {
-      return *m;
-    }
-  }
-  throw std::invalid_argument("no Protocol 2.0 board of this kind");
+  return board_of(kP2Models, kind, P2DeviceKind::kServo, "Protocol 2.0");
 }
 
 const ServoSpec* find_servo_spec(std::string_view model) noexcept {
