@@ -5,7 +5,7 @@
 add_executable(camera_render ${CMAKE_CURRENT_SOURCE_DIR}/camera_render.cpp)
 target_link_libraries(camera_render PRIVATE doppel::camera benchmark::benchmark_main doppel::build_options)
 add_executable(camera_latency ${CMAKE_CURRENT_SOURCE_DIR}/camera_latency.cpp)
-target_link_libraries(camera_latency PRIVATE doppel::camera benchmark::benchmark Threads::Threads
+target_link_libraries(camera_latency PRIVATE doppel::camera doppel::base benchmark::benchmark Threads::Threads
                       doppel::build_options)
 
 # Short runs under ctest so the benchmarks cannot rot; camera_latency starts RouDi in-process.

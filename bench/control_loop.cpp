@@ -20,6 +20,8 @@
 #include <string>
 #include <vector>
 
+#include "base/monotonic_clock.h"
+
 #include "doppel_process.h"
 #include "latency_stats.h"
 #include "pty_echo.h"
@@ -34,12 +36,6 @@ using doppel::testing::SerialClient;
 
 constexpr int kServos = 21;
 constexpr int64_t kPeriodNs = 1'000'000;
-
-int64_t now_ns() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
 
 // fumanoid-2011's bus with its 21 RX servos replaced by MX-64s (same IDs), for --bulk.
 std::string write_mx_robot(const std::string& dir) {
@@ -107,11 +103,11 @@ int main(int argc, char** argv) {
   // cycle, on a bare pty echo.
   if (!bulk) {
     for (int cycle = 0; cycle < 1000; ++cycle) {
-      int64_t floor_start = now_ns();
+      int64_t floor_start = doppel::monotonic_now_ns();
       for (int t = 0; t < kServos + 4; ++t) {
         echo.transact(echo_bytes, echo_bytes.size(), 20);
       }
-      floor_us.push_back(static_cast<double>(now_ns() - floor_start) / 1000.0);
+      floor_us.push_back(static_cast<double>(doppel::monotonic_now_ns() - floor_start) / 1000.0);
     }
   }
 
@@ -120,9 +116,9 @@ int main(int argc, char** argv) {
   int64_t errors = 0;
   std::vector<double> cycle_us;
   cycle_us.reserve(static_cast<std::size_t>(cycles));
-  int64_t deadline = now_ns() + kPeriodNs;
+  int64_t deadline = doppel::monotonic_now_ns() + kPeriodNs;
   for (int64_t cycle = 0; cycle < cycles; ++cycle) {
-    int64_t start = now_ns();
+    int64_t start = doppel::monotonic_now_ns();
     // Goal positions follow a slow sine, as a gait would.
     uint16_t goal = static_cast<uint16_t>(512 + 100 * std::sin(static_cast<double>(cycle) * 0.002));
     Bytes sync{30, 2};
@@ -143,7 +139,7 @@ int main(int argc, char** argv) {
       ok = read_ok(client, 101, 26, 10, 20) && ok;
       ok = read_ok(client, 102, 26, 10, 20) && ok;
     }
-    int64_t end = now_ns();
+    int64_t end = doppel::monotonic_now_ns();
     cycle_us.push_back(static_cast<double>(end - start) / 1000.0);
     errors += ok ? 0 : 1;
     if (!ok || end > deadline) {

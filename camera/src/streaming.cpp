@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/monotonic_clock.h"
 #include "camera/frame.h"
 #include "camera/renderer.h"
 #include "iceoryx_hoofs/log/logmanager.hpp"
@@ -69,12 +70,6 @@ bool service_offered(const std::string& camera, const char* event) {
 namespace {
 
 constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
-
-int64_t now_ns(clockid_t clock) noexcept {
-  timespec ts{};
-  clock_gettime(clock, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 uint32_t align64(uint64_t n) { return static_cast<uint32_t>((n + 63) / 64 * 64); }
 
@@ -339,8 +334,8 @@ FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_
                                 : c.stamp == ExposureStamp::kEnd ? 0.5 * c.exposure_s
                                                                  : 0.0;
   h->exposure_time_ns = h->sim_time_ns + static_cast<int64_t>(std::llround(stamp_offset_s * 1e9));
-  h->wall_time_ns = now_ns(CLOCK_REALTIME);
-  h->render_start_mono_ns = now_ns(CLOCK_MONOTONIC);
+  h->wall_time_ns = clock_now_ns(CLOCK_REALTIME);
+  h->render_start_mono_ns = monotonic_now_ns();
   h->format = static_cast<uint32_t>(c.format);
   h->width_px = c.width_px;
   h->height_px = c.height_px;
@@ -369,7 +364,7 @@ FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_
 
 void CameraStream::publish_frame(FrameHeader* frame) noexcept {
   Impl& s = *impl_;
-  frame->publish_mono_ns = now_ns(CLOCK_MONOTONIC);
+  frame->publish_mono_ns = monotonic_now_ns();
   s.last_render_ms.store(1e-6 * static_cast<double>(frame->publish_mono_ns - frame->render_start_mono_ns),
                          std::memory_order_relaxed);
   s.frames.publish(frame);

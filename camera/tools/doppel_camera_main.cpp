@@ -5,7 +5,6 @@
 //   doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] ...  change the noise while running
 // Exit codes: 0 done, 1 runtime error (no RouDi, no camera, timeout), 2 usage error.
 
-#include <time.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -19,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/monotonic_clock.h"
 #include "camera/client.h"
 #include "camera/image_io.h"
 
@@ -108,12 +108,6 @@ Args parse(int argc, char** argv) {
     throw UsageError("noise needs --off or at least one setting");
   }
   return a;
-}
-
-int64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 
 std::string pick_camera(const Args& a) {
@@ -265,14 +259,14 @@ int cmd_stats(const Args& a) {
   uint64_t first_dropped = 0;
   uint64_t last_dropped = 0;
   bool any = false;
-  const int64_t start = mono_ns();
+  const int64_t start = doppel::monotonic_now_ns();
   const int64_t end = start + static_cast<int64_t>(a.seconds * 1e9);
   int64_t first_ns = 0;
   int64_t last_ns = 0;
-  while (mono_ns() < end) {
+  while (doppel::monotonic_now_ns() < end) {
     std::optional<Frame> frame = a.poll ? sub.try_take() : sub.wait_take(0.2);
     if (!frame) continue;
-    const int64_t now = mono_ns();
+    const int64_t now = doppel::monotonic_now_ns();
     latency_us.push_back(1e-3 * static_cast<double>(now - frame->header().publish_mono_ns));
     if (!any) {
       first_dropped = frame->header().frames_dropped;
