@@ -62,9 +62,6 @@ Gateway::Gateway(const Options& options) : options_(options) {
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
-    // Each motor runs on its own bus' supply_voltage_v (physics::compile_robot); this is the
-    // file's default for buses that set none.
-    world_options.supply_voltage_v = BusConfig{}.supply_voltage_v;
     world_ = std::make_unique<physics::World>(physics::make_backend(options.physics), std::move(bodies),
                                               std::move(placements), world_options);
     for (std::size_t r = 0; r < configs.size(); ++r) {
