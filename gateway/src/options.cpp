@@ -109,9 +109,13 @@ Options parse_options(int argc, const char* const* argv) {
     } else if (arg == "--processing-us") {
       options.processing_us = parse_number<double>(arg, value(), 0.0, 10000.0);
     } else if (arg == "--physics") {
-      options.physics = value();
-      if (options.physics != "ode" && options.physics != "bullet" && options.physics != "none") {
-        throw std::invalid_argument("option --physics: '" + options.physics + "' is not one of ode, bullet, none");
+      std::string_view engine = value();
+      if (engine == "none") {
+        options.physics.reset();
+      } else if (engine == "ode" || engine == "bullet") {
+        options.physics = physics::engine_from_name(engine);
+      } else {
+        throw std::invalid_argument("option --physics: '" + std::string(engine) + "' is not one of ode, bullet, none");
       }
     } else if (arg == "--no-camera") {
       options.camera = false;

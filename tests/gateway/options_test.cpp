@@ -50,6 +50,20 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
   }
 }
 
+TEST(Options, PhysicsEngineIsChosenOnceOrNone) {
+  EXPECT_EQ(parse({}).physics, physics::Engine::kOde);
+  EXPECT_EQ(parse({"--physics", "bullet"}).physics, physics::Engine::kBullet);
+  EXPECT_EQ(parse({"--physics", "ode"}).physics, physics::Engine::kOde);
+  EXPECT_FALSE(parse({"--physics", "none"}).physics.has_value());
+  try {
+    parse({"--physics", "mujoco"});
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--physics"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mujoco"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Options, SessionFileIsTakenAndMustBeNamed) {
   Options sut = parse({"--session", "sessions/sideline-camera.textproto"});
 
