@@ -25,6 +25,7 @@
 #include "doppel_process.h"
 #include "latency_stats.h"
 #include "pty_echo.h"
+#include "tool_command_line.h"
 #include "reference_client.h"
 
 namespace {
@@ -62,17 +63,13 @@ int main(int argc, char** argv) {
   double seconds = 60.0;
   std::string timing = "fast";
   bool bulk = false;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--bulk") == 0) {
-      bulk = true;
-    } else if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc) {
-      seconds = std::atof(argv[++i]);
-    } else if (std::strcmp(argv[i], "--timing") == 0 && i + 1 < argc) {
-      timing = argv[++i];
-    } else {
-      std::fprintf(stderr, "usage: control_loop [--seconds S] [--timing fast|wire] [--bulk]\n");
-      return 2;
-    }
+  CLI::App app("A driver's control loop against doppel", "control_loop");
+  app.add_flag("--bulk", bulk);
+  app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_option("--timing", timing)->check(CLI::IsMember({"fast", "wire"}));
+  if (auto exit_code = doppel::bench::parse_command_line(
+          app, argc, argv, "usage: control_loop [--seconds S] [--timing fast|wire] [--bulk]\n")) {
+    return *exit_code;
   }
   char dir_template[] = "/tmp/doppel-loop-XXXXXX";
   std::string dir = mkdtemp(dir_template);

@@ -3,27 +3,12 @@
 #include <CLI/CLI.hpp>
 
 #include <optional>
-#include <sstream>
 #include <stdexcept>
+
+#include "base/command_line.h"
 
 namespace doppel::gateway {
 namespace {
-
-// Accepts a number (as CLI11 converts it to T) in [min, max].
-template <typename T>
-CLI::Validator number_in(T min, T max) {
-  return CLI::Validator(
-      [min, max](std::string& text) {
-        T value{};
-        if (CLI::detail::lexical_cast(text, value) && min <= value && value <= max) {
-          return std::string();
-        }
-        std::ostringstream message;
-        message << "'" << text << "' is not a number in [" << min << ", " << max << "]";
-        return message.str();
-      },
-      "NUMBER");
-}
 
 CLI::Validator not_empty(std::string what) {
   return CLI::Validator(
