@@ -1,7 +1,5 @@
 #include "camera/streaming.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
@@ -21,6 +19,10 @@
 #include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
 #include "iceoryx_posh/iceoryx_posh_types.hpp"
+// An internal header, on purpose: in iceoryx 2.0.3 iox::roudi::RouDi is the only way to run RouDi
+// inside a process that goes on doing other work (iceoryx's own single-process example includes it
+// too; the public IceOryxRouDiApp::run() blocks and takes over the signals). roudi_test.cpp pins the
+// iceoryx version this was checked with, so another version fails a test before it is trusted.
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
@@ -31,42 +33,9 @@
 #include "iceoryx_posh/roudi/introspection_types.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
-#include "iceoryx_posh/runtime/service_discovery.hpp"
 #include "iox_support.h"
 
 namespace doppel::camera {
-namespace detail {
-
-std::atomic<bool> g_host_alive{false};
-std::atomic<bool> g_client_runtime{false};
-
-iox::capro::IdString_t id(const std::string& text) { return iox::capro::IdString_t(iox::cxx::TruncateToCapacity, text); }
-
-iox::capro::ServiceDescription service(const std::string& camera, const char* event) {
-  return iox::capro::ServiceDescription(id(kServiceId), id(camera), id(event));
-}
-
-bool roudi_lock_held() {
-  const std::string path =
-      std::string(iox::platform::IOX_LOCK_FILE_PATH_PREFIX) + iox::roudi::ROUDI_LOCK_NAME + ".lock";
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;  // never created: no RouDi has run since boot
-  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  ::close(fd);  // also drops the lock if we just took it
-  return held;
-}
-
-bool service_offered(const std::string& camera, const char* event) {
-  iox::runtime::ServiceDiscovery discovery;
-  bool found = false;
-  discovery.findService(
-      id(kServiceId), id(camera), id(event),
-      [&found](const iox::capro::ServiceDescription&) { found = true; }, iox::popo::MessagingPattern::PUB_SUB);
-  return found;
-}
-
-}  // namespace detail
-
 namespace {
 
 constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
