@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "tool_command_line.h"
 #include "reference_client.h"
 
 namespace {
@@ -82,15 +83,12 @@ RobotResult drive(const std::string& port, int servos, double seconds) {
 int main(int argc, char** argv) {
   double seconds = 5.0;
   std::string timing = "fast";
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc) {
-      seconds = std::atof(argv[++i]);
-    } else if (std::strcmp(argv[i], "--timing") == 0 && i + 1 < argc) {
-      timing = argv[++i];
-    } else {
-      std::fprintf(stderr, "usage: bus_throughput [--seconds S] [--timing fast|wire]\n");
-      return 2;
-    }
+  CLI::App app("Thesis table 11: bus throughput against doppel", "bus_throughput");
+  app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_option("--timing", timing)->check(CLI::IsMember({"fast", "wire"}));
+  if (auto exit_code = doppel::bench::parse_command_line(app, argc, argv,
+                                                          "usage: bus_throughput [--seconds S] [--timing fast|wire]\n")) {
+    return *exit_code;
   }
   char dir_template[] = "/tmp/doppel-table11-XXXXXX";
   std::string dir = mkdtemp(dir_template);

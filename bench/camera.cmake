@@ -3,9 +3,9 @@
 #   camera_latency  publish -> subscriber-holds-frame latency, iceoryx (busy poll, WaitSet) and the
 #                   same frame over a Unix domain socket, at several frame sizes, in one run
 add_executable(camera_render ${CMAKE_CURRENT_SOURCE_DIR}/camera_render.cpp)
-target_link_libraries(camera_render PRIVATE doppel::camera benchmark::benchmark_main doppel::build_options)
+target_link_libraries(camera_render PRIVATE doppel::camera doppel::demo_scene benchmark::benchmark_main doppel::build_options)
 add_executable(camera_latency ${CMAKE_CURRENT_SOURCE_DIR}/camera_latency.cpp)
-target_link_libraries(camera_latency PRIVATE doppel::camera benchmark::benchmark Threads::Threads
+target_link_libraries(camera_latency PRIVATE doppel::camera doppel::demo_scene doppel::base benchmark::benchmark Threads::Threads
                       doppel::build_options)
 
 # Short runs under ctest so the benchmarks cannot rot; camera_latency starts RouDi in-process.

@@ -7,7 +7,6 @@
 // frame is rendered once before the loop). Counters: p50_us, p99_us.
 #include <benchmark/benchmark.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -22,9 +21,11 @@
 #include <thread>
 #include <vector>
 
+#include "base/monotonic_clock.h"
 #include "camera/client.h"
 #include "camera/renderer.h"
 #include "camera/streaming.h"
+#include "demo_scene.h"
 
 namespace {
 
@@ -34,12 +35,6 @@ struct Size {
   int w, h;
 };
 constexpr Size kSizes[] = {{320, 240}, {640, 480}, {1280, 720}, {1920, 1080}};
-
-int64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 CameraConfig camera_for(Size s) {
   CameraConfig c;
@@ -79,7 +74,7 @@ void BM_Iceoryx(benchmark::State& state, bool waitset) {
     while (!stop.load(std::memory_order_relaxed)) {
       std::optional<Frame> frame = waitset ? sub.wait_take(0.05) : sub.try_take();
       if (!frame) continue;
-      const int64_t held = mono_ns();
+      const int64_t held = doppel::monotonic_now_ns();
       {
         std::lock_guard<std::mutex> lock(mutex);
         latency_ns.store(held - frame->header().publish_mono_ns, std::memory_order_release);
@@ -142,7 +137,7 @@ void BM_UnixSocket(benchmark::State& state) {
   std::atomic<int64_t> latency_ns{-1};
   std::thread reader([&] {
     while (transfer_all(::read, fds[1], received.data(), bytes)) {
-      const int64_t held = mono_ns();
+      const int64_t held = doppel::monotonic_now_ns();
       int64_t sent = 0;
       std::memcpy(&sent, received.data(), sizeof(sent));
       latency_ns.store(held - sent, std::memory_order_release);
@@ -153,7 +148,7 @@ void BM_UnixSocket(benchmark::State& state) {
   renderer.render(scene, Eigen::Isometry3d::Identity(), 0, frame.data() + sizeof(FrameHeader), nullptr);
   for (auto _ : state) {
     latency_ns.store(-1, std::memory_order_relaxed);
-    const int64_t sent = mono_ns();
+    const int64_t sent = doppel::monotonic_now_ns();
     std::memcpy(frame.data(), &sent, sizeof(sent));
     if (!transfer_all(::write, fds[0], frame.data(), bytes)) {
       state.SkipWithError("write failed");

@@ -8,6 +8,7 @@
 
 #include "camera/camera_config.h"
 #include "camera/renderer.h"
+#include "demo_scene.h"
 
 namespace {
 

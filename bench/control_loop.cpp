@@ -20,9 +20,12 @@
 #include <string>
 #include <vector>
 
+#include "base/monotonic_clock.h"
+
 #include "doppel_process.h"
 #include "latency_stats.h"
 #include "pty_echo.h"
+#include "tool_command_line.h"
 #include "reference_client.h"
 
 namespace {
@@ -34,12 +37,6 @@ using doppel::testing::SerialClient;
 
 constexpr int kServos = 21;
 constexpr int64_t kPeriodNs = 1'000'000;
-
-int64_t now_ns() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
 
 // fumanoid-2011's bus with its 21 RX servos replaced by MX-64s (same IDs), for --bulk.
 std::string write_mx_robot(const std::string& dir) {
@@ -66,17 +63,13 @@ int main(int argc, char** argv) {
   double seconds = 60.0;
   std::string timing = "fast";
   bool bulk = false;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--bulk") == 0) {
-      bulk = true;
-    } else if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc) {
-      seconds = std::atof(argv[++i]);
-    } else if (std::strcmp(argv[i], "--timing") == 0 && i + 1 < argc) {
-      timing = argv[++i];
-    } else {
-      std::fprintf(stderr, "usage: control_loop [--seconds S] [--timing fast|wire] [--bulk]\n");
-      return 2;
-    }
+  CLI::App app("A driver's control loop against doppel", "control_loop");
+  app.add_flag("--bulk", bulk);
+  app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_option("--timing", timing)->check(CLI::IsMember({"fast", "wire"}));
+  if (auto exit_code = doppel::bench::parse_command_line(
+          app, argc, argv, "usage: control_loop [--seconds S] [--timing fast|wire] [--bulk]\n")) {
+    return *exit_code;
   }
   char dir_template[] = "/tmp/doppel-loop-XXXXXX";
   std::string dir = mkdtemp(dir_template);
@@ -107,11 +100,11 @@ int main(int argc, char** argv) {
   // cycle, on a bare pty echo.
   if (!bulk) {
     for (int cycle = 0; cycle < 1000; ++cycle) {
-      int64_t floor_start = now_ns();
+      int64_t floor_start = doppel::monotonic_now_ns();
       for (int t = 0; t < kServos + 4; ++t) {
         echo.transact(echo_bytes, echo_bytes.size(), 20);
       }
-      floor_us.push_back(static_cast<double>(now_ns() - floor_start) / 1000.0);
+      floor_us.push_back(static_cast<double>(doppel::monotonic_now_ns() - floor_start) / 1000.0);
     }
   }
 
@@ -120,9 +113,9 @@ int main(int argc, char** argv) {
   int64_t errors = 0;
   std::vector<double> cycle_us;
   cycle_us.reserve(static_cast<std::size_t>(cycles));
-  int64_t deadline = now_ns() + kPeriodNs;
+  int64_t deadline = doppel::monotonic_now_ns() + kPeriodNs;
   for (int64_t cycle = 0; cycle < cycles; ++cycle) {
-    int64_t start = now_ns();
+    int64_t start = doppel::monotonic_now_ns();
     // Goal positions follow a slow sine, as a gait would.
     uint16_t goal = static_cast<uint16_t>(512 + 100 * std::sin(static_cast<double>(cycle) * 0.002));
     Bytes sync{30, 2};
@@ -143,7 +136,7 @@ int main(int argc, char** argv) {
       ok = read_ok(client, 101, 26, 10, 20) && ok;
       ok = read_ok(client, 102, 26, 10, 20) && ok;
     }
-    int64_t end = now_ns();
+    int64_t end = doppel::monotonic_now_ns();
     cycle_us.push_back(static_cast<double>(end - start) / 1000.0);
     errors += ok ? 0 : 1;
     if (!ok || end > deadline) {

@@ -2,6 +2,7 @@
 foreach(tool bus_latency bus_throughput control_loop)
   doppel_bus_tool(${tool})
 endforeach()
+target_link_libraries(control_loop PRIVATE doppel::base)
 target_link_libraries(bus_latency PRIVATE util)  # openpty
 
 # Short runs under ctest so the tools cannot rot; the real figures come from full runs.

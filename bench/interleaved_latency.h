@@ -20,6 +20,7 @@
 #include "doppel_process.h"
 #include "latency_stats.h"
 #include "reference_client.h"
+#include "tool_command_line.h"
 
 namespace doppel::bench {
 
@@ -87,21 +88,21 @@ inline bool run_realtime(const char* tool) {
 }
 
 // Parses the command line of `tool` (--quick means `quick_samples`) and, with --rt, puts this thread
-// on SCHED_FIFO 50 (run_realtime()). nullopt, after saying why, on a bad command line or a refused
-// --rt: the tool then exits with 2.
+// on SCHED_FIFO 50 (run_realtime()). nullopt, after saying why, on a bad command line, after --help's
+// usage, or on a refused --rt: the tool then exits with 2.
 inline std::optional<LatencyOptions> start_latency_tool(int argc, char** argv, const char* tool, int quick_samples) {
   LatencyOptions options;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--samples") == 0 && i + 1 < argc) {
-      options.samples = std::atoi(argv[++i]);
-    } else if (std::strcmp(argv[i], "--quick") == 0) {
-      options.samples = quick_samples;
-    } else if (std::strcmp(argv[i], "--rt") == 0) {
-      options.realtime = true;
-    } else {
-      std::fprintf(stderr, "usage: %s [--samples N] [--quick] [--rt]\n", tool);
-      return std::nullopt;
-    }
+  bool quick = false;
+  CLI::App app("Per-instruction latency against doppel", tool);
+  CLI::Option* samples = app.add_option("--samples", options.samples)->check(positive_number<int>());
+  app.add_flag("--quick", quick)->excludes(samples);
+  app.add_flag("--rt", options.realtime);
+  const std::string usage = std::string("usage: ") + tool + " [--samples N] [--quick] [--rt]\n";
+  if (parse_command_line(app, argc, argv, usage.c_str())) {
+    return std::nullopt;
+  }
+  if (quick) {
+    options.samples = quick_samples;
   }
   if (options.realtime && !run_realtime(tool)) {
     return std::nullopt;

@@ -38,6 +38,7 @@
 #include "pty_echo.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
+#include "tool_command_line.h"
 
 #ifndef DOPPEL_BENCH_DIR
 #define DOPPEL_BENCH_DIR "bench"
@@ -222,19 +223,18 @@ int main(int argc, char** argv) {
   double seconds = 60.0;
   bool realtime = false;
   int only_buses = 0;
-  for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--seconds") == 0 && i + 1 < argc) {
-      seconds = std::atof(argv[++i]);
-    } else if (std::strcmp(argv[i], "--quick") == 0) {
-      seconds = 0.3;
-    } else if (std::strcmp(argv[i], "--rt") == 0) {
-      realtime = true;
-    } else if (std::strcmp(argv[i], "--buses") == 0 && i + 1 < argc) {
-      only_buses = std::atoi(argv[++i]);
-    } else {
-      std::fprintf(stderr, "usage: p2_bitbots_cycle [--seconds S] [--quick] [--rt] [--buses N]\n");
-      return 2;
-    }
+  bool quick = false;
+  CLI::App app("The Bit-Bots control cycle against doppel", "p2_bitbots_cycle");
+  CLI::Option* seconds_option = app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_flag("--quick", quick)->excludes(seconds_option);
+  app.add_flag("--rt", realtime);
+  app.add_option("--buses", only_buses)->check(CLI::IsMember({1, 2, 4}));
+  if (auto exit_code = doppel::bench::parse_command_line(
+          app, argc, argv, "usage: p2_bitbots_cycle [--seconds S] [--quick] [--rt] [--buses 1|2|4]\n")) {
+    return *exit_code;
+  }
+  if (quick) {
+    seconds = 0.3;
   }
   const Config configs[] = {
       {1, "wire", 0.0, "wire, 0 us fw"}, {1, "wire", 50.0, "wire, 50 us fw"}, {1, "fast", 50.0, "fast"},

@@ -41,7 +41,7 @@ void BM_WorldStep(benchmark::State& state) {
     placements.push_back(RobotPlacement{Eigen::Vector3d(side * 1.0, (static_cast<double>(r / 2) - 1.0) * 1.0, 0.0),
                                         side > 0 ? 3.14159 : 0.0, static_cast<uint8_t>(r % 2)});
   }
-  World world(make_backend(engine), std::move(models), std::move(placements), options);
+  World world(make_backend(engine_from_name(engine)), std::move(models), std::move(placements), options);
 
   struct Servo {
     MotorHandle handle;

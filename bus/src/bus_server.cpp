@@ -1,23 +1,18 @@
 #include "bus/bus_server.h"
 
 #include <sys/prctl.h>
-#include <time.h>
 
 #include <algorithm>
 #include <cmath>
 #include <array>
 #include <stdexcept>
 
+#include "base/monotonic_clock.h"
+
 namespace doppel::bus {
 namespace {
 
 constexpr int64_t kWriteRetryNs = 1'000'000;  // retry period while the client's queue is full
-
-int64_t now_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 void add(std::atomic<uint64_t>& counter, uint64_t n = 1) noexcept {
   // Single writer (the bus thread): a plain load/store pair is enough and avoids a locked RMW.
@@ -61,7 +56,7 @@ void BusServer::run(const std::atomic<bool>& stop) noexcept {
 
 void BusServer::tick() noexcept {
   if (sync_ == nullptr) return;
-  const int64_t now = now_ns();
+  const int64_t now = monotonic_now_ns();
   if (now - last_tick_ns_ < kTickNs) return;
   last_tick_ns_ = now;
   sync_->on_tick();
@@ -80,7 +75,7 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
   int64_t wait_ns = std::max<int64_t>(max_wait_ns, 0);
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t lead_ns = spin_budget_.has_free_slot() ? options_.spin_ns : 0;
-    wait_ns = std::clamp(schedule_.front_due_ns() - now_ns() - lead_ns, int64_t{0}, wait_ns);
+    wait_ns = std::clamp(schedule_.front_due_ns() - monotonic_now_ns() - lead_ns, int64_t{0}, wait_ns);
   }
   if (write_blocked_) wait_ns = std::min(wait_ns, kWriteRetryNs);
   const PortWait woke = port_.wait(wait_ns, write_blocked_);
@@ -95,7 +90,7 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
 
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t due_ns = schedule_.front_due_ns();
-    if (due_ns - now_ns() <= options_.spin_ns) await_due(due_ns);
+    if (due_ns - monotonic_now_ns() <= options_.spin_ns) await_due(due_ns);
     write_due();
   }
 }
@@ -104,12 +99,12 @@ void BusServer::await_due(int64_t due_ns) noexcept {
   // Close to the due time: spin the rest for accuracy if a core is free for it, else sleep to the
   // due time itself. Input that wakes the sleep early is read on the next pass.
   if (spin_budget_.try_acquire()) {
-    while (now_ns() < due_ns) {
+    while (monotonic_now_ns() < due_ns) {
     }
     spin_budget_.release();
     return;
   }
-  const int64_t left_ns = due_ns - now_ns();
+  const int64_t left_ns = due_ns - monotonic_now_ns();
   if (left_ns > 0) port_.wait(left_ns, false);
 }
 
@@ -118,7 +113,7 @@ void BusServer::read_input() noexcept {
   for (;;) {
     const std::size_t n = port_.read(buffer.data(), buffer.size());
     if (n == 0) break;
-    const int64_t seen_ns = now_ns();
+    const int64_t seen_ns = monotonic_now_ns();
     const uint32_t baud_bps = port_.line_baud_bps();
     counters_.line_baud_bps.store(baud_bps, std::memory_order_relaxed);
     add(counters_.bytes_in, n);
@@ -194,7 +189,7 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
 
 void BusServer::write_due() noexcept {
   while (!schedule_.empty() && !write_blocked_) {
-    const auto pending = schedule_.due_bytes(now_ns());
+    const auto pending = schedule_.due_bytes(monotonic_now_ns());
     if (pending.empty()) return;
     const std::size_t written = port_.write(pending.data(), pending.size());
     if (written == 0) {
@@ -204,7 +199,7 @@ void BusServer::write_due() noexcept {
     }
     add(counters_.bytes_out, written);
     if (written < pending.size()) write_blocked_ = true;
-    const int64_t written_ns = now_ns();
+    const int64_t written_ns = monotonic_now_ns();
     for (std::size_t left = written; left > 0;) {
       const ReplySchedule::Progress progress = schedule_.consume(left);
       if (progress.bytes == 0) break;

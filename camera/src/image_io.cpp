@@ -2,10 +2,10 @@
 
 #include <png.h>
 
-#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <memory>
-#include <sstream>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <vector>
 
@@ -61,47 +61,58 @@ void read_png_rgb(const std::string& path, std::string* rgb, int* width_px, int*
   *height_px = static_cast<int>(image.height);
 }
 
-std::string annotations_to_json(const FrameAnnotations& a) {
-  std::ostringstream out;
-  out.precision(6);
-  auto num = [&out](float v) {
-    if (std::isfinite(v)) {
-      out << v;
-    } else {
-      out << "null";
+namespace {
+
+nlohmann::json annotation_json(const Annotation& x) {
+  return {{"kind", to_string(x.kind)},
+          {"object_id", x.object_id},
+          {"in_fov", x.in_fov != 0},
+          {"visible", x.visible != 0},
+          {"visible_px", x.visible_px},
+          {"u_px", x.u_px},
+          {"v_px", x.v_px},
+          {"bbox", {x.bbox_min_u, x.bbox_min_v, x.bbox_max_u, x.bbox_max_v}},
+          {"distance_m", x.distance_m},
+          {"position_w_m", {x.x_w_m, x.y_w_m, x.z_w_m}},
+          {"heading_rad", x.heading_rad}};
+}
+
+}  // namespace
+
+std::string frame_ground_truth_json(const FrameHeader& h, const FrameAnnotations* annotations) {
+  const LensConfig& lens = h.lens;
+  nlohmann::json truth = {
+      {"camera", std::string(h.camera_name, strnlen(h.camera_name, sizeof(h.camera_name)))},
+      {"sequence", h.sequence},
+      {"sim_time_ns", h.sim_time_ns},
+      {"exposure_time_ns", h.exposure_time_ns},
+      {"wall_time_ns", h.wall_time_ns},
+      {"format", to_string(static_cast<PixelFormat>(h.format))},
+      {"width_px", h.width_px},
+      {"height_px", h.height_px},
+      {"camera_position_w_m", h.position_w_m},
+      {"camera_orientation_w_wxyz", h.orientation_w},
+      {"lens",
+       {{"model", to_string(lens.model)},
+        {"fx_px", lens.fx_px},
+        {"fy_px", lens.fy_px},
+        {"cx_px", lens.cx_px},
+        {"cy_px", lens.cy_px},
+        {"k1", lens.k1},
+        {"k2", lens.k2},
+        {"k3", lens.k3},
+        {"p1", lens.p1},
+        {"p2", lens.p2},
+        {"fov_deg", lens.fov_deg}}},
+      {"frames_dropped", h.frames_dropped},
+      {"annotations", nlohmann::json::array()}};
+  if (annotations != nullptr) {
+    for (uint32_t i = 0; i < annotations->count && i < kMaxAnnotations; ++i) {
+      truth["annotations"].push_back(annotation_json(annotations->items[i]));
     }
-  };
-  out << "[";
-  for (uint32_t i = 0; i < a.count && i < kMaxAnnotations; ++i) {
-    const Annotation& x = a.items[i];
-    out << (i ? ",\n " : "\n ") << "{\"kind\": \"" << to_string(x.kind) << "\", \"object_id\": " << x.object_id
-        << ", \"in_fov\": " << (x.in_fov ? "true" : "false") << ", \"visible\": " << (x.visible ? "true" : "false")
-        << ", \"visible_px\": " << x.visible_px << ", \"u_px\": ";
-    num(x.u_px);
-    out << ", \"v_px\": ";
-    num(x.v_px);
-    out << ", \"bbox\": [";
-    num(x.bbox_min_u);
-    out << ", ";
-    num(x.bbox_min_v);
-    out << ", ";
-    num(x.bbox_max_u);
-    out << ", ";
-    num(x.bbox_max_v);
-    out << "], \"distance_m\": ";
-    num(x.distance_m);
-    out << ", \"position_w_m\": [";
-    num(x.x_w_m);
-    out << ", ";
-    num(x.y_w_m);
-    out << ", ";
-    num(x.z_w_m);
-    out << "], \"heading_rad\": ";
-    num(x.heading_rad);
-    out << "}";
   }
-  out << "\n]\n";
-  return out.str();
+  // A name that is not UTF-8 is written with U+FFFD rather than refused: the pixels still get saved.
+  return truth.dump(1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace doppel::camera

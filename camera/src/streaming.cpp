@@ -1,7 +1,5 @@
 #include "camera/streaming.h"
 
-#include <fcntl.h>
-#include <sys/file.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
@@ -14,12 +12,17 @@
 #include <stdexcept>
 #include <thread>
 
+#include "base/monotonic_clock.h"
 #include "camera/frame.h"
 #include "camera/renderer.h"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
 #include "iceoryx_posh/iceoryx_posh_types.hpp"
+// An internal header, on purpose: in iceoryx 2.0.3 iox::roudi::RouDi is the only way to run RouDi
+// inside a process that goes on doing other work (iceoryx's own single-process example includes it
+// too; the public IceOryxRouDiApp::run() blocks and takes over the signals). roudi_test.cpp pins the
+// iceoryx version this was checked with, so another version fails a test before it is trusted.
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
@@ -30,51 +33,12 @@
 #include "iceoryx_posh/roudi/introspection_types.hpp"
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
-#include "iceoryx_posh/runtime/service_discovery.hpp"
 #include "iox_support.h"
 
 namespace doppel::camera {
-namespace detail {
-
-std::atomic<bool> g_host_alive{false};
-std::atomic<bool> g_client_runtime{false};
-
-iox::capro::IdString_t id(const std::string& text) { return iox::capro::IdString_t(iox::cxx::TruncateToCapacity, text); }
-
-iox::capro::ServiceDescription service(const std::string& camera, const char* event) {
-  return iox::capro::ServiceDescription(id(kServiceId), id(camera), id(event));
-}
-
-bool roudi_lock_held() {
-  const std::string path =
-      std::string(iox::platform::IOX_LOCK_FILE_PATH_PREFIX) + iox::roudi::ROUDI_LOCK_NAME + ".lock";
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return false;  // never created: no RouDi has run since boot
-  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
-  ::close(fd);  // also drops the lock if we just took it
-  return held;
-}
-
-bool service_offered(const std::string& camera, const char* event) {
-  iox::runtime::ServiceDiscovery discovery;
-  bool found = false;
-  discovery.findService(
-      id(kServiceId), id(camera), id(event),
-      [&found](const iox::capro::ServiceDescription&) { found = true; }, iox::popo::MessagingPattern::PUB_SUB);
-  return found;
-}
-
-}  // namespace detail
-
 namespace {
 
 constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
-
-int64_t now_ns(clockid_t clock) noexcept {
-  timespec ts{};
-  clock_gettime(clock, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 uint32_t align64(uint64_t n) { return static_cast<uint32_t>((n + 63) / 64 * 64); }
 
@@ -339,8 +303,8 @@ FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_
                                 : c.stamp == ExposureStamp::kEnd ? 0.5 * c.exposure_s
                                                                  : 0.0;
   h->exposure_time_ns = h->sim_time_ns + static_cast<int64_t>(std::llround(stamp_offset_s * 1e9));
-  h->wall_time_ns = now_ns(CLOCK_REALTIME);
-  h->render_start_mono_ns = now_ns(CLOCK_MONOTONIC);
+  h->wall_time_ns = clock_now_ns(CLOCK_REALTIME);
+  h->render_start_mono_ns = monotonic_now_ns();
   h->format = static_cast<uint32_t>(c.format);
   h->width_px = c.width_px;
   h->height_px = c.height_px;
@@ -369,7 +333,7 @@ FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_
 
 void CameraStream::publish_frame(FrameHeader* frame) noexcept {
   Impl& s = *impl_;
-  frame->publish_mono_ns = now_ns(CLOCK_MONOTONIC);
+  frame->publish_mono_ns = monotonic_now_ns();
   s.last_render_ms.store(1e-6 * static_cast<double>(frame->publish_mono_ns - frame->render_start_mono_ns),
                          std::memory_order_relaxed);
   s.frames.publish(frame);

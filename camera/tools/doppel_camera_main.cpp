@@ -5,7 +5,7 @@
 //   doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] ...  change the noise while running
 // Exit codes: 0 done, 1 runtime error (no RouDi, no camera, timeout), 2 usage error.
 
-#include <time.h>
+#include <CLI/CLI.hpp>
 
 #include <algorithm>
 #include <cstdio>
@@ -13,12 +13,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "base/monotonic_clock.h"
 #include "camera/client.h"
 #include "camera/image_io.h"
 
@@ -49,58 +49,81 @@ struct Args {
   double timeout_s = 10.0;
   double seconds = 5.0;
   bool poll = false;
+  bool help = false;
   // noise: the options given, applied in this order on top of the current settings
   bool noise_off = false;
-  std::vector<std::pair<std::string, std::string>> noise_options;  // flag, value
+  std::vector<std::pair<std::string, std::string>> noise_options;  // option, value as given
 };
 
-constexpr const char* kNoiseFlags[] = {"--gaussian", "--shot", "--salt-pepper", "--vignetting", "--white-balance",
-                                       "--seed"};
-
-double parse_number(const std::string& flag, const std::string& value) {
-  try {
-    size_t used = 0;
-    const double v = std::stod(value, &used);
-    if (used != value.size() || !(v > 0.0)) throw std::invalid_argument("bad");
-    return v;
-  } catch (const std::exception&) {
-    throw UsageError(flag + " needs a positive number, got '" + value + "'");
+// `text` converted by CLI11 (the tool's one number parser); a usage error naming `option` and what it
+// needs otherwise.
+template <typename T>
+T number(const std::string& option, const std::string& text, const std::string& needs) {
+  T value{};
+  if (!CLI::detail::lexical_cast(text, value)) {
+    throw UsageError(option + " needs " + needs + ", got '" + text + "'");
   }
+  return value;
 }
 
+// A CLI11 check that the value of `option` is a number of type T for which `ok` holds.
+template <typename T>
+CLI::Validator number_check(const std::string& option, const std::string& needs, bool (*ok)(T)) {
+  return CLI::Validator(
+      [option, needs, ok](std::string& text) {
+        if (!ok(number<T>(option, text, needs))) {
+          throw UsageError(option + " needs " + needs + ", got '" + text + "'");
+        }
+        return std::string();
+      },
+      "");
+}
+
+bool positive(double v) { return v > 0.0; }
+bool positive_integer(long v) { return v > 0; }
+
+constexpr const char* kNoiseOptions[] = {"--gaussian", "--shot", "--salt-pepper", "--vignetting", "--white-balance",
+                                         "--seed"};
+
 Args parse(int argc, char** argv) {
-  if (argc < 2) throw UsageError("missing command");
   Args a;
-  a.command = argv[1];
-  if (a.command != "list" && a.command != "save" && a.command != "stats" && a.command != "noise") {
-    throw UsageError("unknown command '" + a.command + "'");
+  CLI::App app("doppel-camera");
+  app.set_help_flag();  // kUsage is the help text
+  app.add_flag("-h,--help", a.help);
+  app.fallthrough();
+  CLI::App* list = app.add_subcommand("list");
+  CLI::App* save = app.add_subcommand("save");
+  CLI::App* stats = app.add_subcommand("stats");
+  CLI::App* noise = app.add_subcommand("noise");
+  for (CLI::App* command : {save, stats, noise}) {
+    command->add_option("--camera", a.camera);
   }
-  for (int i = 2; i < argc; ++i) {
-    const std::string flag = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError(flag + " needs a value");
-      return argv[++i];
-    };
-    if (flag == "--camera") {
-      a.camera = value();
-    } else if (flag == "--out") {
-      a.out = value();
-    } else if (flag == "--count") {
-      a.count = static_cast<long>(parse_number(flag, value()));
-    } else if (flag == "--timeout") {
-      a.timeout_s = parse_number(flag, value());
-    } else if (flag == "--seconds") {
-      a.seconds = parse_number(flag, value());
-    } else if (flag == "--poll") {
-      a.poll = true;
-    } else if (a.command == "noise" && flag == "--off") {
-      a.noise_off = true;
-    } else if (a.command == "noise" &&
-               std::find(std::begin(kNoiseFlags), std::end(kNoiseFlags), flag) != std::end(kNoiseFlags)) {
-      a.noise_options.emplace_back(flag, value());
-    } else {
-      throw UsageError("unknown option '" + flag + "'");
-    }
+  for (CLI::App* command : {list, save, noise}) {
+    command->add_option("--timeout", a.timeout_s)->check(number_check("--timeout", "a positive number", positive));
+  }
+  save->add_option("--count", a.count)->check(number_check("--count", "a positive integer", positive_integer));
+  save->add_option("--out", a.out);
+  stats->add_option("--seconds", a.seconds)->check(number_check("--seconds", "a positive number", positive));
+  stats->add_flag("--poll", a.poll);
+  noise->add_flag("--off", a.noise_off);
+  for (const char* option : kNoiseOptions) {
+    noise->add_option(option)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    throw UsageError(e.what());
+  }
+  if (a.help) return a;
+  if (app.get_subcommands().empty()) throw UsageError("missing command");
+  a.command = app.get_subcommands().front()->get_name();
+  // The noise settings in the order given (each value converted in noise_from_args).
+  std::vector<std::size_t> seen(std::size(kNoiseOptions), 0);
+  for (const CLI::Option* option : noise->parse_order()) {
+    const auto it = std::find(std::begin(kNoiseOptions), std::end(kNoiseOptions), option->get_name());
+    if (it == std::end(kNoiseOptions)) continue;
+    std::size_t& k = seen[static_cast<std::size_t>(it - std::begin(kNoiseOptions))];
+    a.noise_options.emplace_back(*it, option->results().at(k++));
   }
   if (a.command == "save" && (a.count <= 0 || a.out.empty())) throw UsageError("save needs --count N and --out DIR");
   if (a.command == "noise" && a.camera.empty()) throw UsageError("noise needs --camera NAME");
@@ -110,28 +133,11 @@ Args parse(int argc, char** argv) {
   return a;
 }
 
-int64_t mono_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
-
 std::string pick_camera(const Args& a) {
   if (!a.camera.empty()) return a.camera;
   const auto cameras = list_cameras(std::min(a.timeout_s, 3.0));
   if (cameras.empty()) throw std::runtime_error("no camera is published on this machine");
   return cameras.front().name;
-}
-
-// A finite or non-finite number as written (range checks follow in validate()).
-double parse_double(const std::string& flag, const std::string& text) {
-  try {
-    size_t used = 0;
-    const double v = std::stod(text, &used);
-    if (used == text.size()) return v;
-  } catch (const std::exception&) {
-  }
-  throw UsageError(flag + " needs a number, got '" + text + "'");
 }
 
 // The camera's current settings with the command line's changes on top. Throws UsageError naming
@@ -141,34 +147,26 @@ NoiseConfig noise_from_args(const Args& a, const NoiseConfig& current) {
   if (a.noise_off) noise.seed = current.seed;
   for (const auto& [flag, text] : a.noise_options) {
     if (flag == "--gaussian") {
-      noise.gaussian_sigma = parse_double(flag, text);
+      noise.gaussian_sigma = number<double>(flag, text, "a number");
     } else if (flag == "--shot") {
-      noise.shot_noise_gain = parse_double(flag, text);
+      noise.shot_noise_gain = number<double>(flag, text, "a number");
     } else if (flag == "--salt-pepper") {
-      noise.salt_pepper_fraction = parse_double(flag, text);
+      noise.salt_pepper_fraction = number<double>(flag, text, "a number");
     } else if (flag == "--vignetting") {
-      noise.vignetting = parse_double(flag, text);
+      noise.vignetting = number<double>(flag, text, "a number");
     } else if (flag == "--white-balance") {
-      const size_t c1 = text.find(',');
-      const size_t c2 = c1 == std::string::npos ? c1 : text.find(',', c1 + 1);
-      if (c2 == std::string::npos || text.find(',', c2 + 1) != std::string::npos) {
+      const std::vector<std::string> gains = CLI::detail::split(text, ',');
+      if (gains.size() != 3) {
         throw UsageError("--white-balance needs three gains R,G,B (1 = neutral), got '" + text + "'");
       }
-      noise.wb_red_gain = parse_double(flag, text.substr(0, c1));
-      noise.wb_green_gain = parse_double(flag, text.substr(c1 + 1, c2 - c1 - 1));
-      noise.wb_blue_gain = parse_double(flag, text.substr(c2 + 1));
+      noise.wb_red_gain = number<double>(flag, gains[0], "a number");
+      noise.wb_green_gain = number<double>(flag, gains[1], "a number");
+      noise.wb_blue_gain = number<double>(flag, gains[2], "a number");
     } else if (flag == "--seed") {
-      size_t used = 0;
-      unsigned long long seed = 0;
-      try {
-        seed = std::stoull(text, &used);
-      } catch (const std::exception&) {
-        used = 0;
-      }
-      if (used != text.size() || text.empty() || text[0] == '-') {
+      if (!text.empty() && text[0] == '-') {  // strtoull, under CLI11's conversion, wraps negatives
         throw UsageError("--seed needs a non-negative integer, got '" + text + "'");
       }
-      noise.seed = seed;
+      noise.seed = number<uint64_t>(flag, text, "a non-negative integer");
     }
     try {
       validate(noise);
@@ -209,23 +207,6 @@ int cmd_list(const Args& a) {
   return 0;
 }
 
-std::string header_json(const FrameHeader& h) {
-  std::ostringstream o;
-  o.precision(9);
-  o << "{\"camera\": \"" << h.camera_name << "\", \"sequence\": " << h.sequence << ", \"sim_time_ns\": " << h.sim_time_ns
-    << ", \"exposure_time_ns\": " << h.exposure_time_ns << ", \"wall_time_ns\": " << h.wall_time_ns
-    << ", \"format\": \"" << to_string(static_cast<PixelFormat>(h.format)) << "\", \"width_px\": " << h.width_px
-    << ", \"height_px\": " << h.height_px << ", \"camera_position_w_m\": [" << h.position_w_m[0] << ", "
-    << h.position_w_m[1] << ", " << h.position_w_m[2] << "], \"camera_orientation_w_wxyz\": [" << h.orientation_w[0]
-    << ", " << h.orientation_w[1] << ", " << h.orientation_w[2] << ", " << h.orientation_w[3]
-    << "], \"lens\": {\"model\": \"" << to_string(h.lens.model) << "\", \"fx_px\": " << h.lens.fx_px
-    << ", \"fy_px\": " << h.lens.fy_px << ", \"cx_px\": " << h.lens.cx_px << ", \"cy_px\": " << h.lens.cy_px
-    << ", \"k1\": " << h.lens.k1 << ", \"k2\": " << h.lens.k2 << ", \"k3\": " << h.lens.k3 << ", \"p1\": " << h.lens.p1
-    << ", \"p2\": " << h.lens.p2 << ", \"fov_deg\": " << h.lens.fov_deg << "}, \"frames_dropped\": " << h.frames_dropped
-    << ",\n \"annotations\": ";
-  return o.str();
-}
-
 int cmd_save(const Args& a) {
   const std::string camera = pick_camera(a);
   std::filesystem::create_directories(a.out);
@@ -245,9 +226,7 @@ int cmd_save(const Args& a) {
     char seq[32];
     std::snprintf(seq, sizeof(seq), "%08llu", static_cast<unsigned long long>(h.sequence));
     const std::string base = (std::filesystem::path(a.out) / (stem + "_" + seq)).string();
-    std::string json = header_json(h);
-    json += frame->annotations() ? annotations_to_json(*frame->annotations()) : std::string("[]\n");
-    json += "}\n";
+    const std::string json = frame_ground_truth_json(h, frame->annotations());
     frame->release();
     write_png_rgb(base + ".png", rgb.data(), static_cast<int>(rgb.size() / 3 / std::max(1, h.height_px)),
                   h.height_px);
@@ -265,14 +244,14 @@ int cmd_stats(const Args& a) {
   uint64_t first_dropped = 0;
   uint64_t last_dropped = 0;
   bool any = false;
-  const int64_t start = mono_ns();
+  const int64_t start = doppel::monotonic_now_ns();
   const int64_t end = start + static_cast<int64_t>(a.seconds * 1e9);
   int64_t first_ns = 0;
   int64_t last_ns = 0;
-  while (mono_ns() < end) {
+  while (doppel::monotonic_now_ns() < end) {
     std::optional<Frame> frame = a.poll ? sub.try_take() : sub.wait_take(0.2);
     if (!frame) continue;
-    const int64_t now = mono_ns();
+    const int64_t now = doppel::monotonic_now_ns();
     latency_us.push_back(1e-3 * static_cast<double>(now - frame->header().publish_mono_ns));
     if (!any) {
       first_dropped = frame->header().frames_dropped;
@@ -304,6 +283,10 @@ int cmd_stats(const Args& a) {
 int main(int argc, char** argv) {
   try {
     const Args a = parse(argc, argv);
+    if (a.help) {
+      std::cout << kUsage;
+      return 0;
+    }
     if (a.command == "noise") (void)noise_from_args(a, NoiseConfig{});  // bad values: usage error, before any RouDi
     connect_client("doppel-camera");
     if (a.command == "list") return cmd_list(a);

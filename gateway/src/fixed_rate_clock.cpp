@@ -2,6 +2,8 @@
 
 #include <cerrno>
 
+#include "base/monotonic_clock.h"
+
 namespace doppel::gateway {
 namespace {
 
@@ -14,12 +16,6 @@ timespec from_ns(int64_t ns) {
 }
 
 }  // namespace
-
-int64_t monotonic_now_ns() noexcept {
-  timespec now{};
-  clock_gettime(CLOCK_MONOTONIC, &now);
-  return to_ns(now);
-}
 
 FixedRateClock::FixedRateClock(int64_t period_ns) noexcept
     : period_ns_(period_ns), deadline_(from_ns(monotonic_now_ns())) {}

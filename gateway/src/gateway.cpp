@@ -48,7 +48,7 @@ Gateway::Gateway(const Options& options) : options_(options) {
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;
   std::vector<BodyRef> refs(configs.size());
-  if (options.physics != "none") {
+  if (options.physics) {
     for (std::size_t r = 0; r < configs.size(); ++r) {
       if (configs[r].body) {
         refs[r].robot = bodies.size();
@@ -62,10 +62,7 @@ Gateway::Gateway(const Options& options) : options_(options) {
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
-    // Each motor runs on its own bus' supply_voltage_v (physics::compile_robot); this is the
-    // file's default for buses that set none.
-    world_options.supply_voltage_v = BusConfig{}.supply_voltage_v;
-    world_ = std::make_unique<physics::World>(physics::make_backend(options.physics), std::move(bodies),
+    world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
     for (std::size_t r = 0; r < configs.size(); ++r) {
       if (configs[r].body) {
@@ -158,7 +155,7 @@ std::string Gateway::describe() const {
     out << cameras_->describe();
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
-  out << "doppel: physics " << (world_ != nullptr ? options_.physics : std::string("none (kinematic joints)"))
+  out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
       << (world_ != nullptr && options_.hold ? ", robots held until their first Torque Enable" : "") << "\n";
   out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
       << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")

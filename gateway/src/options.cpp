@@ -1,21 +1,18 @@
 #include "gateway/options.h"
 
-#include <charconv>
+#include <CLI/CLI.hpp>
+
+#include <optional>
 #include <stdexcept>
-#include <string_view>
+
+#include "base/command_line.h"
 
 namespace doppel::gateway {
 namespace {
 
-template <typename T>
-T parse_number(std::string_view option, std::string_view text, T min, T max) {
-  T value{};
-  auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
-  if (error != std::errc{} || end != text.data() + text.size() || value < min || value > max) {
-    throw std::invalid_argument("option " + std::string(option) + ": '" + std::string(text) +
-                                "' is not a number in [" + std::to_string(min) + ", " + std::to_string(max) + "]");
-  }
-  return value;
+CLI::Validator not_empty(std::string what) {
+  return CLI::Validator(
+      [what](std::string& text) { return text.empty() ? what + " must not be empty" : std::string(); }, "");
 }
 
 }  // namespace
@@ -71,61 +68,39 @@ Baud Rate registers, as on real hardware; the robot file sets them (fumanoid-201
 
 Options parse_options(int argc, const char* const* argv) {
   Options options;
-  for (int i = 1; i < argc; ++i) {
-    std::string_view arg = argv[i];
-    auto value = [&]() -> std::string_view {
-      if (i + 1 >= argc) {
-        throw std::invalid_argument("option " + std::string(arg) + " needs a value (see --help)");
-      }
-      return argv[++i];
-    };
-    if (arg == "--help" || arg == "-h") {
-      options.help = true;
-    } else if (arg == "--list-robots") {
-      options.list_robots = true;
-    } else if (arg == "--robot") {
-      options.robots.emplace_back(value());
-    } else if (arg == "--link-dir") {
-      options.link_dir = value();
-      if (options.link_dir.empty()) {
-        throw std::invalid_argument("option --link-dir: the directory must not be empty");
-      }
-    } else if (arg == "--robots-dir") {
-      options.robots_dir = value();
-    } else if (arg == "--session") {
-      options.session = value();
-      if (options.session.empty()) {
-        throw std::invalid_argument("option --session: the file name must not be empty");
-      }
-    } else if (arg == "--timing") {
-      std::string_view mode = value();
-      if (mode == "wire") {
-        options.timing = bus::TimingMode::kWire;
-      } else if (mode == "fast") {
-        options.timing = bus::TimingMode::kFast;
-      } else {
-        throw std::invalid_argument("option --timing: '" + std::string(mode) + "' is neither 'wire' nor 'fast'");
-      }
-    } else if (arg == "--processing-us") {
-      options.processing_us = parse_number<double>(arg, value(), 0.0, 10000.0);
-    } else if (arg == "--physics") {
-      options.physics = value();
-      if (options.physics != "ode" && options.physics != "bullet" && options.physics != "none") {
-        throw std::invalid_argument("option --physics: '" + options.physics + "' is not one of ode, bullet, none");
-      }
-    } else if (arg == "--no-camera") {
-      options.camera = false;
-    } else if (arg == "--external-roudi") {
-      options.external_roudi = true;
-    } else if (arg == "--no-hold") {
-      options.hold = false;
-    } else if (arg == "--rt-priority") {
-      options.rt_priority = parse_number<int>(arg, value(), 0, 99);
-    } else if (arg == "--latency-timer") {
-      options.latency_timer_ms = parse_number<uint32_t>(arg, value(), 0, 255);
-    } else {
-      throw std::invalid_argument("unknown option '" + std::string(arg) + "' (see --help)");
-    }
+  CLI::App app("doppel", "doppel");
+  app.set_help_flag();  // usage() is the help text; --help only sets Options::help
+  app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  app.add_flag("-h,--help", options.help);
+  app.add_flag("--list-robots", options.list_robots);
+  app.add_option("--robot", options.robots)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+      ->allow_extra_args(false);
+  app.add_option("--link-dir", options.link_dir)->check(not_empty("the directory"));
+  app.add_option("--robots-dir", options.robots_dir);
+  app.add_option("--session", options.session)->check(not_empty("the file name"));
+  app.add_option_function<std::string>(
+         "--timing",
+         [&options](const std::string& mode) {
+           options.timing = mode == "wire" ? bus::TimingMode::kWire : bus::TimingMode::kFast;
+         })
+      ->check(CLI::IsMember({"wire", "fast"}));
+  app.add_option("--processing-us", options.processing_us)->check(number_in<double>(0.0, 10000.0));
+  app.add_option_function<std::string>(
+         "--physics",
+         [&options](const std::string& engine) {
+           options.physics = engine == "none" ? std::nullopt : std::optional(physics::engine_from_name(engine));
+         })
+      ->check(CLI::IsMember({"ode", "bullet", "none"}));
+  app.add_flag("--no-camera{false}", options.camera);
+  app.add_flag("--external-roudi", options.external_roudi);
+  app.add_flag("--no-hold{false}", options.hold);
+  app.add_option("--rt-priority", options.rt_priority)->check(number_in<int>(0, 99));
+  app.add_option("--latency-timer", options.latency_timer_ms)->check(number_in<uint32_t>(0, 255));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    throw std::invalid_argument(std::string(e.what()) + " (see --help)");
   }
   if (options.robots.empty()) {
     options.robots.emplace_back("fumanoid-2011");

@@ -12,6 +12,7 @@
 #include "camera/client.h"
 #include "camera/renderer.h"
 #include "camera/streaming.h"
+#include "demo_scene.h"
 
 namespace doppel::camera {
 namespace {

@@ -25,6 +25,7 @@
 #include "camera/renderer.h"
 #include "camera/streaming.h"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
+#include "demo_scene.h"
 
 extern char** environ;
 

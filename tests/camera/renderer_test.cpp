@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "camera/camera_config.h"
+#include "demo_scene.h"
 
 namespace doppel::camera {
 namespace {

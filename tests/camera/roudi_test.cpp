@@ -13,8 +13,10 @@
 #include <thread>
 
 #include "camera/client.h"
+#include "iceoryx_versions.hpp"
 #include "camera/renderer.h"
 #include "camera/streaming.h"
+#include "demo_scene.h"
 
 extern char** environ;
 
@@ -128,6 +130,14 @@ TEST(RouDiTest, UsesARouDiThatAlreadyRunsInsteadOfAborting) {
   // The child ended without deregistering; let RouDi's keep-alive monitor (1.5 s) remove it before
   // iox-roudi shuts down, or iox-roudi asserts while trying to signal it.
   std::this_thread::sleep_for(2000ms);
+}
+
+// StreamingHost starts RouDi through iceoryx_posh/internal/roudi/roudi.hpp (iox::roudi::RouDi and its
+// RoudiStartupParameters), which is not a public API. It was checked against iceoryx 2.0 (Debian
+// 2.0.3); with another version, check streaming.cpp's use of it again before moving this pin.
+TEST(RouDiTest, TheInProcessRouDiIsBuiltWithTheIceoryxItWasCheckedAgainst) {
+  EXPECT_EQ(ICEORYX_VERSION_MAJOR, 2);
+  EXPECT_EQ(ICEORYX_VERSION_MINOR, 0);
 }
 
 TEST(RouDiTest, StartsCleanlyAfterAProcessWithRouDiInsideWasKilled) {

@@ -20,6 +20,7 @@
 
 #include "camera/client.h"
 #include "camera/renderer.h"
+#include "demo_scene.h"
 
 extern char** environ;
 

@@ -48,6 +48,50 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("--bogus"), std::string::npos);
   }
+  for (auto [option, value] : {std::pair{"--timing", "slow"}, std::pair{"--latency-timer", "1x"},
+                               std::pair{"--processing-us", "-1"}, std::pair{"--rt-priority", "100"}}) {
+    try {
+      parse({option, value});
+      FAIL() << option << " " << value << ": no exception";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(option), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(value), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Options, ARepeatedOptionKeepsItsLastValue) {
+  Options sut = parse({"--timing", "fast", "--timing", "wire", "--latency-timer", "4", "--latency-timer", "8"});
+
+  EXPECT_EQ(sut.timing, bus::TimingMode::kWire);
+  EXPECT_EQ(sut.latency_timer_ms, 8u);
+}
+
+TEST(Options, FlagsAreSet) {
+  Options sut = parse({"--no-camera", "--no-hold", "--external-roudi", "--list-robots", "--help"});
+
+  EXPECT_FALSE(sut.camera);
+  EXPECT_FALSE(sut.hold);
+  EXPECT_TRUE(sut.external_roudi);
+  EXPECT_TRUE(sut.list_robots);
+  EXPECT_TRUE(sut.help);
+  EXPECT_TRUE(parse({}).camera);
+  EXPECT_TRUE(parse({}).hold);
+  EXPECT_TRUE(parse({"-h"}).help);
+}
+
+TEST(Options, PhysicsEngineIsChosenOnceOrNone) {
+  EXPECT_EQ(parse({}).physics, physics::Engine::kOde);
+  EXPECT_EQ(parse({"--physics", "bullet"}).physics, physics::Engine::kBullet);
+  EXPECT_EQ(parse({"--physics", "ode"}).physics, physics::Engine::kOde);
+  EXPECT_FALSE(parse({"--physics", "none"}).physics.has_value());
+  try {
+    parse({"--physics", "mujoco"});
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--physics"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mujoco"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Options, SessionFileIsTakenAndMustBeNamed) {

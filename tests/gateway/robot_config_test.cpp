@@ -8,6 +8,9 @@
 #include <stdexcept>
 #include <string>
 
+#include "dynamixel/device_io.h"
+#include "physics/world.h"
+
 namespace doppel::gateway {
 namespace {
 
@@ -117,6 +120,18 @@ TEST(RobotConfig, BaudRateTheRegisterCannotHoldIsRejected) {
   EXPECT_NE(odd.find("Bus.baud_bps"), std::string::npos) << odd;
   EXPECT_NO_THROW(parse_robot("name: \"r\"\nbus {\n baud_bps: 57600\n protocol: PROTOCOL_1\n"
                               " device { id: 1 model: \"RX-28\" }\n}\n", "x"));
+}
+
+TEST(RobotConfig, BusWithoutSupplyRunsOnTheFumanoidBattery) {
+  // The FUmanoid's battery is a 4S LiPo: 4 cells x 3.7 V nominal. A bus that names its own supply keeps it.
+  RobotConfig sut = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);
+  RobotConfig twelve_volts = parse_robot("name: \"r\"\nbus {\n baud_bps: 57600\n protocol: PROTOCOL_1\n"
+                                         " supply_voltage_v: 12\n device { id: 1 model: \"RX-28\" }\n}\n", "x");
+
+  EXPECT_DOUBLE_EQ(sut.buses[0].supply_voltage_v, 4 * 3.7);
+  EXPECT_DOUBLE_EQ(physics::WorldOptions{}.supply_voltage_v, 4 * 3.7);
+  EXPECT_DOUBLE_EQ(dynamixel::ServoFeedback{}.voltage_v, 4 * 3.7);
+  EXPECT_DOUBLE_EQ(twelve_volts.buses[0].supply_voltage_v, 12.0);
 }
 
 TEST(RobotConfig, MissingPiecesAreNamed) {

@@ -34,7 +34,7 @@ inline WorldOptions bare_options() {
 inline std::unique_ptr<World> make_world(const std::string& engine, std::vector<RobotModel> robots,
                                          WorldOptions options = bare_options(),
                                          std::vector<RobotPlacement> placements = {}) {
-  return std::make_unique<World>(make_backend(engine), std::move(robots), std::move(placements), std::move(options));
+  return std::make_unique<World>(make_backend(engine_from_name(engine)), std::move(robots), std::move(placements), std::move(options));
 }
 
 // One RX-64 turning a rotor about the vertical axis on a heavy base resting on the floor

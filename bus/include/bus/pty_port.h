@@ -24,8 +24,6 @@
 #include <cstdint>
 #include <string>
 
-#include "bus/transport.h"
-
 namespace doppel::bus {
 
 struct PortWait {
@@ -34,7 +32,7 @@ struct PortWait {
   bool hung_up = false;   // the last client closed the slave
 };
 
-class PtyPort final : public Transport {
+class PtyPort final {
  public:
   // Opens a pty master (non-blocking, close-on-exec), puts the slave in raw mode and points
   // `link_path` at the slave, creating missing parent directories and replacing an existing
@@ -43,16 +41,17 @@ class PtyPort final : public Transport {
   // symbolic link (it is never replaced then).
   explicit PtyPort(std::string link_path);
   // Removes the symlink if it still points at this port's slave, and closes the master.
-  ~PtyPort() override;
+  ~PtyPort();
 
   PtyPort(const PtyPort&) = delete;
   PtyPort& operator=(const PtyPort&) = delete;
 
-  // Transport. read() returns 0 when nothing is waiting; on EIO (the client went away) it returns 0
-  // and sets hung_up(). write() returns the bytes accepted: 0 when the client's queue is full or no
-  // client is connected. Never block. rt-safe.
-  std::size_t read(uint8_t* dst, std::size_t capacity) noexcept override;
-  std::size_t write(const uint8_t* src, std::size_t n) noexcept override;
+  // Moves bytes only. read() copies up to `capacity` received bytes into `dst` and returns 0 when
+  // nothing is waiting; on EIO (the client went away) it returns 0 and sets hung_up(). write()
+  // returns the bytes accepted: 0 when the client's queue is full or no client is connected. Never
+  // block. rt-safe.
+  std::size_t read(uint8_t* dst, std::size_t capacity) noexcept;
+  std::size_t write(const uint8_t* src, std::size_t n) noexcept;
 
   // Connected: waits up to `timeout_ns` (ns, >= 0) for input, a hang-up, or (want_write) room for
   // output. Not connected: the same as wait_for_client(). EINTR counts as a wake-up. rt-safe (no

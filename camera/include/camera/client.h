@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "camera/camera_info.h"
 #include "camera/frame.h"
-#include "camera/streaming.h"
 
 namespace doppel::camera {
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "camera/annotations.h"
+#include "camera/frame.h"
 
 namespace doppel::camera {
 
@@ -16,7 +17,9 @@ void write_png_rgb(const std::string& path, const uint8_t* rgb, int width_px, in
 // Reads a PNG written by write_png_rgb (8-bit RGB) back; throws std::runtime_error otherwise.
 void read_png_rgb(const std::string& path, std::string* rgb, int* width_px, int* height_px);
 
-// The annotations as a JSON array of objects with every field of Annotation.
-std::string annotations_to_json(const FrameAnnotations& annotations);
+// The ground truth of one frame as a JSON object (nlohmann-json): the header's camera name, times,
+// format, pose and lens, and `annotations` (every field of Annotation; NaN as null) as an array,
+// empty when `annotations` is null. Any camera name gives valid JSON.
+std::string frame_ground_truth_json(const FrameHeader& header, const FrameAnnotations* annotations);
 
 }  // namespace doppel::camera

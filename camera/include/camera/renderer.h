@@ -63,14 +63,4 @@ class Renderer {
   std::unique_ptr<Impl> impl_;
 };
 
-// A scene for tests, benchmarks and the gateway until the physics world fills one: the 2011 field,
-// the ball at `ball_W` (on the carpet) and `robots` placeholder robots (up to 6: cyan team at x < 0
-// facing +x, magenta team at x > 0 facing -x), each about 0.6 m tall, built of boxes with team markers.
-physics::SceneView make_demo_scene(int robots = 6, const Eigen::Vector2d& ball_xy_W = Eigen::Vector2d(0.5, 0.2));
-
-// Shapes of one placeholder robot standing at X_WR (R: x forward, z up, origin between the feet on
-// the carpet): feet, legs, torso, arms, head, and team markers in `marker` on chest, back and arms.
-std::vector<physics::VisualShape> robot_placeholder(uint16_t object_id, physics::Rgb marker,
-                                                    const Eigen::Isometry3d& X_WR);
-
 }  // namespace doppel::camera

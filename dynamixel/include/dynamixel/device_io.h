@@ -8,6 +8,8 @@
 #include <array>
 #include <cstdint>
 
+#include "base/supply.h"
+
 namespace doppel::dynamixel {
 
 // PID gains in register units: output (PWM units of the controller's full scale) per position unit,
@@ -50,7 +52,7 @@ struct ServoFeedback {
   double position_rad = 0.0;     // joint angle
   double velocity_rad_s = 0.0;   // joint speed, + = CCW
   double torque_ratio = 0.0;     // load as a fraction of the maximum torque, + = CCW, -1..1
-  double voltage_v = 14.8;       // supply at the servo
+  double voltage_v = kDefaultSupplyVoltage_v;  // supply at the servo
   double temperature_c = 25.0;   // motor temperature
   double current_a = 0.0;        // motor current, + = CCW torque (Present Current of servos that sense it)
   bool overload = false;         // the firmware's motor controller reports overload (ControllerOutput)

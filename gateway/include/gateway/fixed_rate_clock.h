@@ -26,7 +26,4 @@ class FixedRateClock {
   uint64_t missed_ticks_ = 0;
 };
 
-// CLOCK_MONOTONIC now, in ns.
-int64_t monotonic_now_ns() noexcept;
-
 }  // namespace doppel::gateway

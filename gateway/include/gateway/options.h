@@ -3,10 +3,12 @@
 // std::invalid_argument with a message meant for the user.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "bus/wire_timing.h"
+#include "physics/engines.h"
 
 namespace doppel::gateway {
 
@@ -19,7 +21,8 @@ struct Options {
   double processing_us = 50.0;           // firmware processing time before the Return Delay Time starts
   uint32_t latency_timer_ms = 0;         // USB adapter latency timer, 0 = none (a plain serial port)
   int rt_priority = 0;                   // SCHED_FIFO priority of the bus threads, 0 = normal scheduling
-  std::string physics = "ode";           // --physics ode|bullet|none: engine of the robots' bodies
+  // --physics ode|bullet|none: engine of the robots' bodies; nullopt (none) = every robot kinematic
+  std::optional<physics::Engine> physics = physics::Engine::kOde;
   bool hold = true;                      // a handler holds each robot until its first Torque Enable
   bool camera = true;                    // --no-camera: stream no camera
   bool external_roudi = false;           // --external-roudi: require an already running iceoryx RouDi

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "base/supply.h"
 #include "dynamixel/packet.h"
 #include "camera/camera_config.h"
 #include "physics/robot_model.h"
@@ -25,7 +26,7 @@ struct BusConfig {
   std::string name;                              // label
   uint32_t baud_bps = 1000000;                   // rate the devices listen at
   dynamixel::Protocol protocol = dynamixel::Protocol::kV1;
-  double supply_voltage_v = 15.0;                // servo supply, V
+  double supply_voltage_v = kDefaultSupplyVoltage_v;  // servo supply, V
   std::vector<DeviceConfig> devices;             // in file order
 };
 

@@ -25,6 +25,7 @@
 #include <optional>
 #include <vector>
 
+#include "base/supply.h"
 #include "physics/backend.h"
 #include "physics/dc_motor.h"
 #include "physics/robot_model.h"
@@ -55,8 +56,9 @@ struct BallOptions {
 struct WorldOptions {
   double step_s = 0.001;           // fixed step
   double gravity_m_s2 = 9.80665;   // along -z
-  double supply_voltage_v = 14.8;  // supply of servos whose bus sets no supply_voltage_v (the FUmanoid
-                                   // battery); the others use their bus' (MotorModel::supply_voltage_v)
+  double supply_voltage_v = kDefaultSupplyVoltage_v;  // supply of servos whose bus sets no
+                                                     // supply_voltage_v; the others use their bus'
+                                                     // (MotorModel::supply_voltage_v)
   double ambient_c = 25.0;         // start and ambient temperature of the motors
   HoldMode hold = HoldMode::kUntilTorque;
   double hold_torque_nm = 50.0;    // how hard the handler holds each joint
@@ -91,7 +93,7 @@ struct MotorState {
   double torque_ratio = 0.0;     // torque / maximum torque at the supply voltage (Present Load), -1..1
   double current_a = 0.0;        // motor current (torque / kt), unsigned
   double temperature_c = 25.0;   // winding temperature
-  double voltage_v = 14.8;       // supply voltage at the servo
+  double voltage_v = kDefaultSupplyVoltage_v;  // supply voltage at the servo
 };
 
 // Compatible with dynamixel::ImuFeedback (same names and meaning).

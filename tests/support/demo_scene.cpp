@@ -1,7 +1,9 @@
+#include "demo_scene.h"
+
 #include <cmath>
 #include <numbers>
 
-#include "camera/renderer.h"
+#include "physics/field.h"
 
 namespace doppel::camera {
 
