@@ -1,12 +1,12 @@
 #pragma once
 // Small robots and helpers for the physics tests: test rigs written as Robot Description Files,
-// worlds on a chosen engine, and a firmware loop that drives every servo of a robot the way the
-// gateway does (ServoCommand -> ServoController -> MotorCommand).
+// worlds on a chosen engine, and a robot whose servos run the gateway's drive loop (body/).
 
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "body/physics_body.h"
 #include "dynamixel/servo_controller.h"
 #include "physics/engines.h"
 #include "physics/robot_model.h"
@@ -53,53 +53,52 @@ figure {
 })";
 }
 
-// The gateway's job for the tests: every servo of robot 0 follows its ServoCommand through the
-// firmware controller.
-class Firmware {
+// Robot `robot`'s servos driven through the gateway's drive loop (body::PhysicsBody), with the
+// registers a driver writes at start (compliance 1/1/32/32, punch 32, MX PID P 32, limits
+// +-2.6 rad) in place of the bus: the tests set the commands, the body does the rest.
+class DrivenRobot {
  public:
-  Firmware(World& world, size_t robot) : world_(world) {
-    const RobotModel& model = world.robot(robot);
-    for (const MotorModel& m : model.motors) {
-      Servo servo{*world.find_motor(robot, m.bus, m.id), dynamixel::ServoController(dynamixel::servo_controller_config(m.model)),
-                  dynamixel::ServoCommand{}, m.link};
-      servo.command.torque_enabled = false;
-      servo.command.goal_position_rad = world.motor(servo.handle).position_rad;
-      servo.command.cw_compliance_margin_raw = 1;
-      servo.command.ccw_compliance_margin_raw = 1;
-      servo.command.cw_compliance_slope_raw = 32;
-      servo.command.ccw_compliance_slope_raw = 32;
-      servo.command.punch_raw = 32;
-      servo.command.pid = dynamixel::mx_pid_gains(32, 0, 0);
-      servo.command.min_position_rad = -2.6;
-      servo.command.max_position_rad = 2.6;
-      servos_.push_back(servo);
+  DrivenRobot(World& world, size_t robot) : world_(world), body_(world, robot) {
+    for (const MotorModel& m : world.robot(robot).motors) {
+      body_.add_servo(m.bus, m.id, body::ServoSetup{dynamixel::servo_controller_config(m.model), 0.0, 0.0});
+      dynamixel::ServoCommand& command = commands_.emplace_back();
+      command.goal_position_rad = world.motor(*world.find_motor(robot, m.bus, m.id)).position_rad;
+      command.cw_compliance_margin_raw = 1;
+      command.ccw_compliance_margin_raw = 1;
+      command.cw_compliance_slope_raw = 32;
+      command.ccw_compliance_slope_raw = 32;
+      command.punch_raw = 32;
+      command.pid = dynamixel::mx_pid_gains(32, 0, 0);
+      command.min_position_rad = -2.6;
+      command.max_position_rad = 2.6;
+      links_.push_back(m.link);
     }
+    feedback_.resize(commands_.size());
   }
 
   // Torque on for every servo, goals = present positions (what a driver does at start).
   void enable_all() {
-    for (Servo& s : servos_) {
-      s.command.torque_enabled = true;
-      s.command.goal_position_rad = world_.motor(s.handle).position_rad;
+    for (size_t i = 0; i < size(); ++i) {
+      commands_[i].torque_enabled = true;
+      commands_[i].goal_position_rad = world_.motor(handle(i)).position_rad;
     }
   }
   void disable_all() {
-    for (Servo& s : servos_) s.command.torque_enabled = false;
+    for (dynamixel::ServoCommand& command : commands_) command.torque_enabled = false;
   }
-  dynamixel::ServoCommand& command(size_t i) { return servos_[i].command; }
-  size_t size() const { return servos_.size(); }
-  MotorHandle handle(size_t i) const { return servos_[i].handle; }
-  int link(size_t i) const { return servos_[i].link; }
+  dynamixel::ServoCommand& command(size_t i) { return commands_[i]; }
+  // What servo i measured after the last step().
+  const dynamixel::ServoFeedback& feedback(size_t i) const { return feedback_[i]; }
+  size_t size() const { return commands_.size(); }
+  MotorHandle handle(size_t i) const { return *body_.motor(i); }
+  int link(size_t i) const { return links_[i]; }
+  const body::PhysicsBody& body() const { return body_; }
 
-  // One gateway tick: firmware, then physics.
+  // One gateway tick: drive, step, sense.
   void step() {
-    for (Servo& s : servos_) {
-      const MotorState state = world_.motor(s.handle);
-      const dynamixel::ControllerOutput out =
-          s.controller.update(s.command, state.position_rad, state.velocity_rad_s, world_.options().step_s);
-      world_.set_motor(s.handle, MotorCommand{s.command.torque_enabled, out.pwm_ratio, s.command.torque_limit_ratio});
-    }
+    for (size_t i = 0; i < size(); ++i) body_.drive(i, commands_[i], world_.options().step_s);
     world_.step();
+    for (size_t i = 0; i < size(); ++i) feedback_[i] = body_.servo(i, world_.time_ns());
   }
   void run(double seconds) {
     const auto n = static_cast<long>(seconds / world_.options().step_s + 0.5);
@@ -107,14 +106,11 @@ class Firmware {
   }
 
  private:
-  struct Servo {
-    MotorHandle handle;
-    dynamixel::ServoController controller;
-    dynamixel::ServoCommand command;
-    int link;
-  };
   World& world_;
-  std::vector<Servo> servos_;
+  body::PhysicsBody body_;
+  std::vector<dynamixel::ServoCommand> commands_;
+  std::vector<dynamixel::ServoFeedback> feedback_;
+  std::vector<int> links_;
 };
 
 }  // namespace doppel::physics::test

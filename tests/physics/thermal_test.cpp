@@ -50,18 +50,17 @@ figure {
 })";
   WorldOptions options = test::bare_options();
   auto world = test::make_world(GetParam(), {test::robot_from_text(rig)}, options);
-  test::Firmware firmware(*world, 0);
-  firmware.enable_all();
-  firmware.command(0).goal_position_rad = 1.6;  // 92 deg: behind the stop
-  dynamixel::ServoController controller(dynamixel::servo_controller_config("RX-64"));
+  test::DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.command(0).goal_position_rad = 1.6;  // 92 deg: behind the stop
 
   double at_30_s = 0.0;
   bool overload = false;
   double crossed_at = -1.0;
   for (int i = 1; i <= 120000 && crossed_at < 0.0; ++i) {
-    firmware.step();
-    const MotorState s = world->motor(firmware.handle(0));
-    overload = overload || controller.update(firmware.command(0), s.position_rad, s.velocity_rad_s, 0.001).overload;
+    driven.step();
+    const MotorState s = world->motor(driven.handle(0));
+    overload = overload || driven.feedback(0).overload;  // the drive loop's controller
     if (i == 30000) at_30_s = s.temperature_c;
     if (s.temperature_c > 80.0) crossed_at = world->time_s();
   }
@@ -70,12 +69,12 @@ figure {
   EXPECT_GT(crossed_at, 30.0);
   EXPECT_LT(crossed_at, 120.0);  // but within two minutes of stall
   EXPECT_TRUE(overload);
-  EXPECT_NEAR(world->motor(firmware.handle(0)).torque_ratio, 1.0, 0.02);  // at the Torque Limit all along
+  EXPECT_NEAR(world->motor(driven.handle(0)).torque_ratio, 1.0, 0.02);  // at the Torque Limit all along
 
   // Shutdown (torque off, as the Alarm Shutdown does): the motor cools.
-  firmware.disable_all();
-  firmware.run(10.0);
-  EXPECT_LT(world->motor(firmware.handle(0)).temperature_c, 80.0);
+  driven.disable_all();
+  driven.run(10.0);
+  EXPECT_LT(world->motor(driven.handle(0)).temperature_c, 80.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, StallTest, ::testing::ValuesIn(engine_names()),
