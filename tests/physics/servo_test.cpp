@@ -91,6 +91,7 @@ TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
   EXPECT_NEAR(measured, model_stall - kCoulomb, 0.01 * model_stall);  // the gear's friction takes its share
   EXPECT_NEAR(world->motor(sut).torque_nm, model_stall, 1e-9);
   EXPECT_NEAR(world->motor(sut).torque_ratio, 1.0, 1e-9);
+  EXPECT_NEAR(world->motor(sut).current_a, model_stall / kKt, 1e-9);  // winding current, + with the CCW torque
 }
 
 TEST_P(ServoTest, TorqueLimitScalesTheStallTorque) {
