@@ -15,21 +15,11 @@ std::size_t PhysicsBody::add_servo(uint32_t bus, uint8_t id, const ServoSetup& s
 }
 
 std::size_t PhysicsBody::add_imu(uint32_t bus, uint8_t id) {
-  Slot<physics::ImuHandle>& slot = imus_.emplace_back();
-  slot.in_world = world_.find_imu(robot_, bus, id);
-  if (!slot.in_world) {
-    slot.kinematic = kinematic_.add_imu(bus, id);
-  }
-  return imus_.size() - 1;
+  return add_sensor(imus_, world_.find_imu(robot_, bus, id), [&] { return kinematic_.add_imu(bus, id); });
 }
 
 std::size_t PhysicsBody::add_foot(uint32_t bus, uint8_t id) {
-  Slot<physics::FootHandle>& slot = feet_.emplace_back();
-  slot.in_world = world_.find_foot(robot_, bus, id);
-  if (!slot.in_world) {
-    slot.kinematic = kinematic_.add_foot(bus, id);
-  }
-  return feet_.size() - 1;
+  return add_sensor(feet_, world_.find_foot(robot_, bus, id), [&] { return kinematic_.add_foot(bus, id); });
 }
 
 void PhysicsBody::drive(std::size_t servo, const dynamixel::ServoCommand& command, double dt_s) noexcept {

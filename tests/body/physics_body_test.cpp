@@ -11,8 +11,8 @@
 #include <memory>
 #include <string>
 
+#include "../physics/rigs.h"
 #include "dynamixel/bitbots_boards.h"
-#include "physics/engines.h"
 
 namespace doppel::body {
 namespace {
@@ -20,26 +20,13 @@ namespace {
 constexpr double kStallCurrentA = 2.3;  // XM430-W350 at 12 V (datasheet)
 constexpr double kSupplyV = 12.0;
 
-// An XM430-W350 turning an arm about y between mechanical stops at -10 and +20 deg, on a 12 V bus.
+// An XM430-W350 against the stops of tests/physics/rigs.h's stall rig, on a 12 V bus.
 std::unique_ptr<physics::World> stall_rig(const std::string& engine) {
-  const std::string rig = R"(name: "stall"
-bus { name: "b" baud_bps: 4000000 protocol: PROTOCOL_2 supply_voltage_v: 12.0
-      device { id: 1 model: "XM430-W350" name: "J" } }
-figure {
-  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
-  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
-  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
-  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
-  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
-         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
-})";
-  physics::WorldOptions options;
-  options.ball.present = false;
+  physics::WorldOptions options = physics::test::bare_options();
   options.hold = physics::HoldMode::kReleased;
-  return std::make_unique<physics::World>(physics::make_backend(engine),
-                                          std::vector<physics::RobotModel>{physics::compile_robot(
-                                              proto::RobotFile::parse(rig, "stall.textproto"))},
-                                          std::vector<physics::RobotPlacement>{}, options);
+  const std::string bus =
+      R"(baud_bps: 4000000 protocol: PROTOCOL_2 supply_voltage_v: 12.0 device { id: 1 model: "XM430-W350" name: "J" })";
+  return physics::test::make_world(engine, {physics::test::robot_from_text(physics::test::stall_rig(bus))}, options);
 }
 
 ServoSetup xm430_setup() {
@@ -133,7 +120,8 @@ TEST_P(PhysicsBodyTest, TorqueOffDrawsNoCurrentAndClearsOverload) {
 TEST_P(PhysicsBodyTest, DevicesTheFigureLacksMoveAndReadKinematically) {
   auto world = stall_rig(GetParam());
   PhysicsBody sut(*world, 0);
-  const std::size_t servo = sut.add_servo(0, 7, ServoSetup{dynamixel::servo_controller_config("XM430-W350"), 6.0, 12.0});
+  const ServoSetup setup{dynamixel::servo_controller_config("XM430-W350"), 6.0, 12.0};
+  const std::size_t servo = sut.add_servo(0, 7, setup);
   const std::size_t imu = sut.add_imu(0, 241);
   const std::size_t foot = sut.add_foot(0, 101);
   EXPECT_FALSE(sut.motor(servo).has_value());

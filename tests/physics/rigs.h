@@ -53,6 +53,22 @@ figure {
 })";
 }
 
+// An arm on a post turning about y between mechanical stops at -10 and +20 deg, driven by servo
+// ID 1 of the one bus `bus` declares (e.g. `baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1
+// model: "RX-64" name: "J" }`): a goal behind a stop stalls the motor against it.
+inline std::string stall_rig(const std::string& bus) {
+  return R"(name: "stall"
+bus { name: "b" )" + bus + R"( }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
+})";
+}
+
 // Robot `robot`'s servos driven through the gateway's drive loop (body::PhysicsBody), with the
 // registers a driver writes at start (compliance 1/1/32/32, punch 32, MX PID P 32, limits
 // +-2.6 rad) in place of the bus: the tests set the commands, the body does the rest.

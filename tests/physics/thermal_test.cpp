@@ -38,16 +38,8 @@ class StallTest : public ::testing::TestWithParam<std::string> {};
 TEST_P(StallTest, StalledServoOverheatsAndRaisesOverload) {
   // An arm driven against its mechanical stop at +20 deg while its goal is far beyond: the motor
   // pushes at its full torque and cannot move (a servo blocked by an obstacle).
-  const std::string rig = R"(name: "stall"
-bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
-figure {
-  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
-  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
-  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
-  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
-  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
-         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
-})";
+  const std::string rig =
+      test::stall_rig(R"(baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" })");
   WorldOptions options = test::bare_options();
   auto world = test::make_world(GetParam(), {test::robot_from_text(rig)}, options);
   test::DrivenRobot driven(*world, 0);

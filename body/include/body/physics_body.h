@@ -43,6 +43,14 @@ class PhysicsBody final : public SimulatedBody {
     std::size_t kinematic = 0;
   };
 
+  // A sensor in the world if the figure has it, else the kinematic stand-in's (add_kinematic()).
+  template <typename Handle, typename AddKinematic>
+  static std::size_t add_sensor(std::vector<Slot<Handle>>& slots, std::optional<Handle> in_world,
+                                AddKinematic add_kinematic) {
+    slots.push_back(Slot<Handle>{in_world, in_world ? 0 : add_kinematic()});
+    return slots.size() - 1;
+  }
+
   physics::World& world_;
   std::size_t robot_;
   std::vector<Slot<ServoDrive>> servos_;
