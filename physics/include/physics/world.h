@@ -5,7 +5,7 @@
 // what the bus devices read back: joint angle/speed/torque, motor temperature, IMU, load cells.
 //
 // The world knows servos only by their (bus index, ID) in the description; it never sees a control
-// table or a packet: the gateway runs the firmware (dynamixel/servo_controller.h) and hands the
+// table or a packet: the drive loop (body/servo_drive.h) runs the firmware and hands the
 // resulting voltage to set_motor(). Angles at this interface are the servo's: 0 at the centre of
 // its range, + = CCW (the direction in which the position register grows).
 //
