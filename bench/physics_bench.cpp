@@ -6,10 +6,12 @@
 // the robots' Figure.self_collision (default on). Run: physics_bench --benchmark_min_time=2
 #include <benchmark/benchmark.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "body/motor_params.h"
+#include "body/physics_body.h"
 #include "dynamixel/servo_controller.h"
 #include "physics/engines.h"
 #include "physics/field.h"
@@ -43,31 +45,30 @@ void BM_WorldStep(benchmark::State& state) {
   }
   World world(make_backend(engine_from_name(engine)), std::move(models), std::move(placements), options);
 
-  struct Servo {
-    MotorHandle handle;
-    doppel::dynamixel::ServoController controller;
-    doppel::dynamixel::ServoCommand command;
-  };
-  std::vector<Servo> servos;
+  // Each robot's servos through the gateway's drive loop (body::PhysicsBody).
+  std::vector<std::unique_ptr<doppel::body::PhysicsBody>> bodies;
+  std::vector<doppel::dynamixel::ServoCommand> commands;
   for (size_t r = 0; r < robots; ++r) {
+    auto& body = bodies.emplace_back(std::make_unique<doppel::body::PhysicsBody>(world, r));
     for (const MotorModel& m : world.robot(r).motors) {
-      Servo s{*world.find_motor(r, m.bus, m.id),
-              doppel::dynamixel::ServoController(doppel::dynamixel::servo_controller_config(m.model)), {}};
-      s.command.torque_enabled = true;
-      s.command.goal_position_rad = world.motor(s.handle).position_rad;
-      s.command.cw_compliance_margin_raw = s.command.ccw_compliance_margin_raw = 1;
-      s.command.cw_compliance_slope_raw = s.command.ccw_compliance_slope_raw = 32;
-      s.command.punch_raw = 32;
-      servos.push_back(s);
+      body->add_servo(m.bus, m.id, doppel::body::ServoSetup{doppel::dynamixel::servo_controller_config(m.model)});
+      doppel::dynamixel::ServoCommand& c = commands.emplace_back();
+      c.torque_enabled = true;
+      c.goal_position_rad = world.motor(*world.find_motor(r, m.bus, m.id)).position_rad;
+      c.cw_compliance_margin_raw = c.ccw_compliance_margin_raw = 1;
+      c.cw_compliance_slope_raw = c.ccw_compliance_slope_raw = 32;
+      c.punch_raw = 32;
     }
   }
+  const size_t servos = world.robot(0).motors.size();  // every robot is the same model
   auto tick = [&] {
-    for (Servo& s : servos) {
-      const MotorState m = world.motor(s.handle);
-      const auto out = s.controller.update(s.command, m.position_rad, m.velocity_rad_s, options.step_s);
-      world.set_motor(s.handle, MotorCommand{true, out.pwm_ratio, 1.0});
+    for (size_t r = 0; r < robots; ++r) {
+      for (size_t s = 0; s < servos; ++s) bodies[r]->drive(s, commands[r * servos + s], options.step_s);
     }
     world.step();
+    for (size_t r = 0; r < robots; ++r) {
+      for (size_t s = 0; s < servos; ++s) benchmark::DoNotOptimize(bodies[r]->servo(s, world.time_ns()));
+    }
   };
   for (int i = 0; i < 200; ++i) tick();  // released and settled on the carpet
 

@@ -5,19 +5,18 @@
 
 namespace doppel::dynamixel {
 
-std::unique_ptr<Protocol1Device> make_protocol1_device(std::string_view model, uint8_t id, uint32_t baud_bps,
-                                                       uint8_t return_delay_raw) {
+BuiltDevice make_protocol1_device(std::string_view model, uint8_t id, uint32_t baud_bps, uint8_t return_delay_raw) {
   const ModelSpec& spec = model_spec(model);
   const uint8_t baud_raw = p1_baud_register(baud_bps, spec);
   switch (spec.kind) {
     case DeviceKind::kImu:
-      return std::make_unique<FumanoidImu>(id, baud_raw, return_delay_raw);
+      return built<SimulatedImu>(std::make_unique<FumanoidImu>(id, baud_raw, return_delay_raw));
     case DeviceKind::kFootBoard:
-      return std::make_unique<FumanoidFootBoard>(id, baud_raw, return_delay_raw);
+      return built<SimulatedFootBoard>(std::make_unique<FumanoidFootBoard>(id, baud_raw, return_delay_raw));
     case DeviceKind::kServo:
       break;
   }
-  return std::make_unique<Protocol1Servo>(spec, id, baud_raw, return_delay_raw);
+  return built<SimulatedServo>(std::make_unique<Protocol1Servo>(spec, id, baud_raw, return_delay_raw));
 }
 
 }  // namespace doppel::dynamixel

@@ -3,8 +3,11 @@
 #include <pthread.h>
 
 #include <numbers>
+#include <optional>
 #include <sstream>
 
+#include "body/kinematic_body.h"
+#include "body/physics_body.h"
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
 #include "physics/engines.h"
@@ -47,11 +50,11 @@ Gateway::Gateway(const Options& options) : options_(options) {
   // One world holds the bodies of every robot that has one.
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;
-  std::vector<BodyRef> refs(configs.size());
+  std::vector<std::optional<std::size_t>> in_world(configs.size());  // robot's index in the world, if it has a body
   if (options.physics) {
     for (std::size_t r = 0; r < configs.size(); ++r) {
       if (configs[r].body) {
-        refs[r].robot = bodies.size();
+        in_world[r] = bodies.size();
         bodies.push_back(*configs[r].body);
         placements.push_back(kick_off_placement(r));
       }
@@ -64,21 +67,22 @@ Gateway::Gateway(const Options& options) : options_(options) {
     world_options.field = physics::field_shapes();
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
-    for (std::size_t r = 0; r < configs.size(); ++r) {
-      if (configs[r].body) {
-        refs[r].world = world_.get();
-      }
-    }
   }
   for (std::size_t r = 0; r < configs.size(); ++r) {
-    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));
+    std::unique_ptr<body::SimulatedBody> body;
+    if (in_world[r]) {
+      body = std::make_unique<body::PhysicsBody>(*world_, *in_world[r]);
+    } else {
+      body = std::make_unique<body::KinematicBody>();
+    }
+    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, std::move(body), options_));
   }
   if (options.camera && (world_ != nullptr || !session.world_cameras.empty())) {
     std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by robot
     for (std::size_t r = 0; r < configs.size(); ++r) {
-      if (refs[r].world != nullptr) {
-        cameras[refs[r].robot] = configs[r].cameras;
-        for (CameraSetup& setup : cameras[refs[r].robot]) {
+      if (in_world[r]) {
+        cameras[*in_world[r]] = configs[r].cameras;
+        for (CameraSetup& setup : cameras[*in_world[r]]) {
           if (r > 0) {
             setup.config.name = "robot" + std::to_string(r) + "-" + setup.config.name;  // unique per machine
           }

@@ -7,9 +7,13 @@
 #include <cstring>
 #include <numbers>
 #include <sstream>
+#include <variant>
 
 #include "dynamixel/device_factory.h"
+#include "dynamixel/models.h"
 #include "dynamixel/protocol2_factory.h"
+#include "dynamixel/protocol2_models.h"
+#include "dynamixel/servo_controller.h"
 #include "gateway/gateway.h"
 
 namespace doppel::gateway {
@@ -32,39 +36,22 @@ const char* protocol_name(dynamixel::Protocol protocol) {
 
 }  // namespace
 
-BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef body, const std::string& link,
-                       const Options& options)
+BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::SimulatedBody& body,
+                       const std::string& link, const Options& options)
     : config_(config), bus_index_(bus_index), body_(body) {
-  const auto bus = static_cast<uint32_t>(bus_index);
   for (const DeviceConfig& device : config.devices) {
+    dynamixel::BuiltDevice built;
     if (config.protocol == dynamixel::Protocol::kV2) {
-      devices_.push_back(dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
-                                                          device.return_delay_raw.value_or(250)));
+      built = dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
+                                               device.return_delay_raw.value_or(250));
     } else {
       const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
-      devices_.push_back(dynamixel::make_protocol1_device(
-          device.model, device.id, config.baud_bps, device.return_delay_raw.value_or(default_return_delay_raw(spec))));
+      built = dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
+                                               device.return_delay_raw.value_or(default_return_delay_raw(spec)));
     }
-    dynamixel::Device* created = devices_.back().get();
-    std::optional<physics::ImuHandle> imu_handle;
-    std::optional<physics::FootHandle> foot_handle;
-    if (body_.world != nullptr) {
-      imu_handle = body_.world->find_imu(body_.robot, bus, device.id);
-      foot_handle = body_.world->find_foot(body_.robot, bus, device.id);
-    }
-    if (auto* servo = dynamic_cast<dynamixel::SimulatedServo*>(created)) {
-      const dynamixel::ServoSpec& spec = config.protocol == dynamixel::Protocol::kV2
-                                             ? dynamixel::p2_model_spec(device.model).servo
-                                             : dynamixel::model_spec(device.model).servo;
-      add_servo(*servo, spec, device.model, device.id);
-    } else if (auto* imu = dynamic_cast<dynamixel::SimulatedImu*>(created)) {
-      imus_.push_back({imu, imu_handle});
-    } else if (auto* foot = dynamic_cast<dynamixel::SimulatedFootBoard*>(created)) {
-      feet_.push_back({foot, foot_handle});
-    } else if (auto* core = dynamic_cast<dynamixel::BitbotsCore*>(created)) {
-      cores_.push_back(core);
-    }
-    bus_devices_.add(*created);
+    link_to_body(built.role, device);
+    bus_devices_.add(*built.device);
+    devices_.push_back(std::move(built.device));
   }
   if (servos_.size() > kMaxServos || imus_.size() > kMaxBoards || feet_.size() > kMaxBoards) {
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
@@ -78,13 +65,29 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, BodyRef b
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
 }
 
-void BusRuntime::add_servo(dynamixel::SimulatedServo& servo, const dynamixel::ServoSpec& spec,
-                           const std::string& model, uint8_t id) {
-  ServoSlot& slot = servos_.emplace_back(servo, dynamixel::servo_controller_config(model),
-                                         no_load_speed_rad_s(spec, config_.supply_voltage_v));
-  if (body_.world != nullptr) {
-    slot.motor = body_.world->find_motor(body_.robot, static_cast<uint32_t>(bus_index_), id);
-  }
+void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device) {
+  const auto bus = static_cast<uint32_t>(bus_index_);
+  struct Linker {
+    BusRuntime& self;
+    const DeviceConfig& device;
+    uint32_t bus;
+    void operator()(dynamixel::SimulatedServo* servo) const {
+      const dynamixel::ServoSpec& spec = self.config_.protocol == dynamixel::Protocol::kV2
+                                             ? dynamixel::p2_model_spec(device.model).servo
+                                             : dynamixel::model_spec(device.model).servo;
+      body::ServoSetup setup{dynamixel::servo_controller_config(device.model),
+                             no_load_speed_rad_s(spec, self.config_.supply_voltage_v), self.config_.supply_voltage_v};
+      self.servos_.push_back({servo, self.body_.add_servo(bus, device.id, setup)});
+    }
+    void operator()(dynamixel::SimulatedImu* imu) const {
+      self.imus_.push_back({imu, self.body_.add_imu(bus, device.id)});
+    }
+    void operator()(dynamixel::SimulatedFootBoard* foot) const {
+      self.feet_.push_back({foot, self.body_.add_foot(bus, device.id)});
+    }
+    void operator()(dynamixel::SimulatedPowerBoard* power) const { self.power_boards_.push_back(power); }
+  };
+  std::visit(Linker{*this, device, bus}, role);
 }
 
 BusRuntime::~BusRuntime() { join(); }
@@ -119,9 +122,7 @@ void BusRuntime::before_dispatch() noexcept {
   for (std::size_t i = 0; i < servos_.size(); ++i) servos_[i].device->apply(feedback.servos[i]);
   for (std::size_t i = 0; i < imus_.size(); ++i) imus_[i].device->apply(feedback.imus[i]);
   for (std::size_t i = 0; i < feet_.size(); ++i) feet_[i].device->apply(feedback.feet[i]);
-  for (dynamixel::BitbotsCore* core : cores_) {
-    core->apply(config_.supply_voltage_v, 0.0);
-  }
+  for (dynamixel::SimulatedPowerBoard* power : power_boards_) power->apply(feedback.power);
 }
 
 void BusRuntime::after_dispatch() noexcept {
@@ -137,69 +138,15 @@ void BusRuntime::on_tick() noexcept {
 
 void BusRuntime::drive(double dt_s) noexcept {
   const BusCommands& commands = commands_.latest();
-  for (std::size_t i = 0; i < servos_.size(); ++i) {
-    ServoSlot& slot = servos_[i];
-    const dynamixel::ServoCommand& command = commands.servos[i];
-    if (!slot.motor) {
-      slot.joint.step(command, dt_s);
-      continue;
-    }
-    const dynamixel::ControllerOutput out =
-        slot.controller.update(command, slot.position_rad, slot.velocity_rad_s, dt_s, config_.supply_voltage_v);
-    body_.world->set_motor(*slot.motor, physics::MotorCommand{command.torque_enabled, out.pwm_ratio,
-                                                              command.torque_limit_ratio});
-    slot.overload = out.overload;
-  }
+  for (std::size_t i = 0; i < servos_.size(); ++i) body_.drive(servos_[i].body_index, commands.servos[i], dt_s);
 }
 
-void BusRuntime::sense(int64_t sim_time_ns, double kinematic_cell_force_n) noexcept {
+void BusRuntime::sense(int64_t sim_time_ns, double servo_current_a) noexcept {
   BusFeedback& feedback = feedback_.back();
-  for (std::size_t i = 0; i < servos_.size(); ++i) {
-    ServoSlot& slot = servos_[i];
-    dynamixel::ServoFeedback& servo = feedback.servos[i];
-    if (slot.motor) {
-      const physics::MotorState state = body_.world->motor(*slot.motor);
-      servo.position_rad = state.position_rad;
-      servo.velocity_rad_s = state.velocity_rad_s;
-      servo.torque_ratio = state.torque_ratio;
-      servo.voltage_v = state.voltage_v;
-      servo.temperature_c = state.temperature_c;
-      servo.current_a = std::copysign(state.current_a, state.torque_nm);
-    } else {
-      servo.position_rad = slot.joint.position_rad();
-      servo.velocity_rad_s = slot.joint.velocity_rad_s();
-      servo.torque_ratio = 0.0;
-      servo.current_a = 0.0;
-      servo.voltage_v = config_.supply_voltage_v;
-      servo.temperature_c = 25.0;
-    }
-    servo.overload = slot.overload;
-    servo.sim_time_ns = sim_time_ns;
-    slot.position_rad = servo.position_rad;
-    slot.velocity_rad_s = servo.velocity_rad_s;
-  }
-  for (std::size_t i = 0; i < imus_.size(); ++i) {
-    dynamixel::ImuFeedback& imu = feedback.imus[i];
-    imu = dynamixel::ImuFeedback{};
-    if (imus_[i].imu) {
-      const physics::ImuState state = body_.world->imu(*imus_[i].imu);
-      imu.roll_rad = state.roll_rad;
-      imu.pitch_rad = state.pitch_rad;
-      imu.yaw_rad = state.yaw_rad;
-      imu.w_WS_S_rad_s = state.w_WS_S_rad_s;
-      imu.a_WS_S_m_s2 = state.a_WS_S_m_s2;
-    }
-    imu.sim_time_ns = sim_time_ns;
-  }
-  for (std::size_t i = 0; i < feet_.size(); ++i) {
-    dynamixel::FootFeedback& foot = feedback.feet[i];
-    if (feet_[i].foot) {
-      foot.force_n = body_.world->foot(*feet_[i].foot).force_n;
-    } else {
-      foot.force_n.fill(kinematic_cell_force_n);
-    }
-    foot.sim_time_ns = sim_time_ns;
-  }
+  for (std::size_t i = 0; i < servos_.size(); ++i) feedback.servos[i] = body_.servo(servos_[i].body_index, sim_time_ns);
+  for (std::size_t i = 0; i < imus_.size(); ++i) feedback.imus[i] = body_.imu(imus_[i].body_index, sim_time_ns);
+  for (std::size_t i = 0; i < feet_.size(); ++i) feedback.feet[i] = body_.foot(feet_[i].body_index, sim_time_ns);
+  feedback.power = dynamixel::PowerFeedback{config_.supply_voltage_v, servo_current_a, sim_time_ns};
   feedback_.publish();
 }
 
@@ -235,15 +182,16 @@ std::string BusRuntime::summary() const {
   return out.str();
 }
 
-RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index, BodyRef body, const Options& options)
-    : config_(config), index_(robot_index), body_(body) {
+RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index,
+                           std::unique_ptr<body::SimulatedBody> body, const Options& options)
+    : config_(config), index_(robot_index), body_(std::move(body)) {
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
-    buses_.push_back(
-        std::make_unique<BusRuntime>(config.buses[b], b, body, link_path(options.link_dir, robot_index, b), options));
-    foot_boards_ += buses_.back()->foot_board_count();
+    buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], b, *body_,
+                                                  link_path(options.link_dir, robot_index, b), options));
   }
-  // Power-on: the sensors' first sample and the servos' Present registers exist before any packet.
-  sense(body.world != nullptr ? body.world->time_ns() : 0);
+  // Power-on (before the world's first step): the sensors' first sample and the servos' Present
+  // registers exist before any packet.
+  sense(0);
   for (auto& bus : buses_) {
     bus->before_dispatch();
   }
@@ -268,18 +216,17 @@ void RobotRuntime::drive(double dt_s) noexcept {
 }
 
 void RobotRuntime::sense(int64_t sim_time_ns) noexcept {
-  // Without a body, the weight of a robot standing still spreads evenly over its load cells.
-  double cell_force_n = foot_boards_ == 0 ? 0.0
-                                          : kKinematicRobotMassKg * kGravityM_S2 / (4.0 * static_cast<double>(foot_boards_));
+  // A power board measures what every servo of the robot draws, on all its buses (docs/devices.md).
+  const double servo_current_a = body_->servo_supply_current_a();
   for (auto& bus : buses_) {
-    bus->sense(sim_time_ns, cell_force_n);
+    bus->sense(sim_time_ns, servo_current_a);
   }
 }
 
 std::string RobotRuntime::describe() const {
   std::ostringstream out;
-  out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << "), "
-      << (body_.world != nullptr ? "body simulated" : "no body: joints move kinematically") << "\n";
+  out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << "), " << body_->description()
+      << "\n";
   for (const auto& bus : buses_) {
     out << bus->describe();
   }

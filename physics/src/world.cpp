@@ -430,7 +430,10 @@ void World::step() noexcept {
     s.torque_nm = m.direction * joint_torque;
     const double full = max_torque_nm(m.params, m.supply_v);
     s.torque_ratio = full > 0.0 ? std::clamp(s.torque_nm / full, -1.0, 1.0) : 0.0;
-    s.current_a = std::abs(joint_torque) / m.params.torque_constant_nm_a;
+    s.current_a = s.torque_nm / m.params.torque_constant_nm_a;
+    // An ideal H-bridge passes the motor's electrical power from the supply: V_s i_s = (R i + ke w) i.
+    const double motor_v = s.current_a * m.params.resistance_ohm + m.params.back_emf_v_s_rad * s.velocity_rad_s;
+    s.supply_current_a = m.supply_v > 0.0 ? motor_v * s.current_a / m.supply_v : 0.0;
     s.temperature_c = m.thermal.temperature_c();
     s.voltage_v = m.supply_v;
   }

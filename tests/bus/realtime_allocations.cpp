@@ -29,28 +29,31 @@ using doppel::testing::p1_instruction;
 
 class CountingSync final : public DeviceSync {
  public:
-  explicit CountingSync(std::vector<dynamixel::Protocol1Device*> devices) : devices_(std::move(devices)) {}
+  explicit CountingSync(std::vector<dynamixel::SimulatedServo*> servos) : servos_(std::move(servos)) {}
   void before_dispatch() noexcept override { ++calls_; }
   void after_dispatch() noexcept override {
-    for (dynamixel::Protocol1Device* device : devices_) checksum_ += device->register_raw(36);
+    // What the gateway does after every packet: every servo's registers become its command.
+    for (dynamixel::SimulatedServo* servo : servos_) checksum_ += servo->command().goal_position_rad;
   }
 
  private:
-  std::vector<dynamixel::Protocol1Device*> devices_;
+  std::vector<dynamixel::SimulatedServo*> servos_;
   uint64_t calls_ = 0;
-  uint64_t checksum_ = 0;
+  double checksum_ = 0.0;
 };
 
 TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   TempDir dir;
   PtyPort port(dir.file("ttyDXL0"));
   dynamixel::BusDevices devices;
-  std::vector<std::unique_ptr<dynamixel::Protocol1Device>> owned;
+  std::vector<dynamixel::BuiltDevice> owned;
+  std::vector<dynamixel::SimulatedServo*> servos;
   for (uint8_t id : {1, 2, 3}) {
     owned.push_back(dynamixel::make_protocol1_device("MX-28", id, 1000000));
-    devices.add(*owned.back());
+    devices.add(*owned.back().device);
+    servos.push_back(std::get<dynamixel::SimulatedServo*>(owned.back().role));
   }
-  CountingSync sync({owned[0].get(), owned[1].get(), owned[2].get()});
+  CountingSync sync(servos);
   BusServerOptions options;
   options.timing_mode = TimingMode::kFast;
   BusServer sut(port, devices, options, &sync);

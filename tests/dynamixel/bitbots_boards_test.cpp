@@ -4,10 +4,12 @@
 #include <gtest/gtest.h>
 
 #include <bit>
+#include <variant>
 #include <vector>
 
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/protocol2.h"
+#include "dynamixel/protocol2_factory.h"
 #include "test_support.h"
 
 namespace doppel::dynamixel {
@@ -166,6 +168,23 @@ TEST(BitbotsCore, PingAndDriverRead) {
   EXPECT_EQ(transact(sut, instruction(42, instruction::kWrite, {23, 0, 0})), status(42, 0));
   sut.apply(14.8, 1.0);
   EXPECT_EQ(transact(sut, instruction(42, instruction::kRead, {32, 0, 2, 0})), status(42, 0, {0, 0}));
+}
+
+TEST(BitbotsBoards, FactoryGivesEachBoardItsRole) {
+  const BuiltDevice imu = make_protocol2_device("BITBOTS-IMU", 241, 1000000);
+  const BuiltDevice foot = make_protocol2_device("BITFOOT", 101, 1000000);
+  const BuiltDevice core = make_protocol2_device("BITBOTS-CORE", 42, 2000000);
+
+  EXPECT_EQ(std::get<SimulatedImu*>(imu.role), dynamic_cast<BitbotsImu*>(imu.device.get()));
+  EXPECT_EQ(std::get<SimulatedFootBoard*>(foot.role), dynamic_cast<BitFoot*>(foot.device.get()));
+  auto* board = dynamic_cast<BitbotsCore*>(core.device.get());
+  ASSERT_NE(board, nullptr);
+  ASSERT_EQ(std::get<SimulatedPowerBoard*>(core.role), board);
+  // The power board's role takes the supply and the servos' current as one measurement.
+  std::get<SimulatedPowerBoard*>(core.role)->apply(PowerFeedback{12.0, 2.0, 0});
+  const auto u16 = [&](uint16_t address) { return board->table()[address] | (board->table()[address + 1] << 8); };
+  EXPECT_NEAR(u16(bitbots::kVext) * 3.3 / 1024 * 6, 12.0, 0.02);
+  EXPECT_NEAR((u16(bitbots::kCurrent) * 3.3 / 1024 - 2.5) / -0.066, 2.0, 0.05);
 }
 
 TEST(BitbotsBoards, BaudIndexSevenIsFiveMegabaudOnTheCore) {

@@ -6,6 +6,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <variant>
 
 #include "dynamixel/device_factory.h"
 #include "dynamixel/fumanoid_boards.h"
@@ -197,15 +198,21 @@ TEST(DeviceFactory, BuildsTheRightTypes) {
   auto imu = make_protocol1_device("FUMANOID-IMU", 100, 1000000, 0);
   auto foot = make_protocol1_device("FUMANOID-FOOT", 101, 57600);
 
-  ASSERT_NE(dynamic_cast<Protocol1Servo*>(servo.get()), nullptr);
-  EXPECT_EQ(servo->id(), 2);
-  EXPECT_EQ(servo->baud_bps(), 1000000u);
-  EXPECT_EQ(servo->return_delay_us(), 500u);
-  EXPECT_EQ(servo->model_name(), "RX-64");
-  ASSERT_NE(dynamic_cast<FumanoidImu*>(imu.get()), nullptr);
-  EXPECT_EQ(imu->return_delay_us(), 0u);
-  ASSERT_NE(dynamic_cast<FumanoidFootBoard*>(foot.get()), nullptr);
-  EXPECT_EQ(foot->baud_bps(), 57142u);
+  auto* rx64 = dynamic_cast<Protocol1Servo*>(servo.device.get());
+  ASSERT_NE(rx64, nullptr);
+  EXPECT_EQ(std::get<SimulatedServo*>(servo.role), rx64);
+  EXPECT_EQ(servo.device->id(), 2);
+  EXPECT_EQ(servo.device->baud_bps(), 1000000u);
+  EXPECT_EQ(servo.device->return_delay_us(), 500u);
+  EXPECT_EQ(servo.device->model_name(), "RX-64");
+  auto* fumanoid_imu = dynamic_cast<FumanoidImu*>(imu.device.get());
+  ASSERT_NE(fumanoid_imu, nullptr);
+  EXPECT_EQ(std::get<SimulatedImu*>(imu.role), fumanoid_imu);
+  EXPECT_EQ(imu.device->return_delay_us(), 0u);
+  auto* foot_board = dynamic_cast<FumanoidFootBoard*>(foot.device.get());
+  ASSERT_NE(foot_board, nullptr);
+  EXPECT_EQ(std::get<SimulatedFootBoard*>(foot.role), foot_board);
+  EXPECT_EQ(foot.device->baud_bps(), 57142u);
 }
 
 TEST(DeviceFactory, RejectsBadConfig) {

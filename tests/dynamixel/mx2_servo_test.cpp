@@ -8,6 +8,7 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
+#include <variant>
 #include <vector>
 
 #include "dynamixel/bus_devices.h"
@@ -192,9 +193,10 @@ TEST(Mx2Models, FastSyncReadWithAnMxBreaksTheCombinedStatus) {
 }
 
 TEST(Mx2Models, FactoryBuildsThemByName) {
-  const std::unique_ptr<Device> sut = make_protocol2_device("MX-106(2.0)", 7, 4000000);
-  auto* servo = dynamic_cast<Protocol2Servo*>(sut.get());
+  const BuiltDevice sut = make_protocol2_device("MX-106(2.0)", 7, 4000000);
+  auto* servo = dynamic_cast<Protocol2Servo*>(sut.device.get());
   ASSERT_NE(servo, nullptr);
+  EXPECT_EQ(std::get<SimulatedServo*>(sut.role), servo);
   EXPECT_EQ(servo->model_number(), 321);
   EXPECT_EQ(servo->id(), 7);
   EXPECT_EQ(servo->register_value(x430::kBaudRate), 6);  // §3.3: 6 = 4 Mbps

@@ -40,6 +40,9 @@ constexpr uint16_t kRealtimeTick = 120;
 constexpr uint16_t kStandingPGain = 1600;
 constexpr uint16_t kImuQuaternion = 60;                         // x, y, z, w float32 (reference §8.2)
 constexpr uint16_t kFootSensors = 36;                           // four int32 (reference §8.3)
+constexpr uint8_t kCoreId = 42;                                 // BITBOTS-CORE on bus 0 (reference §8.4)
+constexpr uint16_t kCoreCurrent = 34;                           // u16 raw ADC (reference §8.4)
+constexpr double kXm430StallCurrentA = 2.3;                     // at 12 V (reference §5)
 
 float f32_at(const Bytes& b, std::size_t offset) {
   uint32_t raw = 0;
@@ -116,6 +119,12 @@ class X430Body : public ::testing::Test {
     return total;
   }
 
+  // The servos' supply current the CORE board measures, decoded as the Bit-Bots driver does.
+  double core_current_a() {
+    const Bytes raw = read(0, kCoreId, kCoreCurrent, 2);
+    return raw.size() == 2 ? ((raw[0] | (raw[1] << 8)) * 3.3 / 1024.0 - 2.5) / -0.066 : 0.0;
+  }
+
   Pose read_pose() {
     Pose pose;
     const Bytes q = read(0, kImuId, kImuQuaternion, 16);
@@ -173,6 +182,15 @@ TEST_F(X430Body, StandsWithTorqueOnAndTheFeetCarryItsWeight) {
   const Bytes current = read(2, 15, kPresentCurrent, 2);
   ASSERT_EQ(current.size(), 2u);
   EXPECT_NE(static_cast<int16_t>(current[0] | (current[1] << 8)), 0);
+  // The CORE board in the servo supply sees the 21 servos holding the body up: a current (over
+  // 0.2 s, as the body still rocks a little), and far less than a single stalled servo draws.
+  double supply_a = 0.0;
+  for (int i = 0; i < 10; ++i) {
+    supply_a += core_current_a() / 10.0;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_GT(supply_a, 0.02) << supply_a;  // at least about one ADC count (0.049 A)
+  EXPECT_LT(supply_a, kXm430StallCurrentA) << supply_a;
 }
 
 TEST_F(X430Body, HeldUntilTheDriverEnablesTorque) {
@@ -180,6 +198,8 @@ TEST_F(X430Body, HeldUntilTheDriverEnablesTorque) {
   const Pose pose = read_pose();
   EXPECT_LT(std::fabs(pose.pitch_deg), 5.0) << pose.pitch_deg;
   EXPECT_LT(std::fabs(pose.roll_deg), 5.0) << pose.roll_deg;
+  // Torque off everywhere: the servos draw nothing (one ADC count is 0.049 A).
+  EXPECT_NEAR(core_current_a(), 0.0, 0.049);
 }
 
 class LimpX430Body : public X430Body {

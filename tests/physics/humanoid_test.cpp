@@ -11,7 +11,7 @@
 namespace doppel::physics {
 namespace {
 
-using test::Firmware;
+using test::DrivenRobot;
 using test::make_world;
 using test::shipped_robot;
 
@@ -29,14 +29,14 @@ double load_cell_sum(const World& world) {
 
 TEST_P(HumanoidTest, StandsTenSecondsWithTorqueOn) {
   auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
-  Firmware firmware(*world, 0);
+  DrivenRobot driven(*world, 0);
   const double start_height = world->center_of_mass(0).z();
   const ImuHandle imu = *world->find_imu(0, 0, 100);
 
-  firmware.enable_all();
+  driven.enable_all();
   double lowest = start_height, worst_tilt = 0.0;
   for (int i = 0; i < 10000; ++i) {
-    firmware.step();
+    driven.step();
     lowest = std::min(lowest, world->center_of_mass(0).z());
     worst_tilt = std::max({worst_tilt, std::abs(world->imu(imu).pitch_rad), std::abs(world->imu(imu).roll_rad)});
   }
@@ -71,14 +71,14 @@ TEST_P(HumanoidTest, IsHeldUprightUntilItsDriverEnablesTorque) {
 
 TEST_P(HumanoidTest, LoadCellsCarryTheWeightWhenStandingStill) {
   auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
-  Firmware firmware(*world, 0);
-  firmware.enable_all();
-  firmware.run(2.0);
+  DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.run(2.0);
 
   // Mean over 100 ms (100 readings), as a foot board that averages its cells would report.
   double sum = 0.0;
   for (int i = 0; i < 100; ++i) {
-    firmware.step();
+    driven.step();
     sum += load_cell_sum(*world);
   }
 
@@ -88,9 +88,9 @@ TEST_P(HumanoidTest, LoadCellsCarryTheWeightWhenStandingStill) {
 
 TEST_P(HumanoidTest, LoadCellsShowWhereTheWeightIs) {
   auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
-  Firmware firmware(*world, 0);
-  firmware.enable_all();
-  firmware.run(2.0);
+  DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.run(2.0);
 
   double left = 0.0, right = 0.0;
   for (double f : world->foot(*world->find_foot(0, 0, 101)).force_n) left += f;

@@ -15,7 +15,7 @@
 namespace doppel::physics {
 namespace {
 
-using test::Firmware;
+using test::DrivenRobot;
 using test::make_world;
 using test::shipped_robot;
 
@@ -35,22 +35,22 @@ struct KneeRun {
 
 KneeRun knee_bend(const std::string& engine) {
   auto world = make_world(engine, {shipped_robot("fumanoid-pitch")});
-  Firmware firmware(*world, 0);
+  DrivenRobot driven(*world, 0);
   const RobotModel& model = world->robot(0);
-  firmware.enable_all();
+  driven.enable_all();
   KneeRun run;
   const int steps_per_write = static_cast<int>(std::lround(kWritePeriod_s / world->options().step_s));
   for (int k = 0; k * kWritePeriod_s < kDuration_s; ++k) {
     const double t = k * kWritePeriod_s;
-    for (size_t i = 0; i < firmware.size(); ++i) {
-      const LinkModel& link = model.links[static_cast<size_t>(firmware.link(i))];
+    for (size_t i = 0; i < driven.size(); ++i) {
+      const LinkModel& link = model.links[static_cast<size_t>(driven.link(i))];
       const MotorModel& motor = model.motors[static_cast<size_t>(link.motor)];
       double q = link.initial;
       if (link.name.find("KNEE") != std::string::npos) q = knee_goal(t);
       if (link.name.find("HIP") != std::string::npos || link.name.find("FOOT") != std::string::npos) q = -0.5 * knee_goal(t);
-      firmware.command(i).goal_position_rad = motor.direction * q + motor.offset_rad;
+      driven.command(i).goal_position_rad = motor.direction * q + motor.offset_rad;
     }
-    for (int s = 0; s < steps_per_write; ++s) firmware.step();
+    for (int s = 0; s < steps_per_write; ++s) driven.step();
     run.goal.push_back(knee_goal(t));
     for (size_t l = 0; l < model.links.size(); ++l) run.link[model.links[l].name].push_back(world->link_position(0, l));
     run.torso_pitch.push_back(world->imu(*world->find_imu(0, 0, 100)).pitch_rad);
@@ -117,7 +117,7 @@ TEST_P(DeterminismTest, SameInputsGiveABitIdenticalTrajectory) {
   // Two worlds stepped in lockstep (so that any state shared between them would show up).
   auto first = make_world(GetParam(), {shipped_robot("fumanoid-pitch")});
   auto second = make_world(GetParam(), {shipped_robot("fumanoid-pitch")});
-  Firmware a(*first, 0), b(*second, 0);
+  DrivenRobot a(*first, 0), b(*second, 0);
   a.enable_all();
   b.enable_all();
 

@@ -1,13 +1,13 @@
 #pragma once
 // Small robots and helpers for the physics tests: test rigs written as Robot Description Files,
-// worlds on a chosen engine, and a firmware loop that drives every servo of a robot the way the
-// gateway does (ServoCommand -> ServoController -> MotorCommand).
+// worlds on a chosen engine, and a robot whose servos run the gateway's drive loop (body/).
 
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "body/motor_params.h"
+#include "body/physics_body.h"
 #include "dynamixel/servo_controller.h"
 #include "physics/engines.h"
 #include "physics/robot_model.h"
@@ -54,54 +54,68 @@ figure {
 })";
 }
 
-// The gateway's job for the tests: every servo of robot 0 follows its ServoCommand through the
-// firmware controller.
-class Firmware {
+// An arm on a post turning about y between mechanical stops at -10 and +20 deg, driven by servo
+// ID 1 of the one bus `bus` declares (e.g. `baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1
+// model: "RX-64" name: "J" }`): a goal behind a stop stalls the motor against it.
+inline std::string stall_rig(const std::string& bus) {
+  return R"(name: "stall"
+bus { name: "b" )" + bus + R"( }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
+})";
+}
+
+// Robot `robot`'s servos driven through the gateway's drive loop (body::PhysicsBody), with the
+// registers a driver writes at start (compliance 1/1/32/32, punch 32, MX PID P 32, limits
+// +-2.6 rad) in place of the bus: the tests set the commands, the body does the rest.
+class DrivenRobot {
  public:
-  Firmware(World& world, size_t robot) : world_(world) {
-    const RobotModel& model = world.robot(robot);
-    for (const MotorModel& m : model.motors) {
-      Servo servo{*world.find_motor(robot, m.bus, m.id), dynamixel::ServoController(dynamixel::servo_controller_config(m.model)),
-                  dynamixel::ServoCommand{}, m.link};
-      servo.command.torque_enabled = false;
-      servo.command.goal_position_rad = world.motor(servo.handle).position_rad;
-      servo.command.cw_compliance_margin_raw = 1;
-      servo.command.ccw_compliance_margin_raw = 1;
-      servo.command.cw_compliance_slope_raw = 32;
-      servo.command.ccw_compliance_slope_raw = 32;
-      servo.command.punch_raw = 32;
-      servo.command.pid = dynamixel::mx_pid_gains(32, 0, 0);
-      servo.command.min_position_rad = -2.6;
-      servo.command.max_position_rad = 2.6;
-      servos_.push_back(servo);
+  DrivenRobot(World& world, size_t robot) : world_(world), body_(world, robot) {
+    for (const MotorModel& m : world.robot(robot).motors) {
+      body_.add_servo(m.bus, m.id, body::ServoSetup{dynamixel::servo_controller_config(m.model), 0.0, 0.0});
+      dynamixel::ServoCommand& command = commands_.emplace_back();
+      command.goal_position_rad = world.motor(*world.find_motor(robot, m.bus, m.id)).position_rad;
+      command.cw_compliance_margin_raw = 1;
+      command.ccw_compliance_margin_raw = 1;
+      command.cw_compliance_slope_raw = 32;
+      command.ccw_compliance_slope_raw = 32;
+      command.punch_raw = 32;
+      command.pid = dynamixel::mx_pid_gains(32, 0, 0);
+      command.min_position_rad = -2.6;
+      command.max_position_rad = 2.6;
+      links_.push_back(m.link);
     }
+    feedback_.resize(commands_.size());
   }
 
   // Torque on for every servo, goals = present positions (what a driver does at start).
   void enable_all() {
-    for (Servo& s : servos_) {
-      s.command.torque_enabled = true;
-      s.command.goal_position_rad = world_.motor(s.handle).position_rad;
+    for (size_t i = 0; i < size(); ++i) {
+      commands_[i].torque_enabled = true;
+      commands_[i].goal_position_rad = world_.motor(handle(i)).position_rad;
     }
   }
   void disable_all() {
-    for (Servo& s : servos_) s.command.torque_enabled = false;
+    for (dynamixel::ServoCommand& command : commands_) command.torque_enabled = false;
   }
-  dynamixel::ServoCommand& command(size_t i) { return servos_[i].command; }
-  size_t size() const { return servos_.size(); }
-  MotorHandle handle(size_t i) const { return servos_[i].handle; }
-  int link(size_t i) const { return servos_[i].link; }
+  dynamixel::ServoCommand& command(size_t i) { return commands_[i]; }
+  // What servo i measured after the last step().
+  const dynamixel::ServoFeedback& feedback(size_t i) const { return feedback_[i]; }
+  size_t size() const { return commands_.size(); }
+  MotorHandle handle(size_t i) const { return *body_.motor(i); }
+  int link(size_t i) const { return links_[i]; }
+  const body::PhysicsBody& body() const { return body_; }
 
-  // One gateway tick: firmware, then physics.
+  // One gateway tick: drive, step, sense.
   void step() {
-    for (Servo& s : servos_) {
-      const MotorState state = world_.motor(s.handle);
-      const dynamixel::ControllerOutput out =
-          s.controller.update(s.command, state.position_rad, state.velocity_rad_s, world_.options().step_s,
-                              state.voltage_v);
-      world_.set_motor(s.handle, MotorCommand{s.command.torque_enabled, out.pwm_ratio, s.command.torque_limit_ratio});
-    }
+    for (size_t i = 0; i < size(); ++i) body_.drive(i, commands_[i], world_.options().step_s);
     world_.step();
+    for (size_t i = 0; i < size(); ++i) feedback_[i] = body_.servo(i, world_.time_ns());
   }
   void run(double seconds) {
     const auto n = static_cast<long>(seconds / world_.options().step_s + 0.5);
@@ -109,14 +123,11 @@ class Firmware {
   }
 
  private:
-  struct Servo {
-    MotorHandle handle;
-    dynamixel::ServoController controller;
-    dynamixel::ServoCommand command;
-    int link;
-  };
   World& world_;
-  std::vector<Servo> servos_;
+  body::PhysicsBody body_;
+  std::vector<dynamixel::ServoCommand> commands_;
+  std::vector<dynamixel::ServoFeedback> feedback_;
+  std::vector<int> links_;
 };
 
 }  // namespace doppel::physics::test

@@ -91,6 +91,7 @@ TEST_P(ServoTest, StalledServoDeliversTheStallTorque) {
   EXPECT_NEAR(measured, model_stall - kCoulomb, 0.01 * model_stall);  // the gear's friction takes its share
   EXPECT_NEAR(world->motor(sut).torque_nm, model_stall, 1e-9);
   EXPECT_NEAR(world->motor(sut).torque_ratio, 1.0, 1e-9);
+  EXPECT_NEAR(world->motor(sut).current_a, model_stall / kKt, 1e-9);  // winding current, + with the CCW torque
 }
 
 TEST_P(ServoTest, TorqueLimitScalesTheStallTorque) {
@@ -126,14 +127,14 @@ TEST_P(ServoTest, BelowTheCapTheTorqueFollowsTheDcMotorLine) {
 TEST_P(ServoTest, TorqueOffLeavesTheJointLimp) {
   // A horizontal pendulum arm about y: 0.5 kg at 0.15 m needs 0.74 N m, far more than gear friction.
   auto world = make_pendulum(GetParam(), 0.3, 0.5);
-  test::Firmware firmware(*world, 0);
+  test::DrivenRobot driven(*world, 0);
 
-  firmware.enable_all();
-  firmware.run(0.5);
-  const double held = world->motor(firmware.handle(0)).position_rad;
-  firmware.disable_all();
-  firmware.run(0.5);
-  const double limp = world->motor(firmware.handle(0)).position_rad;
+  driven.enable_all();
+  driven.run(0.5);
+  const double held = world->motor(driven.handle(0)).position_rad;
+  driven.disable_all();
+  driven.run(0.5);
+  const double limp = world->motor(driven.handle(0)).position_rad;
 
   EXPECT_NEAR(held, 0.0, 2.0 * 0.29 * M_PI / 180.0);  // within two position units of the goal
   EXPECT_GT(limp, 0.5);                               // swung down (about +y: the arm's tip goes down)

@@ -56,16 +56,16 @@ TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
   WorldOptions options;  // with the ball
   auto world = test::make_world(GetParam(), {test::shipped_robot("fumanoid-2011"), test::shipped_robot("fumanoid-2011")},
                                 options);
-  test::Firmware firmware(*world, 0);
+  test::DrivenRobot driven(*world, 0);
   SceneView view;
   world->fill_scene(view);
-  firmware.enable_all();
-  firmware.run(0.5);  // warm-up: contact pools and solver buffers reach their working size
+  driven.enable_all();
+  driven.run(0.5);  // warm-up: contact pools and solver buffers reach their working size
 
   g_allocations = 0;
   g_counting = true;
   for (int i = 0; i < 1000; ++i) {
-    firmware.step();
+    driven.step();
     if (i % 40 == 0) world->fill_scene(view);
   }
   g_counting = false;

@@ -39,30 +39,21 @@ class StallTest : public ::testing::TestWithParam<std::string> {};
 TEST_P(StallTest, StalledServoOverheatsAndRaisesOverload) {
   // An arm driven against its mechanical stop at +20 deg while its goal is far beyond: the motor
   // pushes at its full torque and cannot move (a servo blocked by an obstacle).
-  const std::string rig = R"(name: "stall"
-bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" } }
-figure {
-  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.8 y: 0.8 z: 0.1 } } } mass_kg: 100 }
-  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
-  body { name: "arm" pose { position_m { y: 0.05 z: 0.4 } } shape { box { size_m { x: 0.02 y: 0.02 z: 0.2 } } } mass_kg: 0.2 }
-  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
-  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
-         lower_deg: -10 upper_deg: 20 motor { bus: 0 id: 1 } }
-})";
+  const std::string rig =
+      test::stall_rig(R"(baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: "RX-64" name: "J" })");
   WorldOptions options = test::bare_options();
   auto world = test::make_world(GetParam(), {test::robot_from_text(rig)}, options);
-  test::Firmware firmware(*world, 0);
-  firmware.enable_all();
-  firmware.command(0).goal_position_rad = 1.6;  // 92 deg: behind the stop
-  dynamixel::ServoController controller(dynamixel::servo_controller_config("RX-64"));
+  test::DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.command(0).goal_position_rad = 1.6;  // 92 deg: behind the stop
 
   double at_30_s = 0.0;
   bool overload = false;
   double crossed_at = -1.0;
   for (int i = 1; i <= 120000 && crossed_at < 0.0; ++i) {
-    firmware.step();
-    const MotorState s = world->motor(firmware.handle(0));
-    overload = overload || controller.update(firmware.command(0), s.position_rad, s.velocity_rad_s, 0.001).overload;
+    driven.step();
+    const MotorState s = world->motor(driven.handle(0));
+    overload = overload || driven.feedback(0).overload;  // the drive loop's controller
     if (i == 30000) at_30_s = s.temperature_c;
     if (s.temperature_c > 80.0) crossed_at = world->time_s();
   }
@@ -71,12 +62,12 @@ figure {
   EXPECT_GT(crossed_at, 30.0);
   EXPECT_LT(crossed_at, 120.0);  // but within two minutes of stall
   EXPECT_TRUE(overload);
-  EXPECT_NEAR(world->motor(firmware.handle(0)).torque_ratio, 1.0, 0.02);  // at the Torque Limit all along
+  EXPECT_NEAR(world->motor(driven.handle(0)).torque_ratio, 1.0, 0.02);  // at the Torque Limit all along
 
   // Shutdown (torque off, as the Alarm Shutdown does): the motor cools.
-  firmware.disable_all();
-  firmware.run(10.0);
-  EXPECT_LT(world->motor(firmware.handle(0)).temperature_c, 80.0);
+  driven.disable_all();
+  driven.run(10.0);
+  EXPECT_LT(world->motor(driven.handle(0)).temperature_c, 80.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, StallTest, ::testing::ValuesIn(engine_names()),

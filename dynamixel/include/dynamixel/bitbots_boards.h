@@ -141,7 +141,9 @@ class BitFoot final : public BitbotsBoard, public SimulatedFootBoard {
 };
 
 // The Bit-Bots CORE board: power switch, supply voltages and current as the raw ADC values its driver decodes.
-class BitbotsCore final : public BitbotsBoard {
+// Its current sensor sits in the servo supply it switches (all four buses of the robot), so it
+// measures what the servos together draw from the battery.
+class BitbotsCore final : public BitbotsBoard, public SimulatedPowerBoard {
  public:
   static constexpr double kAdcVoltsPerCount = 3.3 / 1024.0 * 6.0;  // driver: V = raw * 3.3 / 1024 * 6
   static constexpr double kVccV = 5.0;                              // logic supply (assumption)
@@ -149,8 +151,10 @@ class BitbotsCore final : public BitbotsBoard {
   // Throws std::invalid_argument for an ID above 252 or a bad baud index. Setup only.
   BitbotsCore(uint8_t id, uint8_t baud_raw);
   // Supply `supply_v` (V) and servo current `current_a` (A) -> VEXT, VCC, VDXL (0 while Power is 0),
-  // Current, power sense and the six battery taps. rt-safe.
+  // Current (0 A while Power is 0), power sense and the six battery taps. rt-safe.
   void apply(double supply_v, double current_a) noexcept;
+  // The same from a measurement of the simulation. rt-safe.
+  void apply(const PowerFeedback& feedback) noexcept override { apply(feedback.supply_v, feedback.servo_current_a); }
   bool power_on() const noexcept { return table()[bitbots::kPower] != 0; }
 };
 

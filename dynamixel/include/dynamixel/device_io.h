@@ -75,6 +75,13 @@ struct FootFeedback {
   int64_t sim_time_ns = 0;          // simulation time of the measurement
 };
 
+// What a power board measures on the servo supply rail it switches.
+struct PowerFeedback {
+  double supply_v = 14.8;        // supply voltage (battery or bench supply) before the servo switch
+  double servo_current_a = 0.0;  // current drawn from it by the servos, >= 0 while they draw power
+  int64_t sim_time_ns = 0;       // simulation time of the measurement
+};
+
 // The simulation's side of a device, whatever protocol and model it is: the gateway reads what
 // the firmware asks of the motor and writes back what the world measured, through these alone.
 // All calls rt-safe.
@@ -103,6 +110,14 @@ class SimulatedFootBoard {
 
  protected:
   ~SimulatedFootBoard() = default;
+};
+
+class SimulatedPowerBoard {
+ public:
+  virtual void apply(const PowerFeedback& feedback) noexcept = 0;
+
+ protected:
+  ~SimulatedPowerBoard() = default;
 };
 
 }  // namespace doppel::dynamixel

@@ -1,13 +1,12 @@
 #pragma once
 // Builds a Protocol 2.0 device model from a robot description entry (model name, ID, baud rate,
-// Return Delay Time). Setup only; the gateway keeps the concrete type (dynamic_cast to
-// Protocol2Servo, BitbotsImu, BitFoot, BitbotsCore) for its link to the simulation.
+// Return Delay Time), with its role for the link to the simulation (servo, IMU, foot board or
+// power board). Setup only.
 
 #include <cstdint>
-#include <memory>
 #include <string_view>
 
-#include "dynamixel/device.h"
+#include "dynamixel/built_device.h"
 
 namespace doppel::dynamixel {
 
@@ -15,7 +14,7 @@ namespace doppel::dynamixel {
 // Baud Rate index (within 3 %); `return_delay_raw`: Return Delay Time (2 µs units; the Bit-Bots
 // boards have none and ignore it). Servos start at 0 rad. Throws std::invalid_argument for an
 // unknown model or a value the model cannot hold.
-std::unique_ptr<Device> make_protocol2_device(std::string_view model, uint8_t id, uint32_t baud_bps,
-                                              uint8_t return_delay_raw = 250);
+BuiltDevice make_protocol2_device(std::string_view model, uint8_t id, uint32_t baud_bps,
+                                  uint8_t return_delay_raw = 250);
 
 }  // namespace doppel::dynamixel

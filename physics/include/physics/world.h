@@ -5,7 +5,7 @@
 // what the bus devices read back: joint angle/speed/torque, motor temperature, IMU, load cells.
 //
 // The world knows servos only by their (bus index, ID) in the description; it never sees a control
-// table or a packet: the gateway runs the firmware (dynamixel/servo_controller.h) and hands the
+// table or a packet: the drive loop (body/servo_drive.h) runs the firmware and hands the
 // resulting voltage to set_motor(). Angles at this interface are the servo's: 0 at the centre of
 // its range, + = CCW (the direction in which the position register grows).
 //
@@ -86,17 +86,21 @@ struct FootHandle {
   uint32_t index = 0;
 };
 
+// The readouts below are the world's own plain structs (physics knows no device); body/feedback.h
+// turns them into what the devices measure, in one place.
 struct MotorState {
-  double position_rad = 0.0;     // servo angle, 0 = centre, + = CCW
-  double velocity_rad_s = 0.0;   // + = CCW
-  double torque_nm = 0.0;        // output torque of the motor, + = CCW
-  double torque_ratio = 0.0;     // torque / maximum torque at the supply voltage (Present Load), -1..1
-  double current_a = 0.0;        // motor current (torque / kt), unsigned
-  double temperature_c = 25.0;   // winding temperature
+  double position_rad = 0.0;      // servo angle, 0 = centre, + = CCW
+  double velocity_rad_s = 0.0;    // + = CCW
+  double torque_nm = 0.0;         // output torque of the motor, + = CCW
+  double torque_ratio = 0.0;      // torque / maximum torque at the supply voltage (Present Load), -1..1
+  double current_a = 0.0;         // motor (winding) current, torque / kt, + = CCW torque
+  double supply_current_a = 0.0;  // what the servo's H-bridge draws from its supply: winding current x
+                                  // motor voltage (R i + ke w) / supply voltage; < 0 while the motor
+                                  // feeds energy back
+  double temperature_c = 25.0;    // winding temperature
   double voltage_v = kDefaultSupplyVoltage_v;  // supply voltage at the servo
 };
 
-// Compatible with dynamixel::ImuFeedback (same names and meaning).
 struct ImuState {
   double roll_rad = 0.0;                                 // rotation about x of the sensor frame S
   double pitch_rad = 0.0;                                // about y, + = nose down
@@ -106,7 +110,6 @@ struct ImuState {
   int64_t sim_time_ns = 0;
 };
 
-// Compatible with dynamixel::FootFeedback.
 struct FootState {
   std::array<double, 4> force_n{};  // FL, FR, BL, BR normal force along the foot's z, >= 0
   int64_t sim_time_ns = 0;

@@ -1,8 +1,8 @@
-#include "gateway/kinematic_joint.h"
+#include "body/kinematic_joint.h"
 
 #include <gtest/gtest.h>
 
-namespace doppel::gateway {
+namespace doppel::body {
 namespace {
 
 constexpr double kDt = 0.001;
@@ -65,4 +65,4 @@ TEST(KinematicJoint, WheelModeTurnsAtTheSignedSpeed) {
 }
 
 }  // namespace
-}  // namespace doppel::gateway
+}  // namespace doppel::body

@@ -6,7 +6,7 @@
 
 #include "dynamixel/device_io.h"
 
-namespace doppel::gateway {
+namespace doppel::body {
 
 class KinematicJoint {
  public:
@@ -25,4 +25,4 @@ class KinematicJoint {
   double velocity_rad_s_ = 0.0; // speed over the last step
 };
 
-}  // namespace doppel::gateway
+}  // namespace doppel::body

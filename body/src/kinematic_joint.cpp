@@ -1,10 +1,10 @@
-#include "gateway/kinematic_joint.h"
+#include "body/kinematic_joint.h"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-namespace doppel::gateway {
+namespace doppel::body {
 
 void KinematicJoint::step(const dynamixel::ServoCommand& command, double dt_s) noexcept {
   if (!command.torque_enabled || dt_s <= 0.0) {
@@ -27,4 +27,4 @@ void KinematicJoint::step(const dynamixel::ServoCommand& command, double dt_s) n
   velocity_rad_s_ = step / dt_s;
 }
 
-}  // namespace doppel::gateway
+}  // namespace doppel::body
