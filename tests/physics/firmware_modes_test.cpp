@@ -52,7 +52,7 @@ class CurrentModeTest : public ::testing::TestWithParam<CurrentCase> {};
 TEST_P(CurrentModeTest, GoalCurrentGivesKtTimesCurrentAtRestAndInMotion) {
   const CurrentCase& p = GetParam();
   auto world = make_world(p.engine, {robot_from_text(rig(p.protocol, p.model, kFlywheel))});
-  test::Firmware firmware(*world, 0);
+  test::DrivenRobot firmware(*world, 0);
   firmware.enable_all();
   firmware.command(0).torque_control = true;
   firmware.command(0).goal_current_a = p.goal_a;
@@ -99,7 +99,7 @@ double speed_after(const std::string& engine, uint16_t velocity_i_gain_raw, doub
                           {robot_from_text(rig("PROTOCOL_2", "XM430-W350",
                                                "shape { cylinder { radius_m: 0.05 length_m: 0.02 } } mass_kg: 0.2"))},
                           options);
-  test::Firmware firmware(*world, 0);
+  test::DrivenRobot firmware(*world, 0);
   firmware.enable_all();
   dynamixel::ServoCommand& command = firmware.command(0);
   command.wheel_mode = true;
