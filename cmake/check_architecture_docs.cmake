@@ -1,0 +1,27 @@
+# ctest script (cmake -P): every docs/*.dot renders with graphviz, and docs/architecture-folders.dot
+# has a node for every folder that builds a library (a folder with a CMakeLists.txt, except the
+# test, benchmark, fuzz and build-helper folders), so a new folder cannot be left out of the diagram.
+# Arguments: -DSOURCE_DIR=... -DDOT=...
+file(GLOB sources ${SOURCE_DIR}/docs/*.dot)
+foreach(source ${sources})
+  execute_process(COMMAND ${DOT} -Tsvg ${source} -o /dev/null RESULT_VARIABLE rc ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${source} does not render: ${err}")
+  endif()
+endforeach()
+file(READ ${SOURCE_DIR}/docs/architecture-folders.dot folders_graph)
+file(GLOB lists RELATIVE ${SOURCE_DIR} ${SOURCE_DIR}/*/CMakeLists.txt)
+set(missing)
+foreach(list ${lists})
+  get_filename_component(folder ${list} DIRECTORY)
+  if(folder MATCHES "^(tests|bench|fuzz|cmake|build.*)$")
+    continue()
+  endif()
+  if(NOT folders_graph MATCHES "\n  ${folder}(_[a-z]+)? *\\[label")
+    list(APPEND missing ${folder})
+  endif()
+endforeach()
+if(missing)
+  message(FATAL_ERROR "docs/architecture-folders.dot has no node for: ${missing}")
+endif()
+message(STATUS "architecture diagrams render and name every library folder")
