@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   double seconds = 5.0;
   std::string timing = "fast";
   CLI::App app("Thesis table 11: bus throughput against doppel", "bus_throughput");
-  app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_option("--seconds", seconds)->transform(doppel::positive_number<double>());
   app.add_option("--timing", timing)->check(CLI::IsMember({"fast", "wire"}));
   if (auto exit_code = doppel::bench::parse_command_line(app, argc, argv,
                                                           "usage: bus_throughput [--seconds S] [--timing fast|wire]\n")) {

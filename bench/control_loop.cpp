@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   bool bulk = false;
   CLI::App app("A driver's control loop against doppel", "control_loop");
   app.add_flag("--bulk", bulk);
-  app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  app.add_option("--seconds", seconds)->transform(doppel::positive_number<double>());
   app.add_option("--timing", timing)->check(CLI::IsMember({"fast", "wire"}));
   if (auto exit_code = doppel::bench::parse_command_line(
           app, argc, argv, "usage: control_loop [--seconds S] [--timing fast|wire] [--bulk]\n")) {

@@ -94,7 +94,7 @@ inline std::optional<LatencyOptions> start_latency_tool(int argc, char** argv, c
   LatencyOptions options;
   bool quick = false;
   CLI::App app("Per-instruction latency against doppel", tool);
-  CLI::Option* samples = app.add_option("--samples", options.samples)->check(positive_number<int>());
+  CLI::Option* samples = app.add_option("--samples", options.samples)->transform(positive_number<int>());
   app.add_flag("--quick", quick)->excludes(samples);
   app.add_flag("--rt", options.realtime);
   const std::string usage = std::string("usage: ") + tool + " [--samples N] [--quick] [--rt]\n";

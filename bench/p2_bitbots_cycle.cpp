@@ -225,7 +225,7 @@ int main(int argc, char** argv) {
   int only_buses = 0;
   bool quick = false;
   CLI::App app("The Bit-Bots control cycle against doppel", "p2_bitbots_cycle");
-  CLI::Option* seconds_option = app.add_option("--seconds", seconds)->check(doppel::positive_number<double>());
+  CLI::Option* seconds_option = app.add_option("--seconds", seconds)->transform(doppel::positive_number<double>());
   app.add_flag("--quick", quick)->excludes(seconds_option);
   app.add_flag("--rt", realtime);
   app.add_option("--buses", only_buses)->check(CLI::IsMember({1, 2, 4}));

@@ -85,7 +85,7 @@ Options parse_options(int argc, const char* const* argv) {
            options.timing = mode == "wire" ? bus::TimingMode::kWire : bus::TimingMode::kFast;
          })
       ->check(CLI::IsMember({"wire", "fast"}));
-  app.add_option("--processing-us", options.processing_us)->check(number_in<double>(0.0, 10000.0));
+  app.add_option("--processing-us", options.processing_us)->transform(number_in<double>(0.0, 10000.0));
   app.add_option_function<std::string>(
          "--physics",
          [&options](const std::string& engine) {
@@ -95,8 +95,8 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_flag("--no-camera{false}", options.camera);
   app.add_flag("--external-roudi", options.external_roudi);
   app.add_flag("--no-hold{false}", options.hold);
-  app.add_option("--rt-priority", options.rt_priority)->check(number_in<int>(0, 99));
-  app.add_option("--latency-timer", options.latency_timer_ms)->check(number_in<uint32_t>(0, 255));
+  app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
+  app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

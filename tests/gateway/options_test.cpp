@@ -67,6 +67,13 @@ TEST(Options, ARepeatedOptionKeepsItsLastValue) {
   EXPECT_EQ(sut.latency_timer_ms, 8u);
 }
 
+TEST(Options, IntegersWithLeadingZerosAreDecimal) {
+  Options sut = parse({"--latency-timer", "010", "--processing-us", "007"});
+
+  EXPECT_EQ(sut.latency_timer_ms, 10u);
+  EXPECT_DOUBLE_EQ(sut.processing_us, 7.0);
+}
+
 TEST(Options, FlagsAreSet) {
   Options sut = parse({"--no-camera", "--no-hold", "--external-roudi", "--list-robots", "--help"});
 
