@@ -1,6 +1,7 @@
 #pragma once
-// Number checks (CLI11 transforms: they may rewrite the text) for the command lines of Doppel's executables and tools, all parsed by CLI11: one
-// conversion (CLI11's) and one wording for a value that is not a number or out of range.
+// Number checks for the command lines of Doppel's executables and tools, all parsed by CLI11: one
+// conversion (CLI11's) and one wording for a value that is not a number or out of range. They are
+// CLI11 transforms (->transform), not checks: they may rewrite the text before it is converted.
 
 #include <CLI/CLI.hpp>
 
