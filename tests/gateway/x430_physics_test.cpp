@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "held_pose.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
 
@@ -24,14 +25,8 @@ constexpr uint32_t kBaud = 4000000;
 constexpr uint8_t kRead = 0x02, kSyncWrite = 0x83;
 constexpr double kRobotMassKg = 4.7;  // robots/fumanoid-x430.textproto: sum of its body masses
 constexpr double kGravity = 9.80665;
-// A held robot does not move. Its servos stay within 7 position units (0.6 deg, 0.088 deg per
-// unit) of their start; the trunk stays level within 0.5 deg and drifts by less than 0.05 deg; its
-// feet keep their load within 1.5 N (ODE's contact jitter on a held robot is about 1 N, a falling
-// robot's loads change by tens of N).
+// A held robot's servos stay within 7 position units (0.6 deg, 0.088 deg per unit) of their start.
 constexpr int kHeldPositionUnits = 7;
-constexpr double kHeldLevelDeg = 0.5;
-constexpr double kHeldDriftDeg = 0.05;
-constexpr double kHeldFeetN = 1.5;
 // BitFoot default calibration (docs/devices.md P7): raw = 1e7 counts + force / 3e-6 N per count.
 constexpr double kFootZeroCounts = 1e7;
 constexpr double kFootNewtonPerCount = 3e-6;
@@ -209,12 +204,7 @@ TEST_F(X430Body, HeldUntilTheDriverEnablesTorque) {
   for (std::size_t i = 0; i < positions.size(); ++i) {
     EXPECT_NEAR(positions[i], initial[i], kHeldPositionUnits) << "servo " << i << " in kServos order";
   }
-  EXPECT_LT(std::fabs(held.pitch_deg), kHeldLevelDeg) << held.pitch_deg;
-  EXPECT_LT(std::fabs(held.roll_deg), kHeldLevelDeg) << held.roll_deg;
-  EXPECT_NEAR(held.pitch_deg, settled.pitch_deg, kHeldDriftDeg);
-  EXPECT_NEAR(held.roll_deg, settled.roll_deg, kHeldDriftDeg);
-  EXPECT_GT(held.feet_n, 1.0) << "the feet rest on the carpet";
-  EXPECT_NEAR(held.feet_n, settled.feet_n, kHeldFeetN);
+  expect_held_still(settled, held);
 }
 
 class LimpX430Body : public X430Body {
