@@ -5,7 +5,16 @@ target_compile_options(doppel_build_options INTERFACE -Wall -Wextra -Wpedantic -
 if(DOPPEL_WERROR)
   target_compile_options(doppel_build_options INTERFACE -Werror)
 endif()
+if(DOPPEL_SANITIZE AND DOPPEL_TSAN)
+  message(FATAL_ERROR "DOPPEL_SANITIZE and DOPPEL_TSAN are exclusive: ThreadSanitizer cannot run beside AddressSanitizer")
+endif()
 if(DOPPEL_SANITIZE)
   target_compile_options(doppel_build_options INTERFACE -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
   target_link_options(doppel_build_options INTERFACE -fsanitize=address,undefined)
+endif()
+# Libraries from Debian (iceoryx, ODE, Bullet, protobuf) are not instrumented; cmake/tsan.supp
+# names the reports that come from inside them and says why each is not Doppel's race.
+if(DOPPEL_TSAN)
+  target_compile_options(doppel_build_options INTERFACE -fsanitize=thread -fno-omit-frame-pointer)
+  target_link_options(doppel_build_options INTERFACE -fsanitize=thread)
 endif()

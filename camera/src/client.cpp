@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "concurrency/sanitizer_handover.h"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
@@ -73,6 +74,7 @@ std::vector<CameraInfo> list_cameras(double timeout_s) {
     bool got = false;
     while (!got && std::chrono::steady_clock::now() < until) {
       sub.take().and_then([&](const void* payload) {
+        concurrency::taken_over(payload);
         const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
         if (chunk->userPayloadSize() >= sizeof(CameraInfo)) {
           CameraInfo info;
@@ -82,6 +84,7 @@ std::vector<CameraInfo> list_cameras(double timeout_s) {
           out.push_back(info);
           got = true;
         }
+        concurrency::handing_over(payload);
         sub.release(payload);
       });
       if (!got) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -127,18 +130,22 @@ CameraInfo set_camera_noise(const std::string& camera, const NoiseConfig& noise,
   }
   auto loaned = settings.loan(sizeof(NoiseRequest), alignof(NoiseRequest));
   if (loaned.has_error()) throw std::runtime_error("no shared memory chunk free for a settings message");
+  concurrency::taken_over(loaned.value());
   new (loaned.value()) NoiseRequest(request);
+  concurrency::handing_over(loaned.value());
   settings.publish(loaned.value());
 
   while (std::chrono::steady_clock::now() < deadline) {
     std::optional<CameraInfo> confirmed;
     for (auto taken = info.take(); !taken.has_error(); taken = info.take()) {
       const void* payload = taken.value();
+      concurrency::taken_over(payload);
       if (iox::mepoo::ChunkHeader::fromUserPayload(payload)->userPayloadSize() >= sizeof(CameraInfo)) {
         CameraInfo record;
         std::memcpy(&record, payload, sizeof(CameraInfo));
         if (record.noise_request_id == request.request_id) confirmed = record;
       }
+      concurrency::handing_over(payload);
       info.release(payload);
     }
     if (confirmed) {
@@ -172,7 +179,10 @@ Frame& Frame::operator=(Frame&& other) noexcept {
 Frame::~Frame() { release(); }
 
 void Frame::release() noexcept {
-  if (port_ && header_ != nullptr) static_cast<iox::popo::UntypedSubscriber*>(port_.get())->release(header_);
+  if (port_ && header_ != nullptr) {
+    concurrency::handing_over(header_);
+    static_cast<iox::popo::UntypedSubscriber*>(port_.get())->release(header_);
+  }
   header_ = nullptr;
   port_.reset();
 }
@@ -211,10 +221,12 @@ std::optional<Frame> FrameSubscriber::try_take() noexcept {
     auto taken = s.sub->take();
     if (taken.has_error()) return std::nullopt;
     const void* payload = taken.value();
+    concurrency::taken_over(payload);
     const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
     const auto* header = static_cast<const FrameHeader*>(payload);
     if (!frame_valid(header, chunk->userPayloadSize())) {
       ++s.stats.invalid;
+      concurrency::handing_over(payload);
       s.sub->release(payload);
       continue;
     }

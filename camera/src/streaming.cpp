@@ -15,6 +15,7 @@
 #include "base/monotonic_clock.h"
 #include "camera/frame.h"
 #include "camera/renderer.h"
+#include "concurrency/sanitizer_handover.h"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
@@ -247,7 +248,9 @@ struct CameraStream::Impl {
   // allocate; a record that finds no free chunk is skipped (the next change publishes again).
   void publish_info() noexcept {
     info.loan(sizeof(CameraInfo), alignof(CameraInfo)).and_then([this](void* chunk) {
+      concurrency::taken_over(chunk);
       new (chunk) CameraInfo(info_record);
+      concurrency::handing_over(chunk);
       info.publish(chunk);
     });
   }
@@ -293,6 +296,7 @@ FrameHeader* CameraStream::loan_frame(const Eigen::Isometry3d& X_WC, double sim_
     return nullptr;
   }
   void* chunk = loaned.value();
+  concurrency::taken_over(chunk);  // a recycled chunk: the last subscriber's reads came before
   // Only the header is constructed: the pixels are written by the renderer, never zeroed first.
   auto* h = new (chunk) FrameHeader();
   const CameraConfig& c = s.config;
@@ -336,6 +340,7 @@ void CameraStream::publish_frame(FrameHeader* frame) noexcept {
   frame->publish_mono_ns = monotonic_now_ns();
   s.last_render_ms.store(1e-6 * static_cast<double>(frame->publish_mono_ns - frame->render_start_mono_ns),
                          std::memory_order_relaxed);
+  concurrency::handing_over(frame);
   s.frames.publish(frame);
   s.published.fetch_add(1, std::memory_order_relaxed);
 }
@@ -380,10 +385,12 @@ bool CameraStream::poll_settings() noexcept {
   bool rejected = false;
   for (auto taken = s.settings.take(); !taken.has_error(); taken = s.settings.take()) {
     const void* payload = taken.value();
+    concurrency::taken_over(payload);
     const auto* chunk = iox::mepoo::ChunkHeader::fromUserPayload(payload);
     NoiseRequest request;
     const bool complete = chunk->userPayloadSize() >= sizeof(NoiseRequest);
     if (complete) std::memcpy(&request, payload, sizeof(NoiseRequest));
+    concurrency::handing_over(payload);
     s.settings.release(payload);
     if (!complete || invalid_noise_field(request.noise).size() > 0) {
       s.settings_rejected.fetch_add(1, std::memory_order_relaxed);

@@ -56,14 +56,16 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
     fastest_fps = std::max(fastest_fps, mount.config.fps);
   }
   offer_period_ns_ = static_cast<int64_t>(1e9 / fastest_fps);
-  offered_X_WB_.assign(mounts_.size(), Eigen::Isometry3d::Identity());
-  // Size the hand-over scene now, so that offer() never allocates.
+  // Size every hand-over slot now, so that offer() never allocates.
+  OfferedScene initial;
+  initial.X_WB.assign(mounts_.size(), Eigen::Isometry3d::Identity());
   if (world != nullptr) {
-    world->fill_scene(offered_scene_);
+    world->fill_scene(initial.scene);
   } else {
-    offered_scene_.shapes = physics::field_shapes();
-    offered_scene_.shapes.push_back(physics::ball_shape(Eigen::Vector3d(0.0, 0.0, 0.5 * physics::FieldSpec{}.ball_diameter_m)));
+    initial.scene.shapes = physics::field_shapes();
+    initial.scene.shapes.push_back(physics::ball_shape(Eigen::Vector3d(0.0, 0.0, 0.5 * physics::FieldSpec{}.ball_diameter_m)));
   }
+  handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial);
 }
 
 CameraFeed::~CameraFeed() {
@@ -77,21 +79,17 @@ void CameraFeed::offer(const physics::World* world, int64_t sim_time_ns) noexcep
   if (mounts_.empty() || sim_time_ns < next_offer_ns_) {
     return;
   }
-  std::unique_lock lock(handover_, std::try_to_lock);
-  if (!lock.owns_lock()) {
-    return;  // the camera thread is copying: offer again next step
-  }
+  OfferedScene& offered = handover_->back();
   if (world != nullptr) {
-    world->fill_scene(offered_scene_);
+    world->fill_scene(offered.scene);
     for (std::size_t i = 0; i < mounts_.size(); ++i) {
       if (!mounts_[i].fixed) {
-        offered_X_WB_[i] = world->body_pose(mounts_[i].robot, mounts_[i].body);
+        offered.X_WB[i] = world->body_pose(mounts_[i].robot, mounts_[i].body);
       }
     }
   }
-  offered_time_s_ = static_cast<double>(sim_time_ns) * 1e-9;
-  offered_scene_.sim_time_s = offered_time_s_;
-  fresh_ = true;
+  offered.scene.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+  handover_->publish();
   next_offer_ns_ = sim_time_ns + offer_period_ns_;
 }
 
@@ -113,30 +111,20 @@ void CameraFeed::stop() {
 }
 
 void CameraFeed::run() {
-  physics::SceneView scene;
-  std::vector<Eigen::Isometry3d> X_WB(mounts_.size());
   while (running_.load(std::memory_order_relaxed)) {
-    double time_s = 0.0;
-    {
-      std::lock_guard lock(handover_);
-      if (fresh_) {
-        scene.shapes = offered_scene_.shapes;
-        scene.sim_time_s = offered_scene_.sim_time_s;
-        X_WB = offered_X_WB_;
-        time_s = offered_time_s_;
-        fresh_ = false;
-      }
-    }
-    if (time_s <= 0.0) {
+    if (!handover_->update()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
       continue;
     }
+    // The reader's slot: the simulation thread does not touch it until the next update().
+    const OfferedScene& offered = handover_->latest();
+    const double time_s = offered.scene.sim_time_s;
     for (std::size_t i = 0; i < mounts_.size(); ++i) {
       Mount& mount = mounts_[i];
       if (time_s + 1e-9 < mount.next_frame_s) {
         continue;
       }
-      mount.stream->render_and_publish(scene, camera::camera_pose_W(mount.config.mount, X_WB[i]), time_s);
+      mount.stream->render_and_publish(offered.scene, camera::camera_pose_W(mount.config.mount, offered.X_WB[i]), time_s);
       mount.next_frame_s = time_s + 1.0 / mount.config.fps;
     }
   }

@@ -1,24 +1,24 @@
 #pragma once
 // The cameras inside doppel: every camera mount of a simulated robot's description (a linked
 // viewpoint that moves with its body) and every camera of the session file (fixed in the field)
-// streams through iceoryx (camera/). The simulation thread offers a copy of the scene at the
-// cameras' frame period and never waits: it takes the hand-over lock only if it is free (try_lock)
-// and otherwise offers again next step. A camera thread renders and publishes at the cameras' rates
-// of simulation time; rendering never runs on the simulation thread. Between frames the camera
-// thread takes settings sent over iceoryx (doppel-camera noise); nothing on either thread allocates
-// per frame.
+// streams through iceoryx (camera/). The simulation thread writes the scene at the cameras' frame
+// period into a triple buffer (concurrency::Snapshot) and never waits or locks; the camera thread
+// renders the newest complete scene in place and publishes at the cameras' rates of simulation
+// time, skipping scenes it was too slow for. Rendering never runs on the simulation thread. Between
+// frames the camera thread takes settings sent over iceoryx (doppel-camera noise); nothing on either
+// thread allocates per frame.
 
 #include <Eigen/Geometry>
 #include <atomic>
 #include <cstdint>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "camera/camera_config.h"
 #include "camera/streaming.h"
+#include "concurrency/snapshot.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "physics/scene_view.h"
@@ -40,8 +40,8 @@ class CameraFeed {
   bool empty() const noexcept { return mounts_.empty(); }
 
   // Simulation thread, after every step (`world` as given to the constructor, `sim_time_ns` its
-  // time): hands over the scene when a frame is due. rt-safe (try_lock, and fill_scene reuses the
-  // same storage after the first call).
+  // time): hands over the scene when a frame is due. rt-safe: lock-free, wait-free, and it fills
+  // a hand-over slot sized in the constructor, so it allocates nothing.
   void offer(const physics::World* world, int64_t sim_time_ns) noexcept;
 
   void start();
@@ -59,6 +59,11 @@ class CameraFeed {
     std::unique_ptr<camera::CameraStream> stream;           // its iceoryx publisher
     double next_frame_s = 0.0;                              // simulation time of its next frame
   };
+  // What the simulation thread hands to the camera thread: one per frame period.
+  struct OfferedScene {
+    physics::SceneView scene;              // without a world: the static field, filled once
+    std::vector<Eigen::Isometry3d> X_WB;   // per mount: pose of its body (identity when fixed)
+  };
   void run();
 
   std::unique_ptr<camera::StreamingHost> host_;
@@ -66,11 +71,9 @@ class CameraFeed {
   int64_t offer_period_ns_ = 50'000'000;  // the fastest camera's frame period
   int64_t next_offer_ns_ = 0;             // simulation thread only
 
-  std::mutex handover_;                    // guards the four members below
-  physics::SceneView offered_scene_;       // without a world: the static field, filled once
-  std::vector<Eigen::Isometry3d> offered_X_WB_;  // per mount: pose of its body (identity when fixed)
-  double offered_time_s_ = 0.0;
-  bool fresh_ = false;
+  // Simulation thread writes, camera thread reads; every slot sized in the constructor. Null
+  // without cameras.
+  std::unique_ptr<concurrency::Snapshot<OfferedScene>> handover_;
 
   std::atomic<bool> running_{false};
   std::thread thread_;

@@ -14,8 +14,8 @@
 
 #include "bus/bus_server.h"
 #include "bus/pty_port.h"
-#include "bus/snapshot.h"
 #include "body/simulated_body.h"
+#include "concurrency/snapshot.h"
 #include "dynamixel/built_device.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device_io.h"
@@ -85,8 +85,8 @@ class BusRuntime final : public bus::DeviceSync {
   dynamixel::BusDevices bus_devices_;
   std::unique_ptr<bus::PtyPort> port_;
   std::unique_ptr<bus::BusServer> server_;
-  bus::Snapshot<BusCommands> commands_;
-  bus::Snapshot<BusFeedback> feedback_;
+  concurrency::Snapshot<BusCommands> commands_;
+  concurrency::Snapshot<BusFeedback> feedback_;
   std::thread thread_;
 };
 

@@ -15,6 +15,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -24,6 +25,7 @@
 #include "camera/noise.h"
 #include "camera/renderer.h"
 #include "camera/streaming.h"
+#include "concurrency/sanitizer_handover.h"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
 #include "demo_scene.h"
 
@@ -108,7 +110,7 @@ TEST(NoiseSettings, SettingsSentToARunningCameraApplyFromTheConfirmedFrame) {
   CameraStream sut(host, config);
   FrameSubscriber sub("settings_cam", SubscriberOptions{.queue_capacity = 64});
   const physics::SceneView scene = make_demo_scene(0);
-  CameraThread camera_thread(sut, scene);
+  std::optional<CameraThread> camera_thread(std::in_place, sut, scene);
   NoiseConfig noisy;
   noisy.gaussian_sigma = 6.0;
   noisy.salt_pepper_fraction = 0.01;
@@ -154,6 +156,7 @@ TEST(NoiseSettings, SettingsSentToARunningCameraApplyFromTheConfirmedFrame) {
     }
   }
   EXPECT_GE(noisy_frames, 2);
+  camera_thread.reset();  // noise() belongs to the camera thread: read it once that has ended
   EXPECT_DOUBLE_EQ(sut.noise().gaussian_sigma, 6.0);
   EXPECT_EQ(sut.stats().settings_applied, 1u);
   const auto listed = list_cameras(2.0);
@@ -178,6 +181,7 @@ TEST(NoiseSettings, OutOfRangeRequestFromAnotherClientIsRefusedAndCounted) {
   bad.noise.salt_pepper_fraction = 7.0;
   void* chunk = rogue.loan(sizeof(NoiseRequest), alignof(NoiseRequest)).value();
   std::memcpy(chunk, &bad, sizeof(bad));
+  concurrency::handing_over(chunk);
   rogue.publish(chunk);
 
   bool changed = false;
@@ -230,15 +234,16 @@ TEST(NoiseSettings, ToolChangesTheGivenSettingsAndKeepsTheOthers) {
   StreamingHost host({config});
   CameraStream sut(host, config);
   const physics::SceneView scene = make_demo_scene(0);
-  CameraThread camera_thread(sut, scene);
+  std::optional<CameraThread> camera_thread(std::in_place, sut, scene);
 
   auto [code, out] = run_tool({DOPPEL_CAMERA_TOOL, "noise", "--camera", "tool_noise_cam", "--gaussian", "2",
                                "--white-balance", "1.1,1,0.9"});
   auto [list_code, list] = run_tool({DOPPEL_CAMERA_TOOL, "list"});
   auto [off_code, off] = run_tool({DOPPEL_CAMERA_TOOL, "noise", "--camera", "tool_noise_cam", "--off"});
-  const NoiseConfig after_off = sut.noise();
   auto [bad_code, bad] = run_tool({DOPPEL_CAMERA_TOOL, "noise", "--camera", "tool_noise_cam", "--vignetting", "x"});
   auto [none_code, none] = run_tool({DOPPEL_CAMERA_TOOL, "noise", "--camera", "tool_noise_cam"});
+  camera_thread.reset();  // noise() belongs to the camera thread: read it once that has ended
+  const NoiseConfig after_off = sut.noise();  // the two refused runs after --off change nothing
 
   EXPECT_EQ(code, 0) << out;
   EXPECT_NE(out.find("camera tool_noise_cam: noise gaussian 2, vignetting 0.2, white-balance 1.1,1,0.9, seed 9 from frame"),

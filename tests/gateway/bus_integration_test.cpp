@@ -2,7 +2,10 @@
 // real baud rate), and a client written from shared/reference/dynamixel.md. Expected packets are
 // built from the reference's framing rules or copied from its worked examples, never with Doppel's
 // own encoder.
+#include <poll.h>
 #include <signal.h>
+#include <sys/inotify.h>
+#include <sys/ioctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -175,7 +178,8 @@ TEST_F(MxBus, GarbageBeforeAPacketIsSkipped) {
 
 TEST_F(MxBus, TruncatedPacketIsDroppedAfterTheInterByteTimeout) {
   client_.send({0xFF, 0xFF, 0x01, 0x04, 0x02});                    // READ cut short
-  EXPECT_TRUE(client_.drain(150).empty());                         // > 100 ms: the device gives up on it
+  // > 100 ms: the device gives up on it (300 ms: a margin for a bus thread slowed by a sanitizer)
+  EXPECT_TRUE(client_.drain(300).empty());
   EXPECT_EQ(client_.transact(p1_instruction(1, kPing), 6), status(1, 0));
 }
 
@@ -230,16 +234,71 @@ TEST_F(MxBus, ImuAndFootBoardReportARobotAtRest) {
   EXPECT_GT(total, 0);
 }
 
+// Watches the closes of the line behind a link (inotify on the pty slave). When its client hangs
+// up, doppel's bus thread cleans the line: it opens the slave itself, flushes what the old client
+// left and closes it again (bus/pty_port.h). That second close ends the window in which a new
+// client could still be handed its predecessor's bytes, so the reconnect tests wait for it. Opens
+// are watched too, though not counted: inotify merges two identical events in a row, and an open
+// between the client's close and doppel's keeps them apart (the clean-up's open raises IN_OPEN,
+// which bus/src/pty_port.cpp relies on as well).
+class LineCloses {
+ public:
+  explicit LineCloses(const std::string& link) : fd_(::inotify_init1(IN_NONBLOCK | IN_CLOEXEC)) {
+    EXPECT_GE(fd_, 0);
+    EXPECT_GE(::inotify_add_watch(fd_, link.c_str(), IN_OPEN | IN_CLOSE), 0) << link;
+  }
+  ~LineCloses() { ::close(fd_); }
+  LineCloses(const LineCloses&) = delete;
+  LineCloses& operator=(const LineCloses&) = delete;
+
+  // Waits until `count` more closes of the line have happened (up to 5 s); false if they did not.
+  bool wait(int count) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    alignas(inotify_event) char events[4096];
+    while (seen_ < count) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+      if (left.count() <= 0) return false;
+      pollfd pfd{fd_, POLLIN, 0};
+      if (::poll(&pfd, 1, static_cast<int>(left.count())) <= 0) continue;
+      const ssize_t n = ::read(fd_, events, sizeof(events));
+      for (ssize_t at = 0; at < n;) {
+        const auto* event = reinterpret_cast<const inotify_event*>(events + at);
+        seen_ += (event->mask & IN_CLOSE) != 0 ? 1 : 0;
+        at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
+      }
+    }
+    seen_ -= count;
+    return true;
+  }
+
+ private:
+  int fd_;
+  int seen_ = 0;
+};
+
+// Waits until at least `n` bytes are waiting in the input queue of `fd` (up to 2 s).
+bool wait_input(int fd, int n) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  int waiting = 0;
+  while (::ioctl(fd, FIONREAD, &waiting) == 0 && waiting < n) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return waiting >= n;
+}
+
 // The reconnect tests hold no other client open: a port opened twice is one line for both.
 TEST(Reconnect, NextOpenStartsClean) {
   DoppelProcess doppel({"--robot", "mx-test", "--timing", "fast"});
+  LineCloses line(doppel.link());
   {
     SerialClient first(doppel.link(), kBaud);
     first.send(p1_instruction(2, kPing));                          // a reply this client never reads
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    first.send({0xFF, 0xFF, 0x01, 0x04});                          // half a READ, then close
+    ASSERT_TRUE(wait_input(first.fd(), 6));                        // it is waiting in the pty
+    const Bytes half_read = {0xFF, 0xFF, 0x01, 0x04};              // half a READ (no flush: the reply stays), then close
+    ASSERT_EQ(::write(first.fd(), half_read.data(), half_read.size()), 4);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(line.wait(2)) << "the client's close and doppel's clean-up of the line";
   SerialClient second(doppel.link(), kBaud);
   Bytes ping = p1_instruction(1, kPing);
   ASSERT_EQ(::write(second.fd(), ping.data(), ping.size()), 6);    // no flush: stale bytes would show
@@ -250,6 +309,7 @@ TEST(Reconnect, NextOpenStartsClean) {
 TEST(Reconnect, ClientKilledMidPacketLeavesTheBusWorking) {
   DoppelProcess doppel({"--robot", "mx-test", "--timing", "fast"});
   std::string port = doppel.link();
+  LineCloses line(port);
   for (int session = 0; session < 3; ++session) {
     pid_t child = fork();
     if (child == 0) {
@@ -260,9 +320,12 @@ TEST(Reconnect, ClientKilledMidPacketLeavesTheBusWorking) {
     int wait_status = 0;
     waitpid(child, &wait_status, 0);
     ASSERT_TRUE(WIFSIGNALED(wait_status));
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    SerialClient next(port, kBaud);
-    EXPECT_EQ(next.transact(p1_instruction(3, kPing), 6), status(3, 0)) << "session " << session;
+    ASSERT_TRUE(line.wait(2)) << "the killed client's close and doppel's clean-up, session " << session;
+    {
+      SerialClient next(port, kBaud);
+      EXPECT_EQ(next.transact(p1_instruction(3, kPing), 6), status(3, 0)) << "session " << session;
+    }
+    ASSERT_TRUE(line.wait(2)) << "the next client's close and doppel's clean-up, session " << session;
   }
 }
 

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "held_pose.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
 
@@ -24,6 +25,8 @@ constexpr uint32_t kBaud = 4000000;
 constexpr uint8_t kRead = 0x02, kSyncWrite = 0x83;
 constexpr double kRobotMassKg = 4.7;  // robots/fumanoid-x430.textproto: sum of its body masses
 constexpr double kGravity = 9.80665;
+// A held robot's servos stay within 7 position units (0.6 deg, 0.088 deg per unit) of their start.
+constexpr int kHeldPositionUnits = 7;
 // BitFoot default calibration (docs/devices.md P7): raw = 1e7 counts + force / 3e-6 N per count.
 constexpr double kFootZeroCounts = 1e7;
 constexpr double kFootNewtonPerCount = 3e-6;
@@ -31,7 +34,7 @@ constexpr double kFootNewtonPerCount = 3e-6;
 const std::vector<std::vector<uint8_t>> kServos = {{1, 2, 21}, {3, 4, 5, 6, 7, 8}, {9, 11, 13, 15, 17, 19},
                                                    {10, 12, 14, 16, 18, 20}};
 constexpr uint8_t kImuId = 241;
-constexpr uint16_t kPositionPGain = 84, kTorqueEnable = 64, kPresentCurrent = 126;  // XM430-W350 (reference §3.7)
+constexpr uint16_t kPositionPGain = 84, kTorqueEnable = 64, kPresentCurrent = 126, kPresentPosition = 132;  // XM430-W350 (reference §3.7)
 constexpr uint16_t kRealtimeTick = 120;
 // Position P Gain the driver sets before the torque goes on. With the factory 800 (Kp = 6.25 PWM
 // units per pulse, about 19 N·m/rad per joint at 12 V) hip, knee and ankle in series per leg are
@@ -138,6 +141,18 @@ class X430Body : public ::testing::Test {
     return pose;
   }
 
+  // Present Position of every servo, bus by bus in kServos order.
+  std::vector<int32_t> read_positions() {
+    std::vector<int32_t> positions;
+    for (int b = 0; b < 4; ++b) {
+      for (uint8_t id : kServos[static_cast<std::size_t>(b)]) {
+        const Bytes raw = read(b, id, kPresentPosition, 4);
+        positions.push_back(raw.size() == 4 ? le32_at(raw, 0) : -1);
+      }
+    }
+    return positions;
+  }
+
   // Waits until `seconds` of simulation time have passed, read from a servo's Realtime Tick (120,
   // ms of simulation time, wraps at 32768): on a loaded machine the simulation may run behind the
   // wall clock, and the robot must be judged after simulated time. Gives up after 30 s.
@@ -193,11 +208,21 @@ TEST_F(X430Body, StandsWithTorqueOnAndTheFeetCarryItsWeight) {
   EXPECT_LT(supply_a, kXm430StallCurrentA) << supply_a;
 }
 
+// The handler pins the trunk and locks every joint. Over the 3 s in which a limp robot lies down
+// (CollapsesWithoutTorque) nothing moves: every servo keeps the position of the first instant, the
+// trunk stays level and the feet keep resting on the carpet with the load they settled at.
 TEST_F(X430Body, HeldUntilTheDriverEnablesTorque) {
-  wait_sim_time(1.0);
-  const Pose pose = read_pose();
-  EXPECT_LT(std::fabs(pose.pitch_deg), 5.0) << pose.pitch_deg;
-  EXPECT_LT(std::fabs(pose.roll_deg), 5.0) << pose.roll_deg;
+  const std::vector<int32_t> initial = read_positions();
+  wait_sim_time(0.5);  // the feet settle on the carpet within the first 0.1 s
+  const Pose settled = read_pose();
+  wait_sim_time(2.5);
+  const Pose held = read_pose();
+  const std::vector<int32_t> positions = read_positions();
+
+  for (std::size_t i = 0; i < positions.size(); ++i) {
+    EXPECT_NEAR(positions[i], initial[i], kHeldPositionUnits) << "servo " << i << " in kServos order";
+  }
+  expect_held_still(settled, held);
   // Torque off everywhere: the servos draw nothing (one ADC count is 0.049 A).
   EXPECT_NEAR(core_current_a(), 0.0, 0.049);
 }

@@ -1,8 +1,8 @@
 // The physics step does not allocate after setup (a real-time requirement): every malloc of the
 // process is counted while a standing robot is stepped, on both engines. ODE and Bullet allocate
 // through malloc, so replacing malloc/calloc/realloc here (forwarding to glibc) sees them all. Its
-// own executable, because it replaces malloc for the whole process; not under AddressSanitizer,
-// which owns malloc itself.
+// own executable, because it replaces malloc for the whole process; not under AddressSanitizer or
+// ThreadSanitizer, which own malloc themselves.
 
 #include <gtest/gtest.h>
 
@@ -19,7 +19,7 @@ std::atomic<long> g_allocations{0};
 [[gnu::noinline, maybe_unused]] void count_allocation() { g_allocations.fetch_add(1, std::memory_order_relaxed); }
 }  // namespace
 
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 constexpr bool kCountingMalloc = false;
 #else
 constexpr bool kCountingMalloc = true;
@@ -52,7 +52,7 @@ namespace {
 class AllocationTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
-  if (!kCountingMalloc) GTEST_SKIP() << "AddressSanitizer owns malloc";
+  if (!kCountingMalloc) GTEST_SKIP() << "the sanitizer owns malloc";
   WorldOptions options;  // with the ball
   auto world = test::make_world(GetParam(), {test::shipped_robot("fumanoid-2011"), test::shipped_robot("fumanoid-2011")},
                                 options);
@@ -74,7 +74,7 @@ TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
 }
 
 TEST(AllocationCounterTest, CountsAllocations) {
-  if (!kCountingMalloc) GTEST_SKIP() << "AddressSanitizer owns malloc";
+  if (!kCountingMalloc) GTEST_SKIP() << "the sanitizer owns malloc";
   g_allocations = 0;
   g_counting = true;
   void* volatile block = malloc(32);

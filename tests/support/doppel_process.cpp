@@ -100,7 +100,7 @@ int DoppelProcess::stop(int signal) {
 }
 
 std::string DoppelProcess::wait_for_output(const std::string& text) const {
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   std::string out = output();
   while (out.find(text) == std::string::npos && std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));

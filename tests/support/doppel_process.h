@@ -27,8 +27,8 @@ class DoppelProcess {
   int stop(int signal = 15);
   // Everything the process wrote to stdout and stderr so far.
   std::string output() const;
-  // Waits up to 10 s until the output contains `text` (e.g. doppel's "running until" line, printed
-  // once it serves every port); returns the output then.
+  // Waits up to 30 s (a sanitizer build starts slowly) until the output contains `text` (e.g.
+  // doppel's "running until" line, printed once it serves every port); returns the output then.
   std::string wait_for_output(const std::string& text) const;
   pid_t pid() const { return pid_; }
 

@@ -18,8 +18,8 @@
 #include "bus/pty_port.h"
 #include "bus/reply_schedule.h"
 #include "bus/spin_budget.h"
-#include "bus/spsc_queue.h"
 #include "bus/wire_timing.h"
+#include "concurrency/spsc_queue.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/packet_framer.h"
 
@@ -85,7 +85,7 @@ class BusServer {
   static constexpr int64_t kP2InterByteTimeoutNs = 1'500'000;    // Protocol 2.0 (reference §2.1)
   static constexpr int64_t kTickNs = 10'000'000;                 // DeviceSync::on_tick period
   static constexpr std::size_t kTraceCapacity = 1024;
-  using TraceQueue = SpscQueue<ReplyTrace, kTraceCapacity>;
+  using TraceQueue = concurrency::SpscQueue<ReplyTrace, kTraceCapacity>;
 
   // `port`, `devices` and `sync` (optional) must outlive the server; devices are added before run().
   // Throws std::invalid_argument for negative times or an adapter latency above 255 ms. Setup only.

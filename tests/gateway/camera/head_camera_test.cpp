@@ -12,6 +12,9 @@ namespace {
 
 TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
   DoppelProcess doppel({"--timing", "fast"}, "ttyDXL0", /*camera=*/true);
+  // Its first port's link appears before its cameras are published; "running until" comes after.
+  const std::string output = doppel.wait_for_output("running until");
+  EXPECT_NE(output.find("camera 'HEAD_CAMERA'"), std::string::npos) << output;
   auto [list_code, list] = run_command(std::string(DOPPEL_CAMERA_TOOL) + " list");
   ASSERT_EQ(list_code, 0) << list;
   EXPECT_NE(list.find("HEAD_CAMERA"), std::string::npos) << list;
@@ -24,8 +27,6 @@ TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
     pngs += entry.path().extension() == ".png" ? 1 : 0;
   }
   EXPECT_EQ(pngs, 2) << save;
-  std::string output = doppel.wait_for_output("running until");
-  EXPECT_NE(output.find("camera 'HEAD_CAMERA'"), std::string::npos) << output;
 }
 
 TEST(HeadCamera, NoCameraStreamsNothing) {

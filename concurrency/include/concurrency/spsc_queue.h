@@ -11,7 +11,7 @@
 #include <optional>
 #include <type_traits>
 
-namespace doppel::bus {
+namespace doppel::concurrency {
 
 // Size of the block two cores fight over; members written by different threads are kept this far
 // apart. A constant rather than std::hardware_destructive_interference_size, whose value g++ warns
@@ -81,4 +81,4 @@ class SpscQueue {
   alignas(kCacheLineBytes) std::array<T, N> slots_{};       // ring storage
 };
 
-}  // namespace doppel::bus
+}  // namespace doppel::concurrency

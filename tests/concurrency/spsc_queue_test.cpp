@@ -1,4 +1,4 @@
-#include "bus/spsc_queue.h"
+#include "concurrency/spsc_queue.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <thread>
 
-namespace doppel::bus {
+namespace doppel::concurrency {
 namespace {
 
 TEST(SpscQueue, PopsInPushOrder) {
@@ -125,4 +125,4 @@ TEST(SpscQueue, TwoThreadStressKeepsOrderAndIntegrity) {
 }
 
 }  // namespace
-}  // namespace doppel::bus
+}  // namespace doppel::concurrency

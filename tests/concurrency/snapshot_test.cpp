@@ -1,13 +1,16 @@
-#include "bus/snapshot.h"
+#include "concurrency/snapshot.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <set>
 #include <thread>
+#include <vector>
 
-namespace doppel::bus {
+namespace doppel::concurrency {
 namespace {
 
 TEST(Snapshot, ReaderSeesInitialValueUntilFirstPublish) {
@@ -38,6 +41,25 @@ TEST(Snapshot, InPlaceWriteThroughBack) {
   sut.publish();
 
   EXPECT_EQ(sut.latest(), (std::array<int, 3>{4, 5, 6}));
+}
+
+// A value that owns storage, filled in place: the three slots keep the storage the initial value
+// gave them, so handing such values over never reallocates.
+TEST(Snapshot, VectorsFilledInPlaceKeepTheirSlotsStorage) {
+  Snapshot<std::vector<int>> sut(std::vector<int>(8, 0));
+  std::set<const int*> storage;
+
+  for (int round = 1; round <= 10; ++round) {
+    std::vector<int>& back = sut.back();
+    storage.insert(back.data());
+    std::fill(back.begin(), back.end(), round);
+    sut.publish();
+    const std::vector<int>& seen = sut.latest();
+    storage.insert(seen.data());
+
+    EXPECT_EQ(seen, std::vector<int>(8, round));
+  }
+  EXPECT_EQ(storage.size(), 3u);
 }
 
 TEST(Snapshot, ReaderValueIsStableWhileWriterContinues) {
@@ -99,4 +121,4 @@ TEST(Snapshot, TwoThreadStressNeverTearsOrGoesBack) {
 }
 
 }  // namespace
-}  // namespace doppel::bus
+}  // namespace doppel::concurrency

@@ -2,25 +2,26 @@
 // The latest value of something, handed from one writer thread to one reader thread (a triple
 // buffer): the writer publishes whole values, the reader always gets the newest complete one and
 // skips older ones. Neither side ever blocks, waits or allocates. It is not a queue (values can be
-// skipped) and supports exactly one writer and one reader thread.
+// skipped) and supports exactly one writer and one reader thread. A value that owns storage (a
+// vector) is filled in place through back() and read in place through latest(): once every slot
+// has its capacity (the constructor's `initial`), handing it over allocates nothing.
 
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <type_traits>
 
-#include "bus/spsc_queue.h"
+#include "concurrency/spsc_queue.h"
 
-namespace doppel::bus {
+namespace doppel::concurrency {
 
 template <class T>
 class Snapshot {
-  static_assert(std::is_nothrow_copy_assignable_v<T>, "publish copies without throwing");
-
  public:
   Snapshot() noexcept(std::is_nothrow_default_constructible_v<T>) = default;
-  // Every slot starts as `initial`, so the reader sees it until the first publish.
-  explicit Snapshot(const T& initial) noexcept {
+  // Every slot starts as `initial`, so the reader sees it until the first publish. Setup: may
+  // throw when copying T does (a vector that allocates).
+  explicit Snapshot(const T& initial) noexcept(std::is_nothrow_copy_assignable_v<T>) {
     for (auto& slot : slots_) slot.value = initial;
   }
 
@@ -35,6 +36,7 @@ class Snapshot {
 
   // Writer thread only. Copies `value` into back() and publishes it. rt-safe, wait-free.
   void publish(const T& value) noexcept {
+    static_assert(std::is_nothrow_copy_assignable_v<T>, "publish copies without throwing");
     back() = value;
     publish();
   }
@@ -57,6 +59,7 @@ class Snapshot {
   // Reader thread only. Copies the newest value into `out`; true when it is newer than the one
   // returned before. rt-safe.
   bool read(T& out) noexcept {
+    static_assert(std::is_nothrow_copy_assignable_v<T>, "read copies without throwing");
     const bool fresh = update();
     out = slots_[front_].value;
     return fresh;
@@ -76,4 +79,4 @@ class Snapshot {
   alignas(kCacheLineBytes) uint8_t front_ = 0;               // reader's slot
 };
 
-}  // namespace doppel::bus
+}  // namespace doppel::concurrency
