@@ -5,6 +5,7 @@
 // It is not a servo or a sensor: Protocol1Servo and the FUmanoid boards derive from it and add
 // their value rules and the link to the simulation. Every behaviour choice is listed in docs/devices.md.
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -22,6 +23,21 @@ struct DeviceCounters {
   uint64_t handled = 0;         // packets addressed to this device (own ID, broadcast, or listed in it)
   uint64_t bad_checksums = 0;   // of those, with a wrong checksum (not executed)
   uint64_t errors = 0;          // of those, answered or dropped with an instruction/range/angle error
+};
+
+// A REG WRITE held until ACTION (either protocol): bytes already validated for one address range.
+struct HeldWrite {
+  bool held = false;                                  // a REG WRITE waits for ACTION
+  uint16_t address = 0;                               // address of the first byte
+  uint16_t size = 0;                                  // bytes held
+  std::array<uint8_t, kMaxInstructionParams> data{};  // the bytes, data[0] for `address`
+
+  void hold(uint16_t start, const uint8_t* bytes, std::size_t n) noexcept {
+    held = true;
+    address = start;
+    size = static_cast<uint16_t>(n);
+    std::copy_n(bytes, n, data.begin());
+  }
 };
 
 class Protocol1Device : public Device {
@@ -74,20 +90,15 @@ class Protocol1Device : public Device {
   void load_defaults(bool ram_only = false) noexcept;
 
  private:
+  class Registers;  // this device as the register file of the Protocol 1.0 front end
+
   // Validates and (if `commit`) applies a write of n bytes at start. Returns error bits.
   uint8_t write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept;
-  bool answers(uint8_t instruction) const noexcept;
-  void reply(uint8_t reply_id, uint8_t error, const uint8_t* data, std::size_t n, Response& response) noexcept;
-  void handle_bulk_read(const InstructionPacket& packet, Response& response) noexcept;
-  void handle_sync_write(const InstructionPacket& packet) noexcept;
 
   const ModelSpec& spec_;
   Table table_{};
   Table owner_{};  // index + 1 into spec_.registers of the register covering each byte; 0 = none
-  bool has_pending_ = false;             // a REG_WRITE waits for ACTION
-  uint8_t pending_address_ = 0;
-  uint8_t pending_size_ = 0;
-  std::array<uint8_t, 253> pending_data_{};
+  HeldWrite held_write_{};
   DeviceCounters counters_{};
 };
 
