@@ -1,7 +1,8 @@
 #pragma once
 // The Protocol 1.0 firmware core shared by every Doppel device model: a control table laid out by a
-// ModelSpec, and the instruction set (PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC WRITE,
-// BULK READ) with broadcast, Status Return Level, Lock and error-bit rules (reference §1).
+// ModelSpec with its Lock and range rules, served by the Protocol 1.0 front end that X servos in
+// Protocol Type 1 share (PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC WRITE, BULK READ with
+// broadcast, Status Return Level and error-bit rules, reference §1).
 // It is not a servo or a sensor: Protocol1Servo and the FUmanoid boards derive from it and add
 // their value rules and the link to the simulation. Every behaviour choice is listed in docs/devices.md.
 
@@ -20,7 +21,8 @@ namespace doppel::dynamixel {
 
 // Per-device diagnostics (plain integers, written only by the bus thread).
 struct DeviceCounters {
-  uint64_t handled = 0;         // packets addressed to this device (own ID, broadcast, or listed in it)
+  // packets addressed to this device: own ID or broadcast; a SYNC / BULK instruction only where it lists the device
+  uint64_t handled = 0;
   uint64_t bad_checksums = 0;   // of those, with a wrong checksum (not executed)
   uint64_t errors = 0;          // of those, answered or dropped with an instruction/range/angle error
 };
