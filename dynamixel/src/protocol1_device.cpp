@@ -91,7 +91,7 @@ void Protocol1Device::load_defaults(bool ram_only) noexcept {
 
 uint8_t Protocol1Device::check_write(const Table&, uint8_t, std::size_t) const noexcept { return 0; }
 
-uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept {
+uint8_t Protocol1Device::write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept {
   if (n == 0) {
     return p1_error::kInstruction;
   }
@@ -127,7 +127,7 @@ uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n
       return p1_error::kRange;
     }
   }
-  const uint8_t error = check_write(candidate, start, n);
+  const uint8_t error = check_write(candidate, static_cast<uint8_t>(start), n);
   if (error != 0 || !commit) {
     return error;
   }
@@ -137,39 +137,22 @@ uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n
   return 0;
 }
 
-// The control table as the Protocol 1.0 front end sees it.
-class Protocol1Device::Registers final : public detail::Protocol1RegisterFile {
- public:
-  explicit Registers(Protocol1Device& device) noexcept : device_(device) {}
+bool Protocol1Device::answers(uint8_t instruction_code) const noexcept {
+  const bool reads = instruction_code == instruction::kRead || instruction_code == instruction::kBulkRead;
+  return detail::status_returned(table_[p1::kStatusReturnLevel], instruction_code, reads);
+}
 
-  uint8_t id() const noexcept override { return device_.id(); }
-  bool answers(uint8_t instruction_code) const noexcept override {
-    const bool reads = instruction_code == instruction::kRead || instruction_code == instruction::kBulkRead;
-    return detail::status_returned(device_.table_[p1::kStatusReturnLevel], instruction_code, reads);
-  }
-  bool has_bulk_read() const noexcept override { return device_.spec_.bulk_read; }
-  const uint8_t* read(uint8_t start, uint8_t length) noexcept override {
-    return start + length <= device_.spec_.table_bytes ? &device_.table_[start] : nullptr;
-  }
-  uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept override {
-    return device_.write(static_cast<uint8_t>(start), data, n, commit);
-  }
-  HeldWrite& held_write() noexcept override { return device_.held_write_; }
-  void set_registered(bool registered) noexcept override { device_.table_[p1::kRegistered] = registered ? 1 : 0; }
-  void factory_reset() noexcept override {
-    device_.load_defaults();
-    device_.after_factory_reset();
-  }
-  uint8_t condition_bits() const noexcept override { return device_.condition_bits(); }
-  DeviceCounters& counters() noexcept override { return device_.counters_; }
+const uint8_t* Protocol1Device::read(uint8_t start, uint8_t length) noexcept {
+  return start + length <= spec_.table_bytes ? &table_[start] : nullptr;
+}
 
- private:
-  Protocol1Device& device_;
-};
+void Protocol1Device::factory_reset() noexcept {
+  load_defaults();
+  after_factory_reset();
+}
 
 void Protocol1Device::handle(const InstructionPacket& packet, Response& response) noexcept {
-  Registers registers{*this};
-  detail::handle_protocol1(registers, packet, response);
+  detail::handle_protocol1(*this, counters_, packet, response);
 }
 
 }  // namespace doppel::dynamixel

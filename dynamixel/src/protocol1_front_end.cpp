@@ -37,7 +37,7 @@ uint8_t write_within_reach(Protocol1RegisterFile& device, uint8_t start, const u
 
 // SYNC WRITE params are [start, length, then (ID, length data bytes) per device]; in a malformed
 // list no device finds its block.
-void handle_sync_write(Protocol1RegisterFile& device, const InstructionPacket& packet) noexcept {
+void handle_sync_write(Protocol1RegisterFile& device, DeviceCounters& counters, const InstructionPacket& packet) noexcept {
   const std::size_t n = packet.param_count;
   const std::size_t length = n < 2 ? 0 : packet.params[1];
   if (length == 0 || (n - 2) % (length + 1) != 0) {
@@ -45,7 +45,6 @@ void handle_sync_write(Protocol1RegisterFile& device, const InstructionPacket& p
   }
   for (std::size_t block = 2; block < n; block += length + 1) {
     if (packet.params[block] == device.id()) {
-      DeviceCounters& counters = device.counters();
       ++counters.handled;
       device.on_communication();
       if (write_within_reach(device, packet.params[0], &packet.params[block + 1], length, true) != 0) {
@@ -58,7 +57,8 @@ void handle_sync_write(Protocol1RegisterFile& device, const InstructionPacket& p
 
 // BULK READ params are [0x00, then (length, ID, address) per device]. The devices listed before
 // this one answer first; only an ID's first block counts, so a repeated ID takes no place in the chain.
-void handle_bulk_read(Protocol1RegisterFile& device, const InstructionPacket& packet, Response& response) noexcept {
+void handle_bulk_read(Protocol1RegisterFile& device, DeviceCounters& counters, const InstructionPacket& packet,
+                      Response& response) noexcept {
   const std::size_t n = packet.param_count;
   if (n < 1 || (n - 1) % 3 != 0) {
     return;
@@ -78,7 +78,6 @@ void handle_bulk_read(Protocol1RegisterFile& device, const InstructionPacket& pa
   if (block >= n) {
     return;
   }
-  DeviceCounters& counters = device.counters();
   ++counters.handled;
   device.on_communication();
   if (!device.answers(instruction::kBulkRead)) {
@@ -96,7 +95,8 @@ void handle_bulk_read(Protocol1RegisterFile& device, const InstructionPacket& pa
 
 }  // namespace
 
-void handle_protocol1(Protocol1RegisterFile& device, const InstructionPacket& packet, Response& response) noexcept {
+void handle_protocol1(Protocol1RegisterFile& device, DeviceCounters& counters, const InstructionPacket& packet,
+                      Response& response) noexcept {
   response.transmits = false;
   if (packet.protocol != Protocol::kV1) {
     return;
@@ -107,7 +107,6 @@ void handle_protocol1(Protocol1RegisterFile& device, const InstructionPacket& pa
   if (!broadcast && !mine) {
     return;  // an X servo's Secondary ID is a Protocol 2.0 feature (assumption)
   }
-  DeviceCounters& counters = device.counters();
   if (!packet.checksum_ok) {
     // Not executed. A unicast packet is answered with the Checksum bit (as its instruction's SRL
     // allows), except PING, which the RX-64 manual says is not answered.
@@ -119,11 +118,11 @@ void handle_protocol1(Protocol1RegisterFile& device, const InstructionPacket& pa
     return;
   }
   if (broadcast && packet.instruction == instruction::kBulkRead && device.has_bulk_read()) {
-    handle_bulk_read(device, packet, response);
+    handle_bulk_read(device, counters, packet, response);
     return;
   }
   if (broadcast && packet.instruction == instruction::kSyncWrite) {
-    handle_sync_write(device, packet);
+    handle_sync_write(device, counters, packet);
     return;
   }
   ++counters.handled;

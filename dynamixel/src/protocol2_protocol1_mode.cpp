@@ -32,7 +32,7 @@ bool covers_goal_position(std::size_t start, std::size_t n) noexcept {
 
 }  // namespace
 
-class Protocol2Device::Protocol1Registers final : public detail::Protocol1RegisterFile {
+class Protocol2Device::Protocol1Registers final : public Protocol1RegisterFile {
  public:
   explicit Protocol1Registers(Protocol2Device& device) noexcept : device_(device) {}
 
@@ -57,10 +57,10 @@ class Protocol2Device::Protocol1Registers final : public detail::Protocol1Regist
   // Hardware Error Status bits 0 (input voltage), 2 (overheating) and 5 (overload) sit where the P1
   // error byte has the same conditions (§1.4, §3.7); the encoder and shock bits have no P1 place.
   uint8_t condition_bits() const noexcept override {
-    return device_.hardware_error() & (x430::kInputVoltageError | x430::kOverheatingError | x430::kOverloadError);
+    constexpr uint8_t kSharedBits = x430::kInputVoltageError | x430::kOverheatingError | x430::kOverloadError;
+    return static_cast<uint8_t>(device_.hardware_error() & kSharedBits);
   }
   void on_communication() noexcept override { device_.on_communication(); }
-  DeviceCounters& counters() noexcept override { return device_.counters_; }
 
  private:
   Protocol2Device& device_;
@@ -68,7 +68,7 @@ class Protocol2Device::Protocol1Registers final : public detail::Protocol1Regist
 
 void Protocol2Device::handle_protocol1(const InstructionPacket& packet, Response& response) noexcept {
   Protocol1Registers registers{*this};
-  detail::handle_protocol1(registers, packet, response);
+  detail::handle_protocol1(registers, counters_, packet, response);
 }
 
 }  // namespace doppel::dynamixel

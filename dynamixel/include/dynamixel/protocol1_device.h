@@ -42,7 +42,36 @@ struct HeldWrite {
   }
 };
 
-class Protocol1Device : public Device {
+// What the Protocol 1.0 front end needs from the device whose control table it serves: a
+// Protocol1Device is one, an X servo in Protocol Type 1 lends it its table. Error results are P1
+// error bits (p1_error); every call is rt-safe.
+class Protocol1RegisterFile {
+ public:
+  virtual uint8_t id() const noexcept = 0;
+  // The Status Return Level lets a status go back for `instruction`.
+  virtual bool answers(uint8_t instruction) const noexcept = 0;
+  // The firmware knows BULK READ (0x92).
+  virtual bool has_bulk_read() const noexcept = 0;
+  // The `length` bytes at `start` as the host reads them; nullptr when not all of them exist.
+  virtual const uint8_t* read(uint8_t start, uint8_t length) noexcept = 0;
+  // Validates n bytes at `start` as one write (all or nothing) and with `commit` applies them.
+  // `start` is above 255 only for a REG WRITE held from Protocol 2.0.
+  virtual uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept = 0;
+  // The REG WRITE store, and the Registered register that shows whether it holds one.
+  virtual HeldWrite& held_write() noexcept = 0;
+  virtual void set_registered(bool registered) noexcept = 0;
+  // RESET: every register to its factory default, then the device reboots.
+  virtual void factory_reset() noexcept = 0;
+  // Overload, overheating and input voltage bits every status carries besides the instruction's own.
+  virtual uint8_t condition_bits() const noexcept = 0;
+  // Called for every executed packet that concerns the device (the Bus Watchdog of an X servo).
+  virtual void on_communication() noexcept {}
+
+ protected:
+  ~Protocol1RegisterFile() = default;
+};
+
+class Protocol1Device : public Device, private Protocol1RegisterFile {
  public:
   using Table = std::array<uint8_t, 256>;  // one byte per P1 address; undefined bytes stay 0
 
@@ -74,7 +103,7 @@ class Protocol1Device : public Device {
 
   // Condition bits (overload, overheating, input voltage) every status reports besides the
   // instruction's own errors.
-  virtual uint8_t condition_bits() const noexcept { return 0; }
+  uint8_t condition_bits() const noexcept override { return 0; }
   // Model-specific checks of a write, run on `candidate` (the table as it would be after writing
   // [start, start + n)). Returns error bits; non-zero rejects the whole write.
   virtual uint8_t check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept;
@@ -92,10 +121,14 @@ class Protocol1Device : public Device {
   void load_defaults(bool ram_only = false) noexcept;
 
  private:
-  class Registers;  // this device as the register file of the Protocol 1.0 front end
-
-  // Validates and (if `commit`) applies a write of n bytes at start. Returns error bits.
-  uint8_t write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept;
+  // The register file of the Protocol 1.0 front end (Protocol1RegisterFile).
+  bool answers(uint8_t instruction) const noexcept override;
+  bool has_bulk_read() const noexcept override { return spec_.bulk_read; }
+  const uint8_t* read(uint8_t start, uint8_t length) noexcept override;
+  uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept override;
+  HeldWrite& held_write() noexcept override { return held_write_; }
+  void set_registered(bool registered) noexcept override { table_[p1::kRegistered] = registered ? 1 : 0; }
+  void factory_reset() noexcept override;
 
   const ModelSpec& spec_;
   Table table_{};

@@ -7,8 +7,9 @@
 // Protocol Type (13) = 1 switches the firmware to Protocol 1.0: it then answers Protocol 1.0
 // packets (the instruction set of §1.2, one-byte addresses 0..255, the P1 error bits of §1.4) on
 // the same control table through the front end Protocol1Device uses, and ignores Protocol 2.0
-// packets, until 13 = 2 is written over P1 or a FACTORY RESET restores the default. The status of the write that switches goes out in the old
-// protocol. FAST reads and CONTROL TABLE BACKUP exist only where the model's firmware has them.
+// packets, until 13 = 2 is written over P1 or a FACTORY RESET restores the default. The status of
+// the write that switches goes out in the old protocol. FAST reads and CONTROL TABLE BACKUP exist
+// only where the model's firmware has them.
 // It is not a servo: Protocol2Servo adds the value rules that depend on the operating mode and the
 // link to the simulation. Every behaviour choice is listed in docs/devices.md (Protocol 2.0 part).
 
