@@ -5,7 +5,7 @@
 
 #include "dynamixel/protocol1.h"
 
-#include "protocol1_lists.h"
+#include "protocol1_front_end.h"
 
 namespace doppel::dynamixel {
 
@@ -86,12 +86,12 @@ void Protocol1Device::load_defaults(bool ram_only) noexcept {
       table_[r.address + 1] = static_cast<uint8_t>(raw >> 8);
     }
   }
-  has_pending_ = false;
+  held_write_.held = false;
 }
 
 uint8_t Protocol1Device::check_write(const Table&, uint8_t, std::size_t) const noexcept { return 0; }
 
-uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept {
+uint8_t Protocol1Device::write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept {
   if (n == 0) {
     return p1_error::kInstruction;
   }
@@ -127,7 +127,7 @@ uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n
       return p1_error::kRange;
     }
   }
-  const uint8_t error = check_write(candidate, start, n);
+  const uint8_t error = check_write(candidate, static_cast<uint8_t>(start), n);
   if (error != 0 || !commit) {
     return error;
   }
@@ -138,162 +138,21 @@ uint8_t Protocol1Device::write(uint8_t start, const uint8_t* data, std::size_t n
 }
 
 bool Protocol1Device::answers(uint8_t instruction_code) const noexcept {
-  const uint8_t level = table_[p1::kStatusReturnLevel];
-  switch (instruction_code) {
-    case instruction::kPing:
-      return true;
-    case instruction::kRead:
-    case instruction::kBulkRead:
-      return level >= 1;
-    default:
-      return level >= 2;
-  }
+  const bool reads = instruction_code == instruction::kRead || instruction_code == instruction::kBulkRead;
+  return detail::status_returned(table_[p1::kStatusReturnLevel], instruction_code, reads);
 }
 
-void Protocol1Device::reply(uint8_t reply_id, uint8_t error, const uint8_t* data, std::size_t n,
-                            Response& response) noexcept {
-  const uint8_t err = static_cast<uint8_t>((error | condition_bits()) & 0x7F);
-  response.transmits = encode_protocol1_status(reply_id, err, data, n, response.status);
-  response.timing = ReplyTiming::kAfterInstruction;
-  response.chain_position = 0;
+const uint8_t* Protocol1Device::read(uint8_t start, uint8_t length) noexcept {
+  return start + length <= spec_.table_bytes ? &table_[start] : nullptr;
+}
+
+void Protocol1Device::factory_reset() noexcept {
+  load_defaults();
+  after_factory_reset();
 }
 
 void Protocol1Device::handle(const InstructionPacket& packet, Response& response) noexcept {
-  response.transmits = false;
-  if (packet.protocol != Protocol::kV1) {
-    return;
-  }
-  const uint8_t own_id = id();
-  const bool broadcast = packet.id == kBroadcastId;
-  const bool mine = packet.id == own_id;
-  if (!broadcast && !mine) {
-    return;
-  }
-  if (!packet.checksum_ok) {
-    // Not executed. A unicast packet is answered with the Checksum bit (as its instruction's SRL
-    // allows), except PING, which the RX-64 manual says is not answered.
-    ++counters_.handled;
-    ++counters_.bad_checksums;
-    if (mine && packet.instruction != instruction::kPing && answers(packet.instruction)) {
-      reply(own_id, p1_error::kChecksum, nullptr, 0, response);
-    }
-    return;
-  }
-  if (packet.instruction == instruction::kBulkRead && spec_.bulk_read && broadcast) {
-    handle_bulk_read(packet, response);
-    return;
-  }
-  ++counters_.handled;
-  const uint8_t* params = packet.params.data();
-  const std::size_t n = packet.param_count;
-  // Answer policy is decided on arrival (SRL before this packet changes it), sender ID is the old one.
-  const bool answer = mine && answers(packet.instruction);
-  uint8_t error = 0;
-  switch (packet.instruction) {
-    case instruction::kPing:
-      reply(own_id, 0, nullptr, 0, response);  // broadcast too: several devices collide (§1.3)
-      return;
-    case instruction::kRead: {
-      if (broadcast) {
-        return;
-      }
-      if (n != 2) {
-        error = p1_error::kInstruction;
-      } else if (params[1] == 0 || params[0] + params[1] > spec_.table_bytes) {
-        error = p1_error::kRange;
-      }
-      if (error != 0) {
-        ++counters_.errors;
-      }
-      if (answer) {
-        reply(own_id, error, error == 0 ? &table_[params[0]] : nullptr, error == 0 ? params[1] : 0, response);
-      }
-      return;
-    }
-    case instruction::kWrite:
-      error = n < 2 ? p1_error::kInstruction : write(params[0], params + 1, n - 1, true);
-      break;
-    case instruction::kRegWrite:
-      error = n < 2 ? p1_error::kInstruction : write(params[0], params + 1, n - 1, false);
-      if (error == 0) {
-        has_pending_ = true;
-        pending_address_ = params[0];
-        pending_size_ = static_cast<uint8_t>(n - 1);
-        for (std::size_t i = 0; i + 1 < n; ++i) {
-          pending_data_[i] = params[1 + i];
-        }
-        table_[p1::kRegistered] = 1;
-      }
-      break;
-    case instruction::kAction:
-      if (!has_pending_) {
-        error = p1_error::kInstruction;
-      } else {
-        error = write(pending_address_, pending_data_.data(), pending_size_, true);
-        has_pending_ = false;
-        table_[p1::kRegistered] = 0;
-      }
-      break;
-    case instruction::kFactoryReset:
-      // The status goes out with the old ID; then the device reboots with factory defaults.
-      if (answer) {
-        reply(own_id, 0, nullptr, 0, response);
-      }
-      load_defaults();
-      after_factory_reset();
-      return;
-    case instruction::kSyncWrite:
-      if (broadcast) {
-        handle_sync_write(packet);
-        return;
-      }
-      error = p1_error::kInstruction;  // SYNC WRITE is only defined for the broadcast ID
-      break;
-    default:
-      // Unknown to this firmware (for AX/RX that includes BULK READ): silent when broadcast.
-      error = p1_error::kInstruction;
-      break;
-  }
-  if (error != 0) {
-    ++counters_.errors;
-  }
-  if (answer) {
-    reply(own_id, error, nullptr, 0, response);
-  }
-}
-
-void Protocol1Device::handle_sync_write(const InstructionPacket& packet) noexcept {
-  const uint8_t* data = detail::p1_sync_write_data(packet, id());
-  if (data == nullptr) {
-    return;
-  }
-  ++counters_.handled;
-  if (write(packet.params[0], data, packet.params[1], true) != 0) {
-    ++counters_.errors;
-  }
-}
-
-void Protocol1Device::handle_bulk_read(const InstructionPacket& packet, Response& response) noexcept {
-  const uint8_t own_id = id();
-  uint16_t position = 0;
-  const uint8_t* block = detail::p1_bulk_read_block(packet, own_id, position);
-  if (block == nullptr) {
-    return;
-  }
-  ++counters_.handled;
-  if (!answers(instruction::kBulkRead)) {
-    return;
-  }
-  const uint8_t length = block[0];
-  const uint8_t start = block[2];
-  const bool in_range = length != 0 && start + length <= spec_.table_bytes;
-  if (!in_range) {
-    ++counters_.errors;
-  }
-  reply(own_id, in_range ? 0 : p1_error::kRange, in_range ? &table_[start] : nullptr, in_range ? length : 0,
-        response);
-  response.timing = position == 0 ? ReplyTiming::kAfterInstruction : ReplyTiming::kAfterPrevious;
-  response.chain_position = position;
+  detail::handle_protocol1(*this, counters_, packet, response);
 }
 
 }  // namespace doppel::dynamixel

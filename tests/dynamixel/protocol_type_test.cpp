@@ -11,6 +11,7 @@
 
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/packet_framer.h"
+#include "dynamixel/protocol1_servo.h"
 #include "dynamixel/protocol2_servo.h"
 #include "test_support.h"
 
@@ -138,6 +139,72 @@ TEST_F(XmInProtocol1, OnlyTheProtocol1InstructionSet) {
   EXPECT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x82, 0x84, 0x04, 0xF0}), kP1Instruction);
   // ACTION with nothing registered.
   EXPECT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x02, 0x05, 0xF7}), kP1Instruction);
+  // SYNC WRITE to ID 1 instead of the broadcast ID: Instruction bit, LED (65) unchanged.
+  EXPECT_EQ(testing::transact(sut, testing::make_packet(1, instruction::kSyncWrite, {0x41, 0x01, 0x01, 0x01})),
+            kP1Instruction);
+  EXPECT_EQ(sut.register_value(x430::kLed), 0);
+}
+
+TEST_F(XmInProtocol1, StatusReturnLevelOfTheXTable) {
+  // WRITE Status Return Level (68) := 1: answered under the old level 2.
+  EXPECT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x03, 0x44, 0x01, 0xB2}), kP1Ok);
+  // WRITE LED (65) := 1: executed without a status; READ 65, 1 is answered.
+  EXPECT_TRUE(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x03, 0x41, 0x01, 0xB5}).empty());
+  EXPECT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x02, 0x41, 0x01, 0xB6}),
+            (Bytes{0xFF, 0xFF, 0x01, 0x03, 0x00, 0x01, 0xFA}));
+  // Level 0: only PING is answered.
+  EXPECT_TRUE(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x03, 0x44, 0x00, 0xB3}).empty());
+  EXPECT_TRUE(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x02, 0x41, 0x01, 0xB6}).empty());
+  EXPECT_EQ(transact(sut, kP1Ping), kP1Ok);
+}
+
+TEST_F(XmInProtocol1, Protocol1PacketsFeedTheBusWatchdog) {
+  ServoFeedback f;
+  f.voltage_v = 12.0;
+  f.sim_time_ns = 1'000'000'000;
+  sut.apply(f);
+  // WRITE Bus Watchdog (98) := 5 (100 ms), Torque Enable (64) := 1.
+  ASSERT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x03, 0x62, 0x05, 0x90}), kP1Ok);
+  ASSERT_EQ(transact(sut, {0xFF, 0xFF, 0x01, 0x04, 0x03, 0x40, 0x01, 0xB6}), kP1Ok);
+  f.sim_time_ns += 90'000'000;
+  sut.apply(f);
+  ASSERT_EQ(transact(sut, kP1Ping), kP1Ok);
+  f.sim_time_ns += 90'000'000;  // 180 ms after the WRITEs, 90 ms after the PING
+  sut.apply(f);
+  EXPECT_FALSE(sut.watchdog_tripped());
+  f.sim_time_ns += 20'000'000;
+  sut.apply(f);
+  EXPECT_TRUE(sut.watchdog_tripped());
+}
+
+// DeviceCounters are counted by the Protocol 1.0 front end alike for both kinds of device: a
+// broadcast SYNC WRITE counts once where it lists the device, a bad checksum and a refused READ
+// count as such.
+template <class Servo>
+void expect_protocol1_counters(Servo& sut, uint8_t led_address) {
+  const DeviceCounters before = sut.counters();
+  testing::transact(sut, testing::make_packet(kBroadcastId, instruction::kSyncWrite, {led_address, 1, 2, 1}));
+  EXPECT_EQ(sut.counters().handled, before.handled);  // lists only ID 2
+  testing::transact(sut, testing::make_packet(kBroadcastId, instruction::kSyncWrite, {led_address, 1, 1, 1}));
+  EXPECT_EQ(sut.counters().handled, before.handled + 1);
+  EXPECT_EQ(sut.counters().errors, before.errors);
+  InstructionPacket bad = testing::make_packet(1, instruction::kPing);
+  bad.checksum_ok = false;
+  testing::transact(sut, bad);
+  EXPECT_EQ(sut.counters().bad_checksums, before.bad_checksums + 1);
+  testing::transact(sut, testing::make_packet(1, instruction::kRead, {0, 0}));  // zero bytes: Range bit
+  EXPECT_EQ(sut.counters().handled, before.handled + 3);
+  EXPECT_EQ(sut.counters().errors, before.errors + 1);
+}
+
+TEST(ProtocolType, Protocol1CountersAlikeForBothKindsOfDevice) {
+  Protocol1Servo rx64{model_spec("RX-64"), 1, 1, 250};
+  expect_protocol1_counters(rx64, p1::kLed);
+  EXPECT_EQ(rx64.register_raw(p1::kLed), 1);
+  Protocol2Servo xm{p2_model_spec("XM430-W350"), 1, 3, 0};
+  ASSERT_EQ(transact(xm, kP2SwitchToP1), kP2Ok);
+  expect_protocol1_counters(xm, static_cast<uint8_t>(x430::kLed));
+  EXPECT_EQ(xm.register_value(x430::kLed), 1);
 }
 
 TEST_F(XmInProtocol1, RegWriteAndAction) {

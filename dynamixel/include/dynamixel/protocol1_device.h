@@ -1,10 +1,12 @@
 #pragma once
 // The Protocol 1.0 firmware core shared by every Doppel device model: a control table laid out by a
-// ModelSpec, and the instruction set (PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC WRITE,
-// BULK READ) with broadcast, Status Return Level, Lock and error-bit rules (reference §1).
+// ModelSpec with its Lock and range rules, served by the Protocol 1.0 front end that X servos in
+// Protocol Type 1 share (PING, READ, WRITE, REG_WRITE, ACTION, RESET, SYNC WRITE, BULK READ with
+// broadcast, Status Return Level and error-bit rules, reference §1).
 // It is not a servo or a sensor: Protocol1Servo and the FUmanoid boards derive from it and add
 // their value rules and the link to the simulation. Every behaviour choice is listed in docs/devices.md.
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -19,12 +21,57 @@ namespace doppel::dynamixel {
 
 // Per-device diagnostics (plain integers, written only by the bus thread).
 struct DeviceCounters {
-  uint64_t handled = 0;         // packets addressed to this device (own ID, broadcast, or listed in it)
+  // packets addressed to this device: own ID or broadcast; a SYNC / BULK instruction only where it lists the device
+  uint64_t handled = 0;
   uint64_t bad_checksums = 0;   // of those, with a wrong checksum (not executed)
   uint64_t errors = 0;          // of those, answered or dropped with an instruction/range/angle error
 };
 
-class Protocol1Device : public Device {
+// A REG WRITE held until ACTION (either protocol): bytes already validated for one address range.
+struct HeldWrite {
+  bool held = false;                                  // a REG WRITE waits for ACTION
+  uint16_t address = 0;                               // address of the first byte
+  uint16_t size = 0;                                  // bytes held
+  std::array<uint8_t, kMaxInstructionParams> data{};  // the bytes, data[0] for `address`
+
+  void hold(uint16_t start, const uint8_t* bytes, std::size_t n) noexcept {
+    held = true;
+    address = start;
+    size = static_cast<uint16_t>(n);
+    std::copy_n(bytes, n, data.begin());
+  }
+};
+
+// What the Protocol 1.0 front end needs from the device whose control table it serves: a
+// Protocol1Device is one, an X servo in Protocol Type 1 lends it its table. Error results are P1
+// error bits (p1_error); every call is rt-safe.
+class Protocol1RegisterFile {
+ public:
+  virtual uint8_t id() const noexcept = 0;
+  // The Status Return Level lets a status go back for `instruction`.
+  virtual bool answers(uint8_t instruction) const noexcept = 0;
+  // The firmware knows BULK READ (0x92).
+  virtual bool has_bulk_read() const noexcept = 0;
+  // The `length` bytes at `start` as the host reads them; nullptr when not all of them exist.
+  virtual const uint8_t* read(uint8_t start, uint8_t length) noexcept = 0;
+  // Validates n bytes at `start` as one write (all or nothing) and with `commit` applies them.
+  // `start` is above 255 only for a REG WRITE held from Protocol 2.0.
+  virtual uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept = 0;
+  // The REG WRITE store, and the Registered register that shows whether it holds one.
+  virtual HeldWrite& held_write() noexcept = 0;
+  virtual void set_registered(bool registered) noexcept = 0;
+  // RESET: every register to its factory default, then the device reboots.
+  virtual void factory_reset() noexcept = 0;
+  // Overload, overheating and input voltage bits every status carries besides the instruction's own.
+  virtual uint8_t condition_bits() const noexcept = 0;
+  // Called for every executed packet that concerns the device (the Bus Watchdog of an X servo).
+  virtual void on_communication() noexcept {}
+
+ protected:
+  ~Protocol1RegisterFile() = default;
+};
+
+class Protocol1Device : public Device, private Protocol1RegisterFile {
  public:
   using Table = std::array<uint8_t, 256>;  // one byte per P1 address; undefined bytes stay 0
 
@@ -56,7 +103,7 @@ class Protocol1Device : public Device {
 
   // Condition bits (overload, overheating, input voltage) every status reports besides the
   // instruction's own errors.
-  virtual uint8_t condition_bits() const noexcept { return 0; }
+  uint8_t condition_bits() const noexcept override { return 0; }
   // Model-specific checks of a write, run on `candidate` (the table as it would be after writing
   // [start, start + n)). Returns error bits; non-zero rejects the whole write.
   virtual uint8_t check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept;
@@ -74,20 +121,19 @@ class Protocol1Device : public Device {
   void load_defaults(bool ram_only = false) noexcept;
 
  private:
-  // Validates and (if `commit`) applies a write of n bytes at start. Returns error bits.
-  uint8_t write(uint8_t start, const uint8_t* data, std::size_t n, bool commit) noexcept;
-  bool answers(uint8_t instruction) const noexcept;
-  void reply(uint8_t reply_id, uint8_t error, const uint8_t* data, std::size_t n, Response& response) noexcept;
-  void handle_bulk_read(const InstructionPacket& packet, Response& response) noexcept;
-  void handle_sync_write(const InstructionPacket& packet) noexcept;
+  // The register file of the Protocol 1.0 front end (Protocol1RegisterFile).
+  bool answers(uint8_t instruction) const noexcept override;
+  bool has_bulk_read() const noexcept override { return spec_.bulk_read; }
+  const uint8_t* read(uint8_t start, uint8_t length) noexcept override;
+  uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept override;
+  HeldWrite& held_write() noexcept override { return held_write_; }
+  void set_registered(bool registered) noexcept override { table_[p1::kRegistered] = registered ? 1 : 0; }
+  void factory_reset() noexcept override;
 
   const ModelSpec& spec_;
   Table table_{};
   Table owner_{};  // index + 1 into spec_.registers of the register covering each byte; 0 = none
-  bool has_pending_ = false;             // a REG_WRITE waits for ACTION
-  uint8_t pending_address_ = 0;
-  uint8_t pending_size_ = 0;
-  std::array<uint8_t, 253> pending_data_{};
+  HeldWrite held_write_{};
   DeviceCounters counters_{};
 };
 

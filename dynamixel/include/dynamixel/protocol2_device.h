@@ -6,9 +6,10 @@
 // Secondary ID, Status Return Level, error numbers 1..7 and the Alert bit (§2.5, §3.7).
 // Protocol Type (13) = 1 switches the firmware to Protocol 1.0: it then answers Protocol 1.0
 // packets (the instruction set of §1.2, one-byte addresses 0..255, the P1 error bits of §1.4) on
-// the same control table and ignores Protocol 2.0 packets, until 13 = 2 is written over P1 or a
-// FACTORY RESET restores the default. The status of the write that switches goes out in the old
-// protocol. FAST reads and CONTROL TABLE BACKUP exist only where the model's firmware has them.
+// the same control table through the front end Protocol1Device uses, and ignores Protocol 2.0
+// packets, until 13 = 2 is written over P1 or a FACTORY RESET restores the default. The status of
+// the write that switches goes out in the old protocol. FAST reads and CONTROL TABLE BACKUP exist
+// only where the model's firmware has them.
 // It is not a servo: Protocol2Servo adds the value rules that depend on the operating mode and the
 // link to the simulation. Every behaviour choice is listed in docs/devices.md (Protocol 2.0 part).
 
@@ -103,27 +104,24 @@ class Protocol2Device : public Device {
   uint8_t error_byte(uint8_t error) const noexcept;
   void reply(uint8_t error, const uint8_t* data, std::size_t n, Response& response) noexcept;
   void handle_unicast(const InstructionPacket& packet, bool answer, bool via_secondary, Response& response) noexcept;
-  // Protocol Type 1: the packet as the firmware's Protocol 1.0 front end executes it.
-  void handle_protocol1(const InstructionPacket& packet, Response& response) noexcept;
-  void reply_protocol1(uint8_t error_bits, const uint8_t* data, std::size_t n, Response& response) noexcept;
-  void handle_protocol1_bulk_read(const InstructionPacket& packet, Response& response) noexcept;
-  void handle_protocol1_sync_write(const InstructionPacket& packet) noexcept;
+  // FACTORY RESET, REBOOT, CLEAR, CONTROL TABLE BACKUP: the error number of the parameters, 0 to go ahead.
+  uint8_t maintenance_error(const InstructionPacket& packet) const noexcept;
+  // Executes a checked FACTORY RESET, REBOOT or CONTROL TABLE BACKUP (its status has gone out).
+  void run_maintenance(const InstructionPacket& packet) noexcept;
   void handle_sync_read(const InstructionPacket& packet, bool fast, Response& response) noexcept;
   void handle_bulk_read(const InstructionPacket& packet, bool fast, Response& response) noexcept;
   void handle_sync_write(const InstructionPacket& packet) noexcept;
   void handle_bulk_write(const InstructionPacket& packet) noexcept;
   void chain_reply(uint16_t position, bool fast, uint32_t total_data, uint32_t devices, uint16_t start,
                    uint16_t length, Response& response) noexcept;
-  uint8_t backup(uint8_t option) noexcept;
+  class Protocol1Registers;  // Protocol Type 1: this device as the register file of the Protocol 1.0 front end
+  void handle_protocol1(const InstructionPacket& packet, Response& response) noexcept;
 
   const P2ModelSpec& spec_;
   Table table_{};
   uint8_t reply_id_ = 0;                         // ID when the current packet arrived
   std::array<int16_t, kTableCapacity> owner_{};  // item index per byte, -1 = reserved
-  bool has_pending_ = false;                     // a REG WRITE waits for ACTION
-  uint16_t pending_address_ = 0;
-  uint16_t pending_size_ = 0;
-  std::array<uint8_t, kMaxInstructionParams> pending_data_{};
+  HeldWrite held_write_{};
   std::array<uint8_t, x430::kEepromEnd> backup_{};  // CONTROL TABLE BACKUP of the EEPROM area
   bool has_backup_ = false;
   std::array<uint8_t, kMaxInstructionParams> scratch_{};  // READ data

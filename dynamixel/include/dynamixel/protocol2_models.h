@@ -83,8 +83,6 @@ inline constexpr uint16_t kTableBytes = 662;
 // Protocol Type (13) values: the protocol the servo speaks (reference §3.7).
 inline constexpr uint8_t kProtocolType1 = 1;
 inline constexpr uint8_t kProtocolType2 = 2;
-// Protocol 1.0 addresses are one byte: items above this are out of reach while Protocol Type = 1.
-inline constexpr uint16_t kProtocol1LastAddress = 255;
 
 // Operating Mode (11) values.
 inline constexpr uint8_t kCurrentMode = 0;
