@@ -232,16 +232,13 @@ void Protocol1Servo::apply(const ServoFeedback& feedback) noexcept {
   set_register(p1::kMoving, moving ? 1 : 0);
 
   // Condition bits (reference §1.4).
-  uint8_t conditions = 0;
-  if (temperature_raw > register_raw(p1::kTemperatureLimit)) {
-    conditions |= p1_error::kOverheating;
-  }
-  if (voltage_raw < register_raw(p1::kMinVoltageLimit) || voltage_raw > register_raw(p1::kMaxVoltageLimit)) {
-    conditions |= p1_error::kInputVoltage;
-  }
-  if (torque_on && feedback.overload) {
-    conditions |= p1_error::kOverload;
-  }
+  const detail::ServoConditions found =
+      detail::servo_conditions(temperature_raw, register_raw(p1::kTemperatureLimit), voltage_raw,
+                               register_raw(p1::kMinVoltageLimit), register_raw(p1::kMaxVoltageLimit), torque_on,
+                               feedback.overload);
+  const auto conditions = static_cast<uint8_t>((found.overheating ? p1_error::kOverheating : 0) |
+                                               (found.input_voltage ? p1_error::kInputVoltage : 0) |
+                                               (found.overload ? p1_error::kOverload : 0));
   conditions_ = conditions;
 
   // Alarm Shutdown: a masked condition switches the torque off (S7 manuals); the host must write

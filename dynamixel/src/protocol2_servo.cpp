@@ -322,16 +322,13 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
   set_register(x430::kVelocityTrajectory, trajectory_velocity);
 
   // Hardware errors: the bits enabled in Shutdown latch, switch the torque off and set Alert.
-  uint8_t conditions = 0;
-  if (temperature_raw > register_value(x430::kTemperatureLimit)) {
-    conditions |= x430::kOverheatingError;
-  }
-  if (voltage_raw < register_value(x430::kMinVoltageLimit) || voltage_raw > register_value(x430::kMaxVoltageLimit)) {
-    conditions |= x430::kInputVoltageError;
-  }
-  if (torque_on && feedback.overload) {
-    conditions |= x430::kOverloadError;
-  }
+  const detail::ServoConditions found =
+      detail::servo_conditions(temperature_raw, register_value(x430::kTemperatureLimit), voltage_raw,
+                               register_value(x430::kMinVoltageLimit), register_value(x430::kMaxVoltageLimit),
+                               torque_on, feedback.overload);
+  const auto conditions = static_cast<uint8_t>((found.overheating ? x430::kOverheatingError : 0) |
+                                               (found.input_voltage ? x430::kInputVoltageError : 0) |
+                                               (found.overload ? x430::kOverloadError : 0));
   const auto latched = static_cast<uint8_t>(hardware_error() | (conditions & register_value(x430::kShutdown)));
   set_register(x430::kHardwareErrorStatus, latched);
   if (latched != 0) {

@@ -19,6 +19,13 @@ constexpr double kFirmwareCyclesPerS = 1000.0;  // X velocity loop rate (assumpt
 
 double sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); }
 
+// Adds error x dt to an integrator, capped so that the I term alone stays within full duty
+// (anti-windup), and cleared while there is no I gain.
+void integrate_capped(double& integral, double error, double dt_s, double ki, double full_scale) noexcept {
+  integral += error * dt_s;
+  integral = ki > 0.0 ? std::clamp(integral, -full_scale / ki, full_scale / ki) : 0.0;
+}
+
 }  // namespace
 
 ServoControllerConfig servo_controller_config(const ServoSpec& servo) noexcept {
@@ -103,13 +110,7 @@ ControllerOutput ServoController::update(const ServoCommand& command, double pos
     // Velocity PI on the speed error in Goal Velocity units; the integral is capped at full duty.
     const double error_units = (command.moving_speed_rad_s - velocity_rad_s) / c.velocity_unit_rad_s;
     const PidGains& pi = command.velocity_pi;
-    velocity_integral_units_ += error_units * dt_s;
-    if (pi.ki > 0.0) {
-      const double cap = c.pwm_full_scale / pi.ki;
-      velocity_integral_units_ = std::clamp(velocity_integral_units_, -cap, cap);
-    } else {
-      velocity_integral_units_ = 0.0;
-    }
+    integrate_capped(velocity_integral_units_, error_units, dt_s, pi.ki, c.pwm_full_scale);
     pwm = (pi.kp * error_units + pi.ki * velocity_integral_units_) / c.pwm_full_scale;
     setpoint_rad_ = position_rad;
   } else if (command.wheel_mode) {
@@ -154,13 +155,7 @@ ControllerOutput ServoController::update(const ServoCommand& command, double pos
       }
     } else {
       const double error_rate_units_s = (setpoint_velocity_rad_s_ - velocity_rad_s) * config_.units_per_rad;
-      integral_units_s_ += error_units * dt_s;
-      if (gains.ki > 0.0) {
-        const double cap = config_.pwm_full_scale / gains.ki;
-        integral_units_s_ = std::clamp(integral_units_s_, -cap, cap);
-      } else {
-        integral_units_s_ = 0.0;
-      }
+      integrate_capped(integral_units_s_, error_units, dt_s, gains.ki, config_.pwm_full_scale);
       const double u = gains.kp * error_units + gains.ki * integral_units_s_ + gains.kd * error_rate_units_s;
       pwm = u / config_.pwm_full_scale;
     }

@@ -24,4 +24,20 @@ inline int64_t floor_div(int64_t a, int64_t b) noexcept {
   return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
 }
 
+// The conditions both servo firmwares check after every measurement (P1 error bits of reference
+// §1.4, X Hardware Error Status of §3.7): winding above the Temperature Limit, supply outside the
+// voltage limits (both in register units), and the motor controller's overload while powered.
+struct ServoConditions {
+  bool overheating = false;
+  bool input_voltage = false;
+  bool overload = false;
+};
+
+inline ServoConditions servo_conditions(int64_t temperature_raw, int64_t temperature_limit_raw, int64_t voltage_raw,
+                                        int64_t min_voltage_raw, int64_t max_voltage_raw, bool torque_on,
+                                        bool overload) noexcept {
+  return ServoConditions{temperature_raw > temperature_limit_raw,
+                         voltage_raw < min_voltage_raw || voltage_raw > max_voltage_raw, torque_on && overload};
+}
+
 }  // namespace doppel::dynamixel::detail

@@ -96,28 +96,18 @@ class SimulatedServo {
   ~SimulatedServo() = default;
 };
 
-class SimulatedImu {
+// The simulation's side of a sensor or power board: it takes what the world measured.
+template <typename Feedback>
+class SimulatedBoard {
  public:
-  virtual void apply(const ImuFeedback& feedback) noexcept = 0;
+  virtual void apply(const Feedback& feedback) noexcept = 0;
 
  protected:
-  ~SimulatedImu() = default;
+  ~SimulatedBoard() = default;
 };
 
-class SimulatedFootBoard {
- public:
-  virtual void apply(const FootFeedback& feedback) noexcept = 0;
-
- protected:
-  ~SimulatedFootBoard() = default;
-};
-
-class SimulatedPowerBoard {
- public:
-  virtual void apply(const PowerFeedback& feedback) noexcept = 0;
-
- protected:
-  ~SimulatedPowerBoard() = default;
-};
+using SimulatedImu = SimulatedBoard<ImuFeedback>;
+using SimulatedFootBoard = SimulatedBoard<FootFeedback>;
+using SimulatedPowerBoard = SimulatedBoard<PowerFeedback>;
 
 }  // namespace doppel::dynamixel
