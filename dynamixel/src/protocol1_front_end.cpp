@@ -72,8 +72,10 @@ void handle_bulk_read(Protocol1RegisterFile& device, DeviceCounters& counters, c
     if (listed_id == own_id) {
       break;
     }
-    position += seen.test(listed_id) ? 0 : 1;
-    seen.set(listed_id);
+    if (!seen.test(listed_id)) {
+      seen.set(listed_id);
+      ++position;
+    }
   }
   if (block >= n) {
     return;

@@ -193,6 +193,8 @@ TEST(Protocol1Servo, StatusReturnLevel1AnswersPingAndRead) {
   EXPECT_EQ(transact(sut, make_packet(1, instruction::kRead, {p1::kId, 1})),
             (Bytes{0xFF, 0xFF, 0x01, 0x03, 0x00, 0x01, 0xFA}));
   EXPECT_TRUE(transact(sut, make_packet(1, instruction::kWrite, {p1::kLed, 1})).empty());
+  // SYNC READ (0x82) is no instruction of this firmware, so no read: silent (docs/devices.md P6.6).
+  EXPECT_TRUE(transact(sut, make_packet(1, instruction::kSyncRead, {p1::kId, 1})).empty());
 }
 
 TEST(Protocol1Servo, BroadcastPingIsAnswered) {
