@@ -2,9 +2,11 @@
 
 #include <pthread.h>
 
+#include <iostream>
 #include <numbers>
 #include <sstream>
 
+#include "bus/link_directory.h"
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
 #include "physics/engines.h"
@@ -72,6 +74,14 @@ Gateway::Gateway(const Options& options) : options_(options) {
         refs[r].world = world_.get();
       }
     }
+  }
+  try {
+    links_ = std::make_unique<bus::LinkDirectory>(options.link_dir, options.allow_shared_link_dir, std::cerr);
+    for (std::size_t r = 1; r < configs.size(); ++r) {
+      links_->subdirectory("robot" + std::to_string(r));
+    }
+  } catch (const bus::UnsafeLinkDirectory& e) {
+    throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
   }
   for (std::size_t r = 0; r < configs.size(); ++r) {
     robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, refs[r], options_));

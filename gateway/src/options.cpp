@@ -29,9 +29,13 @@ servo-bus drivers can talk to a simulated robot. Runs until SIGINT or SIGTERM.
 Options:
   --robot NAME|FILE      Robot description: a shipped robot name (see --list-robots) or a
                          protobuf text file. Repeat to run several robots. Default: fumanoid-2011.
-  --link-dir DIR         Directory for the stable port links. Default: /tmp/doppel.
-                         Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel/ttyDXL0)
+  --link-dir DIR         Directory for the stable port links. Default: $XDG_RUNTIME_DIR/doppel,
+                         or /tmp/doppel-$USER without a private XDG_RUNTIME_DIR.
+                         Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel-$USER/ttyDXL0)
                          Robot r>0, bus b: DIR/robot<r>/ttyDXL<b>
+                         Refused if it is a symlink, another user's, or writable by others.
+  --allow-shared-link-dir
+                         Use such a link directory anyway, with a warning.
   --timing wire|fast     wire (default): statuses arrive when a real bus at the port's baud rate
                          would deliver them (wire time, firmware time, Return Delay Time).
                          fast: statuses are written as soon as they are computed.
@@ -90,6 +94,8 @@ Options parse_options(int argc, const char* const* argv) {
       if (options.link_dir.empty()) {
         throw std::invalid_argument("option --link-dir: the directory must not be empty");
       }
+    } else if (arg == "--allow-shared-link-dir") {
+      options.allow_shared_link_dir = true;
     } else if (arg == "--robots-dir") {
       options.robots_dir = value();
     } else if (arg == "--session") {

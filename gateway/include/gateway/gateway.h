@@ -18,6 +18,10 @@ namespace doppel::physics {
 class World;
 }
 
+namespace doppel::bus {
+class LinkDirectory;
+}
+
 namespace doppel::gateway {
 
 class RobotRuntime;
@@ -42,6 +46,7 @@ class Gateway {
   void simulate() noexcept;
 
   Options options_;
+  std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera

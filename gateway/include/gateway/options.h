@@ -6,13 +6,15 @@
 #include <string>
 #include <vector>
 
+#include "bus/link_directory.h"
 #include "bus/wire_timing.h"
 
 namespace doppel::gateway {
 
 struct Options {
   std::vector<std::string> robots;       // robot names (robots/NAME.textproto) or files; empty = default robot
-  std::string link_dir = "/tmp/doppel";  // where the stable ttyDXL links go
+  std::string link_dir = bus::default_link_dir();  // where the stable ttyDXL links go
+  bool allow_shared_link_dir = false;    // --allow-shared-link-dir: accept an unsafe link directory with a warning
   std::string robots_dir;                // where robot names are looked up; empty = built-in default
   std::string session;                   // --session FILE: cameras fixed in the field; empty = none
   bus::TimingMode timing = bus::TimingMode::kWire;  // --timing wire|fast
