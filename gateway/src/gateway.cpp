@@ -12,7 +12,6 @@
 #include "physics/engines.h"
 #include "physics/field.h"
 #include "physics/world.h"
-#include "gateway/robot_config.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -39,13 +38,25 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
 
 }  // namespace
 
-Gateway::Gateway(const Options& options) : options_(options) {
-  std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
+namespace {
+
+std::vector<RobotConfig> load_robots(const Options& options) {
+  const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
   std::vector<RobotConfig> configs;
   for (const std::string& robot : options.robots) {
     configs.push_back(load_robot(robot, robots_dir));
   }
-  const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
+  return configs;
+}
+
+}  // namespace
+
+Gateway::Gateway(const Options& options)
+    : Gateway(options, load_robots(options),
+              options.session.empty() ? SessionConfig{} : load_session(options.session)) {}
+
+Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session)
+    : options_(options) {
   // One world holds the bodies of every robot that has one.
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;

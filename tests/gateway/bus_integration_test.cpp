@@ -406,5 +406,29 @@ TEST(Doppel, SaysSoAndLeavesALinkReplacedWhileItRan) {
       << doppel.output();
 }
 
+// Issue 16: doppel ignored SIGINT/SIGTERM while it read a robot file.
+TEST(Doppel, ASignalWhileLoadingEndsItAtOnceWithAMessage) {
+  char dir_template[] = "/tmp/doppel-load-XXXXXX";
+  const std::string dir = mkdtemp(dir_template);
+  const std::string file = dir + "/big.textproto";
+  {
+    std::ofstream out(file);
+    out << "name: \"big\"\nbus {\n baud_bps: 1000000\n protocol: PROTOCOL_1\n device { id: 1 model: \"RX-28\" }\n}\n";
+    const std::string comment = "# " + std::string(1000, 'x') + "\n";
+    for (int i = 0; i < 15 * 1024; ++i) out << comment;  // ~15 MiB: loading takes a while
+  }
+  const std::string command = "( " + doppel_executable() + " --robot " + file + " --no-camera --link-dir " + dir +
+                              "/links & pid=$!; sleep 0.1; kill -TERM $pid; wait $pid; echo \"exit $?\" )";
+  const auto start = std::chrono::steady_clock::now();
+  auto [code, said] = run_command(command);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  EXPECT_NE(said.find("doppel: SIGTERM while starting up; stopping"), std::string::npos) << said;
+  EXPECT_NE(said.find("exit 1"), std::string::npos) << said;
+  EXPECT_LT(seconds, 0.4) << said;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/links")) << said;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace doppel::testing

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "gateway/options.h"
+#include "gateway/robot_config.h"
 
 namespace doppel::physics {
 class World;
@@ -32,6 +33,9 @@ class Gateway {
   // Configures every robot of `options`. Throws (std::invalid_argument, std::runtime_error) with a
   // message for the user when a robot file or a port cannot be set up.
   explicit Gateway(const Options& options);
+  // The same with the robots (in the order of options.robots) and the session already loaded, so
+  // that a caller can tell reading files (no side effects) from opening ports and links.
+  Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session);
   ~Gateway();
   Gateway(const Gateway&) = delete;
   Gateway& operator=(const Gateway&) = delete;
