@@ -25,6 +25,15 @@ void check_status(const dxl::OutgoingStatus& s) {
   fuzz::check_protocol1_frame(p);
 }
 
+struct Pristine {
+  dxl::Protocol1Servo ax{dxl::model_spec("AX-12A"), 1, 1, 0};
+  dxl::Protocol1Servo rx{dxl::model_spec("RX-64"), 2, 1, 0};
+  dxl::Protocol1Servo mx28{dxl::model_spec("MX-28"), 3, 1, 0};
+  dxl::Protocol1Servo mx106{dxl::model_spec("MX-106"), 4, 34, 0};
+  dxl::FumanoidImu imu{100, 1, 0};
+  dxl::FumanoidFootBoard foot{101, 1, 0};
+};
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -34,12 +43,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static constexpr uint32_t kRates[] = {1000000, 57600, 115200, 2250000};
   const uint32_t line_bps = fuzz::line_rate(data, kRates);
 
-  dxl::Protocol1Servo ax(dxl::model_spec("AX-12A"), 1, 1, 0);
-  dxl::Protocol1Servo rx(dxl::model_spec("RX-64"), 2, 1, 0);
-  dxl::Protocol1Servo mx28(dxl::model_spec("MX-28"), 3, 1, 0);
-  dxl::Protocol1Servo mx106(dxl::model_spec("MX-106"), 4, 34, 0);
-  dxl::FumanoidImu imu(100, 1, 0);
-  dxl::FumanoidFootBoard foot(101, 1, 0);
+  // Built once (model lookup, factory defaults, power-on); each input starts from a copy, so every
+  // input sees the same fresh devices without paying for their construction.
+  static const Pristine pristine;
+  dxl::Protocol1Servo ax(pristine.ax);
+  dxl::Protocol1Servo rx(pristine.rx);
+  dxl::Protocol1Servo mx28(pristine.mx28);
+  dxl::Protocol1Servo mx106(pristine.mx106);
+  dxl::FumanoidImu imu(pristine.imu);
+  dxl::FumanoidFootBoard foot(pristine.foot);
   dxl::BusDevices bus;
   fuzz::add_all(bus, ax, rx, mx28, mx106, imu, foot);
 
