@@ -105,8 +105,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       check_status(s);
     }
 
+    // Only the devices the packet addressed (all for a broadcast) step their simulation side.
     const dxl::ServoFeedback fb = fuzz::feedback_at(data, i, 0.5, t_ns);
+    const auto addressed = [&p](const dxl::Device& device) { return fuzz::addressed(p, device); };
     for (dxl::Protocol2Servo* servo : {&xm1, &xm2, &xl3}) {
+      if (!addressed(*servo)) continue;
       servo->apply(fb);
       const dxl::ServoCommand c = servo->command();
       FUZZ_CHECK(c.torque_limit_ratio >= 0.0 && c.torque_limit_ratio <= 1.0);
@@ -114,14 +117,18 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       FUZZ_CHECK(servo->id() <= 252);
       FUZZ_CHECK(!c.torque_enabled || servo->hardware_error() == 0);
     }
-    dxl::ImuFeedback imu_fb;
-    imu_fb.roll_rad = fb.position_rad;
-    imu_fb.w_WS_S_rad_s = {fb.velocity_rad_s * 1000, 0.0, -1e300};
-    imu.apply(imu_fb);
-    dxl::FootFeedback foot_fb;
-    foot_fb.force_n = {fb.temperature_c, -1.0, 1e12, fb.velocity_rad_s};
-    foot.apply(foot_fb);
-    core.apply(fb.voltage_v, fb.torque_ratio);
+    if (addressed(imu)) {
+      dxl::ImuFeedback imu_fb;
+      imu_fb.roll_rad = fb.position_rad;
+      imu_fb.w_WS_S_rad_s = {fb.velocity_rad_s * 1000, 0.0, -1e300};
+      imu.apply(imu_fb);
+    }
+    if (addressed(foot)) {
+      dxl::FootFeedback foot_fb;
+      foot_fb.force_n = {fb.temperature_c, -1.0, 1e12, fb.velocity_rad_s};
+      foot.apply(foot_fb);
+    }
+    if (addressed(core)) core.apply(fb.voltage_v, fb.torque_ratio);
   }
   FUZZ_CHECK(p2.counters().packets == p2_packets);
   FUZZ_CHECK(p2.counters().bad_checksums <= p2.counters().packets);
