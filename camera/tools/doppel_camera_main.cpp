@@ -37,6 +37,7 @@ constexpr const char* kUsage =
     "       doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] [--shot GAIN]\n"
     "                           [--salt-pepper FRACTION] [--vignetting V] [--white-balance R,G,B]\n"
     "                           [--seed N] [--timeout S]\n"
+    "  Every command takes --verbose: also print iceoryx's own log lines.\n"
     "  noise: settings not given keep their current values; --off first turns every filter off.\n"
     "  Ranges: gaussian 0..255 (levels), shot 0..255 (variance per level), salt-pepper 0..1,\n"
     "  vignetting 0..1, white-balance gains 0.001..100 (1 = neutral).\n";
@@ -49,6 +50,7 @@ struct Args {
   double timeout_s = 10.0;
   double seconds = 5.0;
   bool poll = false;
+  bool verbose = false;  // --verbose: also print iceoryx's own log lines
   // noise: the options given, applied in this order on top of the current settings
   bool noise_off = false;
   std::vector<std::pair<std::string, std::string>> noise_options;  // flag, value
@@ -93,6 +95,8 @@ Args parse(int argc, char** argv) {
       a.seconds = parse_number(flag, value());
     } else if (flag == "--poll") {
       a.poll = true;
+    } else if (flag == "--verbose") {
+      a.verbose = true;
     } else if (a.command == "noise" && flag == "--off") {
       a.noise_off = true;
     } else if (a.command == "noise" &&
@@ -305,7 +309,7 @@ int main(int argc, char** argv) {
   try {
     const Args a = parse(argc, argv);
     if (a.command == "noise") (void)noise_from_args(a, NoiseConfig{});  // bad values: usage error, before any RouDi
-    connect_client("doppel-camera");
+    connect_client("doppel-camera", a.verbose);
     if (a.command == "list") return cmd_list(a);
     if (a.command == "save") return cmd_save(a);
     if (a.command == "noise") return cmd_noise(a);

@@ -60,6 +60,7 @@ Options:
   --external-roudi       Use an iceoryx RouDi that is already running (iox-roudi) and fail without one.
                          By default doppel uses a running RouDi if there is one and otherwise runs
                          RouDi inside itself.
+  --verbose              Also print iceoryx's own log lines (warnings and info).
   --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
                          CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
                          tail on a loaded machine.
@@ -123,6 +124,8 @@ Options parse_options(int argc, const char* const* argv) {
       options.camera = false;
     } else if (arg == "--external-roudi") {
       options.external_roudi = true;
+    } else if (arg == "--verbose") {
+      options.verbose = true;
     } else if (arg == "--no-hold") {
       options.hold = false;
     } else if (arg == "--rt-priority") {

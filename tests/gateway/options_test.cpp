@@ -27,7 +27,7 @@ TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
 TEST(Options, EveryOptionIsParsed) {
   Options sut = parse({"--robot", "mx-test", "--robot", "/x/r.textproto", "--link-dir", "/tmp/l", "--timing", "fast",
                        "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r", "--rt-priority", "50",
-                       "--allow-shared-link-dir"});
+                       "--allow-shared-link-dir", "--verbose"});
   EXPECT_EQ(sut.robots, (std::vector<std::string>{"mx-test", "/x/r.textproto"}));
   EXPECT_EQ(sut.link_dir, "/tmp/l");
   EXPECT_EQ(sut.timing, bus::TimingMode::kFast);
@@ -36,6 +36,7 @@ TEST(Options, EveryOptionIsParsed) {
   EXPECT_EQ(sut.robots_dir, "/r");
   EXPECT_EQ(sut.rt_priority, 50);
   EXPECT_TRUE(sut.allow_shared_link_dir);
+  EXPECT_TRUE(sut.verbose);
 }
 
 TEST(Options, BadOptionsAreRejectedWithTheirName) {
@@ -66,7 +67,7 @@ TEST(Options, HelpDocumentsEveryOption) {
   std::string text = usage();
   for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
                              "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>",
-                             "--session", "--no-camera", "--external-roudi"}) {
+                             "--session", "--no-camera", "--external-roudi", "--allow-shared-link-dir", "--verbose"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
   }
 }

@@ -24,6 +24,7 @@ struct Options {
   std::string physics = "ode";           // --physics ode|bullet|none: engine of the robots' bodies
   bool hold = true;                      // a handler holds each robot until its first Torque Enable
   bool camera = true;                    // --no-camera: stream no camera
+  bool verbose = false;                  // --verbose: also print iceoryx's own log lines
   bool external_roudi = false;           // --external-roudi: require an already running iceoryx RouDi
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
