@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
   // Block the stop signals before any thread starts, so every thread inherits the mask and only
   // the signal thread below receives them. While the robot files load (no side effects yet) a
   // signal ends doppel at once; while ports and links are set up, doppel stops (removing them)
-  // instead of starting to serve.
+  // instead of starting to serve. Either way it is a requested stop: exit code 0.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     if (phase != kServing) {
       std::cerr << "doppel: " << signal_name(signal_number) << " while starting up; stopping\n" << std::flush;
       if (phase == kLoading) {
-        std::_Exit(1);
+        std::_Exit(0);
       }
     }
     received.store(signal_number);
@@ -83,12 +83,14 @@ int main(int argc, char** argv) {
       phase = kSettingUp;
     }
     Gateway gateway(options, std::move(robots), session);
+    bool stopped_while_setting_up = false;
     {
       std::lock_guard<std::mutex> lock(phase_mutex);
+      stopped_while_setting_up = received.load() != 0;  // the signal thread said so already
       phase = kServing;
     }
-    if (received.load() != 0) {
-      return 1;
+    if (stopped_while_setting_up) {
+      return 0;
     }
     gateway.start();
     std::cout << gateway.describe() << std::flush;
