@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <stdexcept>
+#include <exception>
 #include <string>
 
 #include "gateway/robot_config.h"
@@ -27,19 +27,14 @@ void check_message(const std::string& message) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > doppel::proto::TextFile::kMaxBytes) return 0;  // refused before parsing
   const std::string text(reinterpret_cast<const char*>(data), size);
-  try {
-    doppel::gateway::parse_robot(text, "fuzz.textproto");
-  } catch (const std::invalid_argument& e) {
-    check_message(e.what());
-  } catch (const std::runtime_error& e) {
-    check_message(e.what());
-  }
-  try {
-    doppel::gateway::parse_session(text, "fuzz.textproto");
-  } catch (const std::invalid_argument& e) {
-    check_message(e.what());
-  } catch (const std::runtime_error& e) {
-    check_message(e.what());
+  const auto parse_robot = [](const std::string& t) { doppel::gateway::parse_robot(t, "fuzz.textproto"); };
+  const auto parse_session = [](const std::string& t) { doppel::gateway::parse_session(t, "fuzz.textproto"); };
+  for (void (*parse)(const std::string&) : {+parse_robot, +parse_session}) {
+    try {
+      parse(text);
+    } catch (const std::exception& e) {  // std::invalid_argument or std::runtime_error
+      check_message(e.what());
+    }
   }
   return 0;
 }
