@@ -73,10 +73,7 @@ int main(int argc, char** argv) {
   }).detach();
 
   try {
-    std::vector<RobotConfig> robots;
-    for (const std::string& robot : options.robots) {
-      robots.push_back(load_robot(robot, options.robots_dir));
-    }
+    std::vector<RobotConfig> robots = load_robots(options);
     const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
     {
       std::lock_guard<std::mutex> lock(phase_mutex);

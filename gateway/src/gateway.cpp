@@ -38,8 +38,6 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
 
 }  // namespace
 
-namespace {
-
 std::vector<RobotConfig> load_robots(const Options& options) {
   const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
   std::vector<RobotConfig> configs;
@@ -48,8 +46,6 @@ std::vector<RobotConfig> load_robots(const Options& options) {
   }
   return configs;
 }
-
-}  // namespace
 
 Gateway::Gateway(const Options& options)
     : Gateway(options, load_robots(options),

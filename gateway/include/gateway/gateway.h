@@ -59,6 +59,9 @@ class Gateway {
   uint64_t missed_ticks_ = 0;
 };
 
+// The robots of `options`, loaded in order (robot names looked up in robots_dir or the default).
+std::vector<RobotConfig> load_robots(const Options& options);
+
 // Link path of bus `bus` of robot `robot` under `link_dir` (README: ttyDXL<b>, robot<r>/ttyDXL<b>).
 std::string link_path(const std::string& link_dir, std::size_t robot, std::size_t bus);
 
