@@ -10,6 +10,7 @@
 #include <condition_variable>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <mutex>
 #include <new>
@@ -20,6 +21,7 @@
 
 #include "camera/frame.h"
 #include "camera/renderer.h"
+#include "iceoryx_hoofs/cxx/generic_raii.hpp"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
@@ -292,7 +294,15 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
       iox::RouDiConfig_t config;
       const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
       config.m_sharedMemorySegments.push_back({group, group, mepoo});
-      impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
+      {
+        // iceoryx reports each shared-memory reservation on std::clog; only --verbose shows it.
+        std::ostringstream discarded;
+        std::streambuf* const clog_buffer = options.verbose ? nullptr : std::clog.rdbuf(discarded.rdbuf());
+        const iox::cxx::GenericRAII restore_clog([] {}, [clog_buffer] {
+          if (clog_buffer != nullptr) std::clog.rdbuf(clog_buffer);
+        });
+        impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
+      }
       impl_->roudi = std::make_unique<ClientReapingRouDi>(impl_->components->rouDiMemoryManager,
                                                           impl_->components->portManager);
       impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(

@@ -26,6 +26,9 @@ TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
   EXPECT_EQ(pngs, 2) << save;
   std::string output = doppel.wait_for_output("running until");
   EXPECT_NE(output.find("camera 'HEAD_CAMERA'"), std::string::npos) << output;
+  // iceoryx's own lines only with --verbose (issue 16).
+  EXPECT_EQ(output.find("Reserving"), std::string::npos) << output;
+  EXPECT_EQ(output.find("Log level set to"), std::string::npos) << output;
 }
 
 TEST(HeadCamera, NoCameraStreamsNothing) {
