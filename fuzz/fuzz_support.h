@@ -35,6 +35,11 @@ void add_all(BusDevices& bus, Devices&... devices) {
   (bus.add(devices), ...);
 }
 
+// True when `packet` is for `device`: its current ID, or the broadcast ID.
+inline bool addressed(const InstructionPacket& packet, const Device& device) {
+  return packet.id == kBroadcastId || packet.id == device.id();
+}
+
 // Servo feedback after wire byte `data[i]`, extremes included: position `position_step_rad` per step
 // of that byte around 128, velocity, voltage and the time step from input byte 1. `t_ns` advances.
 inline ServoFeedback feedback_at(const uint8_t* data, std::size_t i, double position_step_rad, int64_t& t_ns) {

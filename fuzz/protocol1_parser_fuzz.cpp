@@ -25,6 +25,15 @@ void check_status(const dxl::OutgoingStatus& s) {
   fuzz::check_protocol1_frame(p);
 }
 
+struct Pristine {
+  dxl::Protocol1Servo ax{dxl::model_spec("AX-12A"), 1, 1, 0};
+  dxl::Protocol1Servo rx{dxl::model_spec("RX-64"), 2, 1, 0};
+  dxl::Protocol1Servo mx28{dxl::model_spec("MX-28"), 3, 1, 0};
+  dxl::Protocol1Servo mx106{dxl::model_spec("MX-106"), 4, 34, 0};
+  dxl::FumanoidImu imu{100, 1, 0};
+  dxl::FumanoidFootBoard foot{101, 1, 0};
+};
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -34,12 +43,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static constexpr uint32_t kRates[] = {1000000, 57600, 115200, 2250000};
   const uint32_t line_bps = fuzz::line_rate(data, kRates);
 
-  dxl::Protocol1Servo ax(dxl::model_spec("AX-12A"), 1, 1, 0);
-  dxl::Protocol1Servo rx(dxl::model_spec("RX-64"), 2, 1, 0);
-  dxl::Protocol1Servo mx28(dxl::model_spec("MX-28"), 3, 1, 0);
-  dxl::Protocol1Servo mx106(dxl::model_spec("MX-106"), 4, 34, 0);
-  dxl::FumanoidImu imu(100, 1, 0);
-  dxl::FumanoidFootBoard foot(101, 1, 0);
+  // Built once (model lookup, factory defaults, power-on); each input starts from a copy, so every
+  // input sees the same fresh devices without paying for their construction.
+  static const Pristine pristine;
+  dxl::Protocol1Servo ax(pristine.ax);
+  dxl::Protocol1Servo rx(pristine.rx);
+  dxl::Protocol1Servo mx28(pristine.mx28);
+  dxl::Protocol1Servo mx106(pristine.mx106);
+  dxl::FumanoidImu imu(pristine.imu);
+  dxl::FumanoidFootBoard foot(pristine.foot);
   dxl::BusDevices bus;
   fuzz::add_all(bus, ax, rx, mx28, mx106, imu, foot);
 
@@ -58,9 +70,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       check_status(s);
     }
 
-    // Drive the simulation side with values derived from the input, including extremes.
+    // Drive the simulation side of the devices the packet addressed (all for a broadcast) with
+    // values derived from the input, including extremes. Stepping every device after every packet
+    // made long inputs slow without reaching more code.
     const dxl::ServoFeedback fb = fuzz::feedback_at(data, i, 0.05, t_ns);
+    const auto addressed = [&p](const dxl::Device& device) { return fuzz::addressed(p, device); };
     for (dxl::Protocol1Servo* servo : {&ax, &rx, &mx28, &mx106}) {
+      if (!addressed(*servo)) continue;
       servo->apply(fb);
       const dxl::ServoCommand c = servo->command();
       FUZZ_CHECK(c.torque_limit_ratio >= 0.0 && c.torque_limit_ratio <= 1.0);
@@ -68,15 +84,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                  c.max_position_rad < c.min_position_rad);
       FUZZ_CHECK(servo->id() <= 253);
     }
-    dxl::ImuFeedback imu_fb;
-    imu_fb.sim_time_ns = t_ns;
-    imu_fb.pitch_rad = fb.position_rad;
-    imu_fb.w_WS_S_rad_s = {fb.velocity_rad_s * 1000, 0.0, -1e300};
-    imu.apply(imu_fb);
-    dxl::FootFeedback foot_fb;
-    foot_fb.sim_time_ns = t_ns;
-    foot_fb.force_n = {fb.temperature_c, -1.0, 1e9, fb.velocity_rad_s};
-    foot.apply(foot_fb);
+    if (addressed(imu)) {
+      dxl::ImuFeedback imu_fb;
+      imu_fb.sim_time_ns = t_ns;
+      imu_fb.pitch_rad = fb.position_rad;
+      imu_fb.w_WS_S_rad_s = {fb.velocity_rad_s * 1000, 0.0, -1e300};
+      imu.apply(imu_fb);
+    }
+    if (addressed(foot)) {
+      dxl::FootFeedback foot_fb;
+      foot_fb.sim_time_ns = t_ns;
+      foot_fb.force_n = {fb.temperature_c, -1.0, 1e9, fb.velocity_rad_s};
+      foot.apply(foot_fb);
+    }
   }
   const dxl::ParserCounters& c = parser.counters();
   FUZZ_CHECK(c.packets == packets);

@@ -2,14 +2,24 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <atomic>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 
 #include "gateway/gateway.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
+
+namespace {
+
+const char* signal_name(int signal_number) { return signal_number == SIGINT ? "SIGINT" : "SIGTERM"; }
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace doppel::gateway;
@@ -35,21 +45,54 @@ int main(int argc, char** argv) {
   }
 
   // Block the stop signals before any thread starts, so every thread inherits the mask and only
-  // sigwait() below receives them.
+  // the signal thread below receives them. While the robot files load (no side effects yet) a
+  // signal ends doppel at once; while ports and links are set up, doppel stops (removing them)
+  // instead of starting to serve. Either way it is a requested stop: exit code 0.
   sigset_t stop_signals;
   sigemptyset(&stop_signals);
   sigaddset(&stop_signals, SIGINT);
   sigaddset(&stop_signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
   signal(SIGPIPE, SIG_IGN);
+  enum Phase { kLoading, kSettingUp, kServing };
+  static std::mutex phase_mutex;  // held by the signal thread from reading kLoading until it exits
+  static Phase phase = kLoading;
+  static std::atomic<int> received{0};
+  std::thread([stop_signals] {
+    int signal_number = 0;
+    sigwait(&stop_signals, &signal_number);
+    std::lock_guard<std::mutex> lock(phase_mutex);
+    if (phase != kServing) {
+      std::cerr << "doppel: " << signal_name(signal_number) << " while starting up; stopping\n" << std::flush;
+      if (phase == kLoading) {
+        std::_Exit(0);
+      }
+    }
+    received.store(signal_number);
+    received.notify_all();
+  }).detach();
 
   try {
-    Gateway gateway(options);
+    std::vector<RobotConfig> robots = load_robots(options);
+    const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
+    {
+      std::lock_guard<std::mutex> lock(phase_mutex);
+      phase = kSettingUp;
+    }
+    Gateway gateway(options, std::move(robots), session);
+    bool stopped_while_setting_up = false;
+    {
+      std::lock_guard<std::mutex> lock(phase_mutex);
+      stopped_while_setting_up = received.load() != 0;  // the signal thread said so already
+      phase = kServing;
+    }
+    if (stopped_while_setting_up) {
+      return 0;
+    }
     gateway.start();
     std::cout << gateway.describe() << std::flush;
-    int received = 0;
-    sigwait(&stop_signals, &received);
-    std::cout << "doppel: " << (received == SIGINT ? "SIGINT" : "SIGTERM") << ", stopping\n" << std::flush;
+    received.wait(0);
+    std::cout << "doppel: " << signal_name(received.load()) << ", stopping\n" << std::flush;
     gateway.stop();
     std::cout << gateway.summary() << std::flush;
   } catch (const std::exception& e) {

@@ -11,12 +11,12 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <stdexcept>
-#include <system_error>
 
 #include "line_speed.h"
 #include "posix_call.h"
@@ -38,18 +38,15 @@ timespec to_timespec(int64_t ns) noexcept {
   return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
 }
 
-// Points `link_path` at `target`: creates parent directories, refuses to touch anything that is
-// not a symlink, and swaps an existing link atomically (symlink to a temporary name + rename).
+// Points `link_path` at `target`: refuses to touch anything that is not a symlink, and swaps an
+// existing link atomically (symlink to a temporary name + rename). The directory must exist:
+// LinkDirectory makes it safely, so nothing here creates a directory or follows a symlink to one.
 void install_symlink(const std::string& link_path, const std::string& target) {
-  namespace fs = std::filesystem;
-  const fs::path link(link_path);
-  if (link.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(link.parent_path(), ec);
-    if (ec) {
-      throw std::runtime_error("PtyPort: cannot create directory '" + link.parent_path().string() +
-                               "' for the port link: " + ec.message());
-    }
+  const std::string parent = std::filesystem::path(link_path).parent_path().string();
+  struct stat parent_st {};
+  if (!parent.empty() && (::stat(parent.c_str(), &parent_st) != 0 || !S_ISDIR(parent_st.st_mode))) {
+    throw std::runtime_error("PtyPort: the directory '" + parent + "' of the port link '" + link_path +
+                             "' does not exist");
   }
   struct stat st {};
   if (::lstat(link_path.c_str(), &st) == 0) {
@@ -106,12 +103,27 @@ PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
 }
 
 PtyPort::~PtyPort() {
-  std::array<char, 256> target{};
-  const ssize_t n = ::readlink(link_path_.c_str(), target.data(), target.size() - 1);
-  if (n > 0 && slave_path_ == std::string(target.data(), static_cast<std::size_t>(n))) {
-    ::unlink(link_path_.c_str());
+  if (release_link() == LinkRelease::kReplaced) {
+    std::fprintf(stderr,
+                 "doppel: '%s' no longer points at this port's %s: someone replaced it while doppel ran; "
+                 "leaving it alone\n",
+                 link_path_.c_str(), slave_path_.c_str());
   }
   close_all();
+}
+
+PtyPort::LinkRelease PtyPort::release_link() noexcept {
+  if (link_released_) return LinkRelease::kGone;
+  link_released_ = true;
+  struct stat st {};
+  if (::lstat(link_path_.c_str(), &st) != 0) return LinkRelease::kGone;
+  std::array<char, 4096> target{};
+  const ssize_t n = ::readlink(link_path_.c_str(), target.data(), target.size() - 1);
+  const bool ours = S_ISLNK(st.st_mode) && st.st_uid == ::geteuid() && n > 0 &&
+                    slave_path_ == std::string(target.data(), static_cast<std::size_t>(n));
+  if (!ours) return LinkRelease::kReplaced;
+  ::unlink(link_path_.c_str());
+  return LinkRelease::kRemoved;
 }
 
 void PtyPort::close_all() noexcept {

@@ -1,5 +1,10 @@
 #include "camera/client.h"
 
+#include <dirent.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +18,7 @@
 
 #include "concurrency/sanitizer_handover.h"
 #include "iceoryx_hoofs/log/logmanager.hpp"
+#include "iceoryx_hoofs/platform/platform_settings.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
 #include "iceoryx_posh/popo/untyped_subscriber.hpp"
@@ -30,16 +36,53 @@ std::string seconds_text(double s) {
   return out.str();
 }
 
+// True when `path` names a file of this user whose flock nobody holds (taking it briefly).
+bool unlocked_file_of_mine(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) return errno == ENOENT;
+  struct stat st {};
+  const bool free = ::fstat(fd, &st) == 0 && st.st_uid == ::geteuid() && ::flock(fd, LOCK_EX | LOCK_NB) == 0;
+  ::close(fd);  // also drops the lock if we took it
+  return free;
+}
+
 }  // namespace
+
+int remove_stale_client_files(const std::string& app_name, const std::string& directory) {
+  DIR* dir = ::opendir(directory.c_str());
+  if (dir == nullptr) return 0;
+  const std::string prefix = app_name + "-";
+  int removed = 0;
+  while (const dirent* entry = ::readdir(dir)) {
+    const std::string file = entry->d_name;
+    if (file.rfind(prefix, 0) != 0) continue;
+    const std::string pid_text = file.substr(prefix.size());
+    if (pid_text.empty() || pid_text.size() > 9 ||
+        !std::all_of(pid_text.begin(), pid_text.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+      continue;  // also skips the .lock files: they go with their socket
+    }
+    const pid_t pid = static_cast<pid_t>(std::stol(pid_text));
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;  // that process still runs
+    const std::string socket = directory + "/" + file;
+    struct stat st {};
+    if (::lstat(socket.c_str(), &st) != 0 || !S_ISSOCK(st.st_mode) || st.st_uid != ::geteuid()) continue;
+    if (!unlocked_file_of_mine(socket + ".lock")) continue;
+    removed += ::unlink(socket.c_str()) == 0 ? 1 : 0;
+    removed += ::unlink((socket + ".lock").c_str()) == 0 ? 1 : 0;
+  }
+  ::closedir(dir);
+  return removed;
+}
 
 bool roudi_running() { return detail::roudi_lock_held(); }
 
-void connect_client(const std::string& app_name) {
+void connect_client(const std::string& app_name, bool verbose) {
   if (detail::g_host_alive.load() || detail::g_client_runtime.load()) return;
   if (!detail::roudi_lock_held()) {
     throw std::runtime_error("no RouDi runs on this machine: start doppel (or iox-roudi) first");
   }
-  iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn);
+  detail::set_iceoryx_log_level(verbose);
+  remove_stale_client_files(app_name, iox::platform::IOX_UDS_SOCKET_PATH_PREFIX);
   const std::string name = app_name + "-" + std::to_string(::getpid());
   iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
   detail::g_client_runtime = true;

@@ -26,6 +26,9 @@ extern std::atomic<bool> g_client_runtime;
 // the lock file.
 bool roudi_lock_held();
 
+// iceoryx's own log lines: errors only, or (verbose) from info on, with the level announcement.
+void set_iceoryx_log_level(bool verbose);
+
 // True when RouDi lists a publisher of ("DoppelCamera", camera, event).
 bool service_offered(const std::string& camera, const char* event);
 

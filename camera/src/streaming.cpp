@@ -5,17 +5,23 @@
 
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
+#include <fstream>
+#include <iostream>
 #include <map>
 #include <mutex>
 #include <new>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "base/monotonic_clock.h"
 #include "camera/frame.h"
 #include "camera/renderer.h"
 #include "concurrency/sanitizer_handover.h"
+#include "iceoryx_hoofs/cxx/generic_raii.hpp"
 #include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
 #include "iceoryx_posh/iceoryx_posh_config.hpp"
@@ -25,6 +31,7 @@
 // too; the public IceOryxRouDiApp::run() blocks and takes over the signals). roudi_test.cpp pins the
 // iceoryx version this was checked with, so another version fails a test before it is trusted.
 #include "iceoryx_posh/internal/roudi/roudi.hpp"
+#include "iceoryx_posh/internal/runtime/ipc_interface_base.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
 #include "iceoryx_posh/popo/subscriber.hpp"
@@ -37,6 +44,45 @@
 #include "iox_support.h"
 
 namespace doppel::camera {
+namespace detail {
+
+std::atomic<bool> g_host_alive{false};
+std::atomic<bool> g_client_runtime{false};
+
+iox::capro::IdString_t id(const std::string& text) { return iox::capro::IdString_t(iox::cxx::TruncateToCapacity, text); }
+
+iox::capro::ServiceDescription service(const std::string& camera, const char* event) {
+  return iox::capro::ServiceDescription(id(kServiceId), id(camera), id(event));
+}
+
+bool roudi_lock_held() {
+  const std::string path =
+      std::string(iox::platform::IOX_LOCK_FILE_PATH_PREFIX) + iox::roudi::ROUDI_LOCK_NAME + ".lock";
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;  // never created: no RouDi has run since boot
+  const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
+  ::close(fd);  // also drops the lock if we just took it
+  return held;
+}
+
+void set_iceoryx_log_level(bool verbose) {
+  // kHideLogLevel: no "Log level set to" line either.
+  iox::log::LogManager::GetLogManager().SetDefaultLogLevel(
+      verbose ? iox::log::LogLevel::kInfo : iox::log::LogLevel::kError,
+      verbose ? iox::log::LogLevelOutput::kDisplayLogLevel : iox::log::LogLevelOutput::kHideLogLevel);
+}
+
+bool service_offered(const std::string& camera, const char* event) {
+  iox::runtime::ServiceDiscovery discovery;
+  bool found = false;
+  discovery.findService(
+      id(kServiceId), id(camera), id(event),
+      [&found](const iox::capro::ServiceDescription&) { found = true; }, iox::popo::MessagingPattern::PUB_SUB);
+  return found;
+}
+
+}  // namespace detail
+
 namespace {
 
 constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
@@ -81,6 +127,97 @@ uint64_t external_max_payload(double timeout_s) {
   return 0;
 }
 
+// Start time of process `pid` (clock ticks after boot, /proc/<pid>/stat field 22); 0 when the
+// process is gone or a zombie. Together with the pid it names one process, even after pid reuse.
+uint64_t process_start_ticks(uint32_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string stat;
+  std::getline(in, stat);
+  const std::size_t after_name = stat.rfind(')');
+  if (after_name == std::string::npos) return 0;
+  std::istringstream fields(stat.substr(after_name + 1));
+  std::string state;
+  fields >> state;
+  if (state == "Z" || state == "X") return 0;
+  std::string skipped;
+  for (int field = 4; field < 22; ++field) fields >> skipped;
+  uint64_t start = 0;
+  fields >> start;
+  return start;
+}
+
+// RouDi inside doppel. iceoryx's own process monitoring declares a client dead when its keep-alive
+// messages stop for 1.5 s, which a stopped client (SIGSTOP, a debugger, a suspended laptop) cannot
+// send; the client then aborts when it continues (POPO__CHUNK_LOCKING_ERROR). So that monitoring is
+// off, and this RouDi removes a client when its process is really gone: it notes the pid of every
+// client that registers and looks every 500 ms whether that process still exists.
+class ClientReapingRouDi final : public iox::roudi::RouDi {
+ public:
+  ClientReapingRouDi(iox::roudi::RouDiMemoryInterface& memory, iox::roudi::PortManager& ports)
+      : RouDi(memory, ports,
+              RoudiStartupParameters{iox::roudi::MonitoringMode::OFF, false,
+                                     RuntimeMessagesThreadStart::DEFER_START}) {
+    reaper_ = std::thread([this] { reap_until_stopped(); });
+    startProcessRuntimeMessagesThread();
+  }
+  ~ClientReapingRouDi() override {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    reaper_.join();
+    shutdown();  // joins the message thread before the members it uses go
+  }
+
+ protected:
+  void processMessage(const iox::runtime::IpcMessage& message, const iox::runtime::IpcMessageType& cmd,
+                      const iox::RuntimeName_t& runtime_name) noexcept override {
+    if (cmd == iox::runtime::IpcMessageType::REG && message.getNumberOfElements() == 6) {
+      uint32_t pid = 0;
+      uid_t user = 0;
+      int64_t timestamp = 0;
+      parseRegisterMessage(message, pid, user, timestamp);
+      std::lock_guard<std::mutex> lock(mutex_);
+      clients_.push_back({runtime_name, pid, process_start_ticks(pid)});
+    }
+    RouDi::processMessage(message, cmd, runtime_name);
+  }
+
+ private:
+  struct Client {
+    iox::RuntimeName_t name;
+    uint32_t pid;
+    uint64_t start_ticks;
+  };
+
+  void reap_until_stopped() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stop_; })) {
+      std::vector<iox::RuntimeName_t> gone;
+      for (auto it = clients_.begin(); it != clients_.end();) {
+        if (it->start_ticks != 0 && process_start_ticks(it->pid) == it->start_ticks) {
+          ++it;
+          continue;
+        }
+        gone.push_back(it->name);
+        it = clients_.erase(it);
+      }
+      lock.unlock();
+      for (const auto& name : gone) {
+        m_prcMgr->unregisterProcess(name);  // false when the client had already deregistered itself
+      }
+      lock.lock();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stop_ = false;
+  std::vector<Client> clients_;  // registered clients, until their process is gone
+  std::thread reaper_;
+};
+
 }  // namespace
 
 struct StreamingHost::Impl {
@@ -110,7 +247,7 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
     if (detail::g_client_runtime.load()) {
       throw std::logic_error("StreamingHost: this process already registered with RouDi as a client");
     }
-    iox::log::LogManager::GetLogManager().SetDefaultLogLevel(iox::log::LogLevel::kWarn);
+    detail::set_iceoryx_log_level(options.verbose);
     impl_ = std::make_unique<Impl>();
     const std::string name =
         options.runtime_name.empty() ? "doppel-" + std::to_string(::getpid()) : options.runtime_name;
@@ -154,10 +291,17 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
       iox::RouDiConfig_t config;
       const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
       config.m_sharedMemorySegments.push_back({group, group, mepoo});
-      impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
-      impl_->roudi = std::make_unique<iox::roudi::RouDi>(
-          impl_->components->rouDiMemoryManager, impl_->components->portManager,
-          iox::roudi::RouDi::RoudiStartupParameters{iox::roudi::MonitoringMode::ON, false});
+      {
+        // iceoryx reports each shared-memory reservation on std::clog; only --verbose shows it.
+        std::ostringstream discarded;
+        std::streambuf* const clog_buffer = options.verbose ? nullptr : std::clog.rdbuf(discarded.rdbuf());
+        const iox::cxx::GenericRAII restore_clog([] {}, [clog_buffer] {
+          if (clog_buffer != nullptr) std::clog.rdbuf(clog_buffer);
+        });
+        impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
+      }
+      impl_->roudi = std::make_unique<ClientReapingRouDi>(impl_->components->rouDiMemoryManager,
+                                                          impl_->components->portManager);
       impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(
           iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
       impl_->in_process = true;

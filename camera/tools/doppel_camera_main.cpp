@@ -37,6 +37,7 @@ constexpr const char* kUsage =
     "       doppel-camera noise --camera NAME [--off] [--gaussian SIGMA] [--shot GAIN]\n"
     "                           [--salt-pepper FRACTION] [--vignetting V] [--white-balance R,G,B]\n"
     "                           [--seed N] [--timeout S]\n"
+    "  Every command takes --verbose: also print iceoryx's own log lines.\n"
     "  noise: settings not given keep their current values; --off first turns every filter off.\n"
     "  Ranges: gaussian 0..255 (levels), shot 0..255 (variance per level), salt-pepper 0..1,\n"
     "  vignetting 0..1, white-balance gains 0.001..100 (1 = neutral).\n";
@@ -50,6 +51,7 @@ struct Args {
   double seconds = 5.0;
   bool poll = false;
   bool help = false;
+  bool verbose = false;  // --verbose: also print iceoryx's own log lines
   // noise: the options given, applied in this order on top of the current settings
   bool noise_off = false;
   std::vector<std::pair<std::string, std::string>> noise_options;  // option, value as given
@@ -105,6 +107,9 @@ Args parse(int argc, char** argv) {
   save->add_option("--out", a.out);
   stats->add_option("--seconds", a.seconds)->check(number_check("--seconds", "a positive number", positive));
   stats->add_flag("--poll", a.poll);
+  for (CLI::App* command : {list, save, stats, noise}) {
+    command->add_flag("--verbose", a.verbose);
+  }
   noise->add_flag("--off", a.noise_off);
   for (const char* option : kNoiseOptions) {
     noise->add_option(option)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
@@ -288,7 +293,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (a.command == "noise") (void)noise_from_args(a, NoiseConfig{});  // bad values: usage error, before any RouDi
-    connect_client("doppel-camera");
+    connect_client("doppel-camera", a.verbose);
     if (a.command == "list") return cmd_list(a);
     if (a.command == "save") return cmd_save(a);
     if (a.command == "noise") return cmd_noise(a);

@@ -49,6 +49,7 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
   }
   camera::StreamingOptions streaming;
   streaming.roudi = options.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
+  streaming.verbose = options.verbose;
   host_ = std::make_unique<camera::StreamingHost>(configs, streaming);
   double fastest_fps = 0.0;
   for (Mount& mount : mounts_) {

@@ -2,18 +2,19 @@
 
 #include <pthread.h>
 
+#include <iostream>
 #include <numbers>
 #include <optional>
 #include <sstream>
 
 #include "body/kinematic_body.h"
 #include "body/physics_body.h"
+#include "bus/link_directory.h"
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
 #include "physics/engines.h"
 #include "physics/field.h"
 #include "physics/world.h"
-#include "gateway/robot_config.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -40,13 +41,21 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
 
 }  // namespace
 
-Gateway::Gateway(const Options& options) : options_(options) {
-  std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
+std::vector<RobotConfig> load_robots(const Options& options) {
+  const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
   std::vector<RobotConfig> configs;
   for (const std::string& robot : options.robots) {
     configs.push_back(load_robot(robot, robots_dir));
   }
-  const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
+  return configs;
+}
+
+Gateway::Gateway(const Options& options)
+    : Gateway(options, load_robots(options),
+              options.session.empty() ? SessionConfig{} : load_session(options.session)) {}
+
+Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session)
+    : options_(options) {
   // One world holds the bodies of every robot that has one.
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;
@@ -67,6 +76,14 @@ Gateway::Gateway(const Options& options) : options_(options) {
     world_options.field = physics::field_shapes();
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
+  }
+  try {
+    links_ = std::make_unique<bus::LinkDirectory>(options.link_dir, options.allow_shared_link_dir, std::cerr);
+    for (std::size_t r = 1; r < configs.size(); ++r) {
+      links_->subdirectory("robot" + std::to_string(r));
+    }
+  } catch (const bus::UnsafeLinkDirectory& e) {
+    throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
   }
   for (std::size_t r = 0; r < configs.size(); ++r) {
     std::unique_ptr<body::SimulatedBody> body;

@@ -26,9 +26,13 @@ servo-bus drivers can talk to a simulated robot. Runs until SIGINT or SIGTERM.
 Options:
   --robot NAME|FILE      Robot description: a shipped robot name (see --list-robots) or a
                          protobuf text file. Repeat to run several robots. Default: fumanoid-2011.
-  --link-dir DIR         Directory for the stable port links. Default: /tmp/doppel.
-                         Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel/ttyDXL0)
+  --link-dir DIR         Directory for the stable port links. Default: $XDG_RUNTIME_DIR/doppel,
+                         or /tmp/doppel-$USER without a private XDG_RUNTIME_DIR.
+                         Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel-$USER/ttyDXL0)
                          Robot r>0, bus b: DIR/robot<r>/ttyDXL<b>
+                         Refused if it is a symlink, another user's, or writable by others.
+  --allow-shared-link-dir
+                         Use such a link directory anyway, with a warning.
   --timing wire|fast     wire (default): statuses arrive when a real bus at the port's baud rate
                          would deliver them (wire time, firmware time, Return Delay Time).
                          fast: statuses are written as soon as they are computed.
@@ -53,6 +57,7 @@ Options:
   --external-roudi       Use an iceoryx RouDi that is already running (iox-roudi) and fail without one.
                          By default doppel uses a running RouDi if there is one and otherwise runs
                          RouDi inside itself.
+  --verbose              Also print iceoryx's own log lines (warnings and info).
   --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
                          CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
                          tail on a loaded machine.
@@ -77,6 +82,7 @@ Options parse_options(int argc, const char* const* argv) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
       ->allow_extra_args(false);
   app.add_option("--link-dir", options.link_dir)->check(not_empty("the directory"));
+  app.add_flag("--allow-shared-link-dir", options.allow_shared_link_dir);
   app.add_option("--robots-dir", options.robots_dir);
   app.add_option("--session", options.session)->check(not_empty("the file name"));
   app.add_option_function<std::string>(
@@ -94,6 +100,7 @@ Options parse_options(int argc, const char* const* argv) {
       ->check(CLI::IsMember({"ode", "bullet", "none"}));
   app.add_flag("--no-camera{false}", options.camera);
   app.add_flag("--external-roudi", options.external_roudi);
+  app.add_flag("--verbose", options.verbose);
   app.add_flag("--no-hold{false}", options.hold);
   app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));

@@ -61,6 +61,9 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     const proto::Device& device = bus.device(d);
     const bool p2 = config.protocol == dynamixel::Protocol::kV2;
     const uint32_t max_id = p2 ? 252 : 253;
+    if (!device.has_id()) {
+      file.fail(device, "id", -1, "missing ID (0.." + std::to_string(max_id) + ")");
+    }
     if (device.id() > max_id) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is outside 0.." + std::to_string(max_id));
     }

@@ -1,9 +1,13 @@
 #include "proto/text_file.h"
 
+#include <fcntl.h>
 #include <google/protobuf/io/tokenizer.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
-#include <fstream>
-#include <sstream>
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <stdexcept>
 
 namespace doppel::proto {
@@ -36,14 +40,58 @@ std::string position_text(const TextFormat::ParseLocation& where) {
 
 }  // namespace
 
+std::string file_kind(mode_t mode) {
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
 std::string TextFile::read(const std::string& path, std::string_view what) {
-  std::ifstream in(path);
-  if (!in) {
-    throw std::runtime_error(path + ": cannot read " + std::string(what));
+  const std::string cannot = path + ": cannot read " + std::string(what) + ": ";
+  // O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below anyway.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) {
+    throw std::runtime_error(cannot + std::strerror(errno));
   }
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    throw std::runtime_error(cannot + std::strerror(errno));
+  }
+  if (S_ISDIR(st.st_mode)) {
+    throw std::runtime_error(cannot + "it is a directory");
+  }
+  if (!S_ISREG(st.st_mode)) {
+    throw std::runtime_error(cannot + "it is " + file_kind(st.st_mode) + ", not a regular file");
+  }
+  const auto too_big = [&] {
+    return std::runtime_error(cannot + "it is larger than " + std::to_string(kMaxBytes / (1024 * 1024)) +
+                              " MiB, the limit for text files");
+  };
+  if (st.st_size > static_cast<off_t>(kMaxBytes)) {
+    throw too_big();
+  }
+  // Reads up to one byte past the limit, in case the file grew since fstat.
+  std::string text(static_cast<std::size_t>(st.st_size) + 1, '\0');
+  std::size_t have = 0;
+  for (;;) {
+    if (have == text.size()) {
+      if (text.size() > kMaxBytes) throw too_big();
+      text.resize(std::min(text.size() * 2, kMaxBytes + 1));
+    }
+    const ssize_t n = ::read(fd, text.data() + have, text.size() - have);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw std::runtime_error(cannot + std::strerror(errno));
+    if (n == 0) break;
+    have += static_cast<std::size_t>(n);
+  }
+  text.resize(have);
+  return text;
 }
 
 void TextFile::parse_into(std::unique_ptr<Message> message, std::string_view text, const std::string& path) {
@@ -59,6 +107,34 @@ void TextFile::parse_into(std::unique_ptr<Message> message, std::string_view tex
     throw std::runtime_error(path + ":" + errors.message());
   }
   index_locations(*message_, tree_.get(), "1:1");
+  check_string_lengths(*message_);
+}
+
+void TextFile::check_string_lengths(const Message& message) const {
+  const Descriptor* descriptor = message.GetDescriptor();
+  const Reflection* reflection = message.GetReflection();
+  for (int f = 0; f < descriptor->field_count(); ++f) {
+    const FieldDescriptor* field = descriptor->field(f);
+    const bool repeated = field->is_repeated();
+    const int count = repeated ? reflection->FieldSize(message, field) : (reflection->HasField(message, field) ? 1 : 0);
+    for (int i = 0; i < count; ++i) {
+      const int index = repeated ? i : -1;
+      if (field->cpp_type() == FieldDescriptor::CPPTYPE_MESSAGE) {
+        check_string_lengths(repeated ? reflection->GetRepeatedMessage(message, field, i)
+                                      : reflection->GetMessage(message, field));
+      } else if (field->cpp_type() == FieldDescriptor::CPPTYPE_STRING) {
+        const std::size_t limit = field->name() == "description" ? kMaxDescriptionChars : kMaxNameChars;
+        std::string scratch;
+        const std::size_t length = (repeated ? reflection->GetRepeatedStringReference(message, field, i, &scratch)
+                                             : reflection->GetStringReference(message, field, &scratch))
+                                       .size();
+        if (length > limit) {
+          fail(message, field->name(), index,
+               std::to_string(length) + " characters, more than the " + std::to_string(limit) + " allowed");
+        }
+      }
+    }
+  }
 }
 
 void TextFile::index_locations(const Message& message, const TextFormat::ParseInfoTree* tree, std::string position) {

@@ -52,15 +52,31 @@ std::vector<uint8_t> port_read_until_hang_up(PtyPort& port) {
   return port_read(port, std::numeric_limits<std::size_t>::max());
 }
 
-TEST(PtyPort, CreatesLinkDirectoryAndPointsLinkAtSlave) {
+TEST(PtyPort, PointsLinkAtSlave) {
   TempDir dir;
-  const std::string link = dir.file("nested/dir/ttyDXL0");
+  const std::string link = dir.file("ttyDXL0");
 
   PtyPort sut(link);
 
   EXPECT_EQ(link_target(link), sut.slave_path());
   EXPECT_EQ(sut.slave_path().rfind("/dev/pts/", 0), 0u);
   EXPECT_EQ(sut.link_path(), link);
+}
+
+// Creating directories is LinkDirectory's job (tests/bus/link_directory_test.cpp): it does not
+// follow symlinks, create_directories did.
+TEST(PtyPort, RefusesAMissingDirectoryInsteadOfCreatingIt) {
+  TempDir dir;
+  const std::string link = dir.file("nested/dir/ttyDXL0");
+
+  try {
+    PtyPort sut(link);
+    FAIL() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(dir.file("nested/dir")), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("does not exist"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.file("nested")));
 }
 
 TEST(PtyPort, ReplacesStaleLink) {
@@ -100,6 +116,51 @@ TEST(PtyPort, RemovesItsLinkOnDestruction) {
   { PtyPort sut(link); }
 
   EXPECT_FALSE(std::filesystem::is_symlink(link));
+}
+
+TEST(PtyPort, LeavesAReplacedLinkAloneAndSaysSo) {
+  TempDir dir;
+  const std::string link = dir.file("ttyDXL0");
+  const std::string foreign = dir.file("attacker-device");
+  std::ofstream(foreign) << "not a servo";
+  auto sut = std::make_unique<PtyPort>(link);
+  // What another user did in the issue: ln -sfn TARGET tmp; mv -T tmp ttyDXL0.
+  std::filesystem::create_symlink(foreign, dir.file("tmp"));
+  std::filesystem::rename(dir.file("tmp"), link);
+
+  ::testing::internal::CaptureStderr();
+  sut.reset();
+  const std::string said = ::testing::internal::GetCapturedStderr();
+
+  EXPECT_EQ(link_target(link), foreign);
+  EXPECT_NE(said.find(link), std::string::npos) << said;
+  EXPECT_NE(said.find("replaced"), std::string::npos) << said;
+}
+
+TEST(PtyPort, ReleaseLinkTellsRemovedFromReplaced) {
+  TempDir dir;
+  const std::string link = dir.file("ttyDXL0");
+  PtyPort kept(link);
+  EXPECT_EQ(kept.release_link(), PtyPort::LinkRelease::kRemoved);
+  EXPECT_FALSE(std::filesystem::is_symlink(link));
+  EXPECT_EQ(kept.release_link(), PtyPort::LinkRelease::kGone);
+
+  PtyPort replaced(link);
+  std::filesystem::remove(link);
+  std::filesystem::create_symlink(replaced.slave_path() + "-not", link);
+  EXPECT_EQ(replaced.release_link(), PtyPort::LinkRelease::kReplaced);
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
+}
+
+TEST(PtyPort, LeavesALinkOwnedByAnotherUserEvenIfItPointsAtTheSlave) {
+  TempDir dir;
+  const std::string link = dir.file("ttyDXL0");
+  PtyPort sut(link);
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to give the link to another user";
+  ASSERT_EQ(::lchown(link.c_str(), 65534, 65534), 0);
+
+  EXPECT_EQ(sut.release_link(), PtyPort::LinkRelease::kReplaced);
+  EXPECT_TRUE(std::filesystem::is_symlink(link));
 }
 
 TEST(PtyPort, LeavesALinkTakenOverByAnotherPort) {

@@ -17,13 +17,15 @@
 
 namespace doppel::bus::testing {
 
-// A fresh directory for one test's port link, removed afterwards.
+// A fresh directory (mode 0700) for one test's port link, removed afterwards.
 class TempDir {
  public:
   TempDir() {
     static std::atomic<int> counter{0};
     path_ = std::filesystem::temp_directory_path() /
             ("doppel-bus-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    std::filesystem::create_directory(path_);
+    std::filesystem::permissions(path_, std::filesystem::perms::owner_all);
   }
   ~TempDir() {
     std::error_code ec;

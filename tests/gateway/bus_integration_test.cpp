@@ -425,5 +425,73 @@ TEST(Doppel, CommandLineErrorsAreClear) {
   EXPECT_NE(list.find("mx-test"), std::string::npos) << list;
 }
 
+// Issue 16: a /tmp/doppel made beforehand by another user as a symlink must not receive the links.
+TEST(Doppel, RefusesASymlinkedLinkDirectoryAndCreatesNothingThere) {
+  char dir_template[] = "/tmp/doppel-linkdir-XXXXXX";
+  const std::string dir = mkdtemp(dir_template);
+  std::filesystem::create_directory(dir + "/elsewhere");
+  std::filesystem::create_directory_symlink(dir + "/elsewhere", dir + "/links");
+
+  auto [code, said] = run_command(doppel_executable() + " --robot mx-test --robot mx-test --no-camera --link-dir " +
+                                  dir + "/links");
+
+  EXPECT_EQ(code, 1) << said;
+  EXPECT_NE(said.find("'" + dir + "/links' is a symbolic link"), std::string::npos) << said;
+  EXPECT_NE(said.find("--allow-shared-link-dir"), std::string::npos) << said;
+  EXPECT_TRUE(std::filesystem::is_empty(dir + "/elsewhere"));
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Doppel, RemovesTheLinkDirectoriesItCreatedAtExit) {
+  std::string parent;
+  {
+    DoppelProcess doppel({"--robot", "mx-test", "--robot", "mx-test"}, "robot1/ttyDXL0");
+    parent = std::filesystem::path(doppel.link_dir()).parent_path().string();
+    EXPECT_TRUE(std::filesystem::is_symlink(doppel.link("robot1/ttyDXL0")));
+    const int status = doppel.stop(SIGTERM);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << doppel.output();
+    EXPECT_FALSE(std::filesystem::exists(doppel.link_dir())) << doppel.output();
+    EXPECT_TRUE(std::filesystem::is_directory(parent)) << "only what doppel created goes";
+  }
+}
+
+TEST(Doppel, SaysSoAndLeavesALinkReplacedWhileItRan) {
+  DoppelProcess doppel({"--robot", "mx-test"});
+  const std::string foreign = std::filesystem::path(doppel.link_dir()).parent_path().string() + "/foreign";
+  std::ofstream(foreign) << "x";
+  std::filesystem::create_symlink(foreign, doppel.link_dir() + "/tmp");
+  std::filesystem::rename(doppel.link_dir() + "/tmp", doppel.link());
+
+  doppel.stop(SIGTERM);
+
+  EXPECT_EQ(std::filesystem::read_symlink(doppel.link()).string(), foreign);
+  EXPECT_NE(doppel.output().find("'" + doppel.link() + "' no longer points at"), std::string::npos)
+      << doppel.output();
+}
+
+// Issue 16: doppel ignored SIGINT/SIGTERM while it read a robot file.
+TEST(Doppel, ASignalWhileLoadingEndsItAtOnceWithAMessage) {
+  char dir_template[] = "/tmp/doppel-load-XXXXXX";
+  const std::string dir = mkdtemp(dir_template);
+  const std::string file = dir + "/big.textproto";
+  {
+    std::ofstream out(file);
+    out << "name: \"big\"\nbus {\n baud_bps: 1000000\n protocol: PROTOCOL_1\n device { id: 1 model: \"RX-28\" }\n}\n";
+    const std::string comment = "# " + std::string(1000, 'x') + "\n";
+    for (int i = 0; i < 15 * 1024; ++i) out << comment;  // ~15 MiB: loading takes a while
+  }
+  const std::string command = "( " + doppel_executable() + " --robot " + file + " --no-camera --link-dir " + dir +
+                              "/links & pid=$!; sleep 0.1; kill -TERM $pid; wait $pid; echo \"exit $?\" )";
+  const auto start = std::chrono::steady_clock::now();
+  auto [code, said] = run_command(command);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  EXPECT_NE(said.find("doppel: SIGTERM while starting up; stopping"), std::string::npos) << said;
+  EXPECT_NE(said.find("exit 0"), std::string::npos) << said;
+  EXPECT_LT(seconds, 0.4) << said;
+  EXPECT_FALSE(std::filesystem::exists(dir + "/links")) << said;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace doppel::testing

@@ -17,7 +17,8 @@ TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
   Options sut = parse({});
   ASSERT_EQ(sut.robots.size(), 1u);
   EXPECT_EQ(sut.robots[0], "fumanoid-2011");
-  EXPECT_EQ(sut.link_dir, "/tmp/doppel");
+  EXPECT_EQ(sut.link_dir, bus::default_link_dir());
+  EXPECT_FALSE(sut.allow_shared_link_dir);
   EXPECT_EQ(sut.timing, bus::TimingMode::kWire);
   EXPECT_EQ(sut.latency_timer_ms, 0u);
   EXPECT_DOUBLE_EQ(sut.processing_us, 50.0);
@@ -25,7 +26,8 @@ TEST(Options, NoArgumentsRunTheDefaultRobotWithWireTiming) {
 
 TEST(Options, EveryOptionIsParsed) {
   Options sut = parse({"--robot", "mx-test", "--robot", "/x/r.textproto", "--link-dir", "/tmp/l", "--timing", "fast",
-                       "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r", "--rt-priority", "50"});
+                       "--processing-us", "20", "--latency-timer", "16", "--robots-dir", "/r", "--rt-priority", "50",
+                       "--allow-shared-link-dir", "--verbose"});
   EXPECT_EQ(sut.robots, (std::vector<std::string>{"mx-test", "/x/r.textproto"}));
   EXPECT_EQ(sut.link_dir, "/tmp/l");
   EXPECT_EQ(sut.timing, bus::TimingMode::kFast);
@@ -33,6 +35,8 @@ TEST(Options, EveryOptionIsParsed) {
   EXPECT_EQ(sut.latency_timer_ms, 16u);
   EXPECT_EQ(sut.robots_dir, "/r");
   EXPECT_EQ(sut.rt_priority, 50);
+  EXPECT_TRUE(sut.allow_shared_link_dir);
+  EXPECT_TRUE(sut.verbose);
 }
 
 TEST(Options, BadOptionsAreRejectedWithTheirName) {
@@ -114,7 +118,7 @@ TEST(Options, HelpDocumentsEveryOption) {
   std::string text = usage();
   for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
                              "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>",
-                             "--session", "--no-camera", "--external-roudi"}) {
+                             "--session", "--no-camera", "--external-roudi", "--allow-shared-link-dir", "--verbose"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
   }
 }

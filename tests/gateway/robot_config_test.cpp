@@ -105,6 +105,16 @@ TEST(RobotConfig, DuplicateIdIsRejected) {
   EXPECT_NE(error.find("used twice"), std::string::npos) << error;
 }
 
+// Issue 16: a device without `id` silently became ID 0.
+TEST(RobotConfig, MissingIdIsAnErrorNamingTheDevicesLine) {
+  std::string error = error_of(std::string(kGoodBus) + "  device { model: \"RX-28\" name: \"B\" }\n}\n");
+  EXPECT_EQ(error.rfind("robots/bad.textproto:6:3: Device.id: missing ID", 0), 0u) << error;
+  EXPECT_NO_THROW(parse_robot("name: \"r\"\nbus {\n baud_bps: 1000000\n protocol: PROTOCOL_1\n"
+                              " device { id: 0 model: \"RX-28\" }\n}\n",
+                              "x"))
+      << "an explicit ID 0 is still allowed";
+}
+
 TEST(RobotConfig, IdOutOfRangeIsRejected) {
   std::string error = error_of(std::string(kGoodBus) + "  device { id: 254 model: \"RX-28\" }\n}\n");
   EXPECT_NE(error.find("Device.id"), std::string::npos) << error;

@@ -55,7 +55,7 @@ TEST(SessionFile, SyntaxErrorsAndUnreadableFilesNameTheFile) {
     SessionFile::load("/nonexistent/s.textproto");
     FAIL() << "no exception";
   } catch (const std::runtime_error& e) {
-    EXPECT_STREQ(e.what(), "/nonexistent/s.textproto: cannot read session file");
+    EXPECT_STREQ(e.what(), "/nonexistent/s.textproto: cannot read session file: No such file or directory");
   }
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 // The serial port a servo-bus driver opens: the master side of a pseudo-terminal, published under a
-// stable symlink (e.g. /tmp/doppel/ttyDXL0 -> /dev/pts/N). Doppel never keeps the slave side open,
+// stable symlink (e.g. $XDG_RUNTIME_DIR/doppel/ttyDXL0 -> /dev/pts/N). Doppel never keeps the slave side open,
 // so the kernel tells it when the last client has gone (the master reads EIO / polls POLLHUP).
 // It is not a timing model and does not parse packets: BusServer does that on top of it.
 //
@@ -35,12 +35,12 @@ struct PortWait {
 class PtyPort final {
  public:
   // Opens a pty master (non-blocking, close-on-exec), puts the slave in raw mode and points
-  // `link_path` at the slave, creating missing parent directories and replacing an existing
-  // symlink (a stale link from an earlier run). Setup only. Throws std::runtime_error with the
-  // failing step and path when a system call fails or when `link_path` exists and is not a
-  // symbolic link (it is never replaced then).
+  // `link_path` at the slave, replacing an existing symlink (a stale link from an earlier run).
+  // The link's directory must exist (LinkDirectory creates and checks it). Setup only. Throws
+  // std::runtime_error with the failing step and path when a system call fails, the directory is
+  // missing, or `link_path` exists and is not a symbolic link (it is never replaced then).
   explicit PtyPort(std::string link_path);
-  // Removes the symlink if it still points at this port's slave, and closes the master.
+  // release_link(), saying on stderr when the link was replaced; closes the master.
   ~PtyPort();
 
   PtyPort(const PtyPort&) = delete;
@@ -80,6 +80,12 @@ class PtyPort final {
   // read with TCGETS2; 0 on error or B0. rt-safe.
   uint32_t line_baud_bps() const noexcept;
 
+  enum class LinkRelease { kRemoved, kGone, kReplaced };
+  // Removes the link if it is still this port's: a symlink owned by the user that points at
+  // slave_path(). A link someone replaced is left alone (kReplaced), so its owner's device stays
+  // reachable and the caller can report it. Only the first call acts; later ones return kGone.
+  LinkRelease release_link() noexcept;
+
   int master_fd() const noexcept { return master_fd_; }
   const std::string& link_path() const noexcept { return link_path_; }    // the stable name
   const std::string& slave_path() const noexcept { return slave_path_; }  // /dev/pts/N
@@ -95,6 +101,7 @@ class PtyPort final {
   int inotify_fd_ = -1;  // IN_OPEN watch on slave_path_, -1 when inotify is unavailable
   bool connected_ = false;
   bool hung_up_ = false;
+  bool link_released_ = false;
 };
 
 }  // namespace doppel::bus

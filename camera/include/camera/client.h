@@ -18,10 +18,17 @@ namespace doppel::camera {
 // True when a RouDi (iox-roudi or a doppel) runs on this machine. Setup code.
 bool roudi_running();
 
-// Registers this process with the running RouDi as `app_name`-<pid>. Does nothing when this
-// process already has iceoryx (a StreamingHost, or an earlier call). Throws std::runtime_error when
-// no RouDi runs (iceoryx itself would wait a minute and then abort).
-void connect_client(const std::string& app_name);
+// Registers this process with the running RouDi as `app_name`-<pid>, first removing what killed
+// clients of that name left behind (remove_stale_client_files). iceoryx's own log lines are shown
+// only if `verbose`. Does nothing when this process already has iceoryx (a StreamingHost, or an
+// earlier call). Throws std::runtime_error when no RouDi runs (iceoryx itself would wait a minute
+// and then abort).
+void connect_client(const std::string& app_name, bool verbose = false);
+
+// iceoryx leaves a socket `directory`/`app_name`-<pid> and its .lock behind when a client is
+// killed. Removes each pair whose process is gone, whose lock nobody holds and that belongs to this
+// user; returns the number of files removed.
+int remove_stale_client_files(const std::string& app_name, const std::string& directory);
 
 // Cameras whose info topic can be found within `timeout_s`. Requires connect_client() or a host.
 std::vector<CameraInfo> list_cameras(double timeout_s = 1.0);

@@ -37,6 +37,7 @@ struct StreamingOptions {
   std::string runtime_name;            // iceoryx application name; empty = "doppel-<pid>"
   uint32_t chunks_per_camera = 32;     // frame chunks per camera in the in-process RouDi's pools
   double introspection_timeout_s = 3.0;  // external RouDi: how long to wait for its mempool report
+  bool verbose = false;                // also print iceoryx's own warnings and info lines
 };
 
 class StreamingHost {

@@ -13,9 +13,14 @@
 #include <vector>
 
 #include "gateway/options.h"
+#include "gateway/robot_config.h"
 
 namespace doppel::physics {
 class World;
+}
+
+namespace doppel::bus {
+class LinkDirectory;
 }
 
 namespace doppel::gateway {
@@ -28,6 +33,9 @@ class Gateway {
   // Configures every robot of `options`. Throws (std::invalid_argument, std::runtime_error) with a
   // message for the user when a robot file or a port cannot be set up.
   explicit Gateway(const Options& options);
+  // The same with the robots (in the order of options.robots) and the session already loaded, so
+  // that a caller can tell reading files (no side effects) from opening ports and links.
+  Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session);
   ~Gateway();
   Gateway(const Gateway&) = delete;
   Gateway& operator=(const Gateway&) = delete;
@@ -42,6 +50,7 @@ class Gateway {
   void simulate() noexcept;
 
   Options options_;
+  std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
@@ -49,6 +58,9 @@ class Gateway {
   std::thread simulation_thread_;
   uint64_t missed_ticks_ = 0;
 };
+
+// The robots of `options`, loaded in order (robot names looked up in robots_dir or the default).
+std::vector<RobotConfig> load_robots(const Options& options);
 
 // Link path of bus `bus` of robot `robot` under `link_dir` (README: ttyDXL<b>, robot<r>/ttyDXL<b>).
 std::string link_path(const std::string& link_dir, std::size_t robot, std::size_t bus);

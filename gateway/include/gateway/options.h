@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "bus/link_directory.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
 
@@ -14,7 +15,8 @@ namespace doppel::gateway {
 
 struct Options {
   std::vector<std::string> robots;       // robot names (robots/NAME.textproto) or files; empty = default robot
-  std::string link_dir = "/tmp/doppel";  // where the stable ttyDXL links go
+  std::string link_dir = bus::default_link_dir();  // where the stable ttyDXL links go
+  bool allow_shared_link_dir = false;    // --allow-shared-link-dir: accept an unsafe link directory with a warning
   std::string robots_dir;                // where robot names are looked up; empty = built-in default
   std::string session;                   // --session FILE: cameras fixed in the field; empty = none
   bus::TimingMode timing = bus::TimingMode::kWire;  // --timing wire|fast
@@ -25,6 +27,7 @@ struct Options {
   std::optional<physics::Engine> physics = physics::Engine::kOde;
   bool hold = true;                      // a handler holds each robot until its first Torque Enable
   bool camera = true;                    // --no-camera: stream no camera
+  bool verbose = false;                  // --verbose: also print iceoryx's own log lines
   bool external_roudi = false;           // --external-roudi: require an already running iceoryx RouDi
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit

@@ -13,7 +13,7 @@ namespace doppel::proto {
 
 class SessionFile : public TextFile {
  public:
-  // Reads and parses `path`. Throws std::runtime_error("path: cannot read session file") or
+  // Reads and parses `path`. Throws std::runtime_error("path: cannot read session file: <reason>") or
   // std::runtime_error("path:line:column: <parser message>") for syntax errors and unknown fields.
   static SessionFile load(const std::string& path);
   // Parses `text` as if it were the file `path` (for tests).

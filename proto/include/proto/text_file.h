@@ -7,6 +7,7 @@
 #include <google/protobuf/message.h>
 #include <google/protobuf/text_format.h>
 
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -16,6 +17,13 @@ namespace doppel::proto {
 
 class TextFile {
  public:
+  // Limits far above any real file, so that a careless or hostile path (/dev/zero, a huge file, a
+  // 50 MB name) cannot exhaust memory or flood the terminal: the file's size, a `description`
+  // string, and every other string (names, models, formats).
+  static constexpr std::size_t kMaxBytes = 16 * 1024 * 1024;
+  static constexpr std::size_t kMaxDescriptionChars = 1024;
+  static constexpr std::size_t kMaxNameChars = 64;
+
   const std::string& path() const noexcept { return path_; }
   // The parsed message (the type given to parse_into()).
   const google::protobuf::Message& message() const noexcept { return *message_; }
@@ -31,15 +39,18 @@ class TextFile {
 
  protected:
   TextFile() = default;
-  // The text of `path`; throws std::runtime_error("path: cannot read <what>").
+  // The text of `path`; throws std::runtime_error("path: cannot read <what>: <reason>") when it
+  // cannot be opened (strerror), is a directory or not a regular file, or exceeds kMaxBytes.
   static std::string read(const std::string& path, std::string_view what);
   // Parses `text` into `message` as the file `path` and keeps both. Throws
-  // std::runtime_error("path:line:column: <parser message>") for syntax errors and unknown fields.
+  // std::runtime_error("path:line:column: <parser message>") for syntax errors and unknown fields,
+  // std::invalid_argument("path:line:column: ...") for a string longer than its limit.
   void parse_into(std::unique_ptr<google::protobuf::Message> message, std::string_view text, const std::string& path);
 
  private:
   void index_locations(const google::protobuf::Message& message,
                        const google::protobuf::TextFormat::ParseInfoTree* tree, std::string position);
+  void check_string_lengths(const google::protobuf::Message& message) const;
 
   std::string path_;
   std::unique_ptr<google::protobuf::Message> message_;

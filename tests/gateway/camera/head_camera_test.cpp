@@ -15,6 +15,9 @@ TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
   // Its first port's link appears before its cameras are published; "running until" comes after.
   const std::string output = doppel.wait_for_output("running until");
   EXPECT_NE(output.find("camera 'HEAD_CAMERA'"), std::string::npos) << output;
+  // iceoryx's own lines only with --verbose (issue 16).
+  EXPECT_EQ(output.find("Reserving"), std::string::npos) << output;
+  EXPECT_EQ(output.find("Log level set to"), std::string::npos) << output;
   auto [list_code, list] = run_command(std::string(DOPPEL_CAMERA_TOOL) + " list");
   ASSERT_EQ(list_code, 0) << list;
   EXPECT_NE(list.find("HEAD_CAMERA"), std::string::npos) << list;
