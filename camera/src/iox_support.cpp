@@ -6,6 +6,7 @@
 
 #include <cerrno>
 
+#include "iceoryx_hoofs/log/logmanager.hpp"
 #include "iceoryx_posh/iceoryx_posh_types.hpp"
 #include "iceoryx_posh/runtime/service_discovery.hpp"
 
@@ -29,6 +30,13 @@ bool roudi_lock_held() {
   const bool held = ::flock(fd, LOCK_EX | LOCK_NB) != 0 && errno == EWOULDBLOCK;
   ::close(fd);  // also drops the lock if we just took it
   return held;
+}
+
+void set_iceoryx_log_level(bool verbose) {
+  // kHideLogLevel: no "Log level set to" line either.
+  iox::log::LogManager::GetLogManager().SetDefaultLogLevel(
+      verbose ? iox::log::LogLevel::kInfo : iox::log::LogLevel::kError,
+      verbose ? iox::log::LogLevelOutput::kDisplayLogLevel : iox::log::LogLevelOutput::kHideLogLevel);
 }
 
 bool service_offered(const std::string& camera, const char* event) {
