@@ -1,11 +1,13 @@
 #include "camera/streaming.h"
 
+#include <fcntl.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -106,6 +108,36 @@ uint64_t process_start_ticks(uint32_t pid) {
   fields >> start;
   return start;
 }
+
+// iceoryx 2.0's RouDi message thread writes "RouDi is ready for clients" straight to std::cout,
+// bypassing its logger (roudi.cpp, processRuntimeMessages). While `active`, this points stdout at
+// /dev/null; at the file-descriptor level, because that thread writes while RouDi starts and a
+// stream-buffer swap would race with it. Nothing else in doppel writes to stdout meanwhile.
+class QuietStdout {
+ public:
+  explicit QuietStdout(bool active) {
+    if (!active) return;
+    const int null_fd = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+    if (null_fd < 0) return;
+    std::cout.flush();
+    std::fflush(stdout);
+    saved_fd_ = ::fcntl(STDOUT_FILENO, F_DUPFD_CLOEXEC, 0);
+    if (saved_fd_ >= 0) ::dup2(null_fd, STDOUT_FILENO);
+    ::close(null_fd);
+  }
+  ~QuietStdout() {
+    if (saved_fd_ < 0) return;
+    std::cout.flush();
+    std::fflush(stdout);
+    ::dup2(saved_fd_, STDOUT_FILENO);
+    ::close(saved_fd_);
+  }
+  QuietStdout(const QuietStdout&) = delete;
+  QuietStdout& operator=(const QuietStdout&) = delete;
+
+ private:
+  int saved_fd_ = -1;
+};
 
 // RouDi inside doppel. iceoryx's own process monitoring declares a client dead when its keep-alive
 // messages stop for 1.5 s, which a stopped client (SIGSTOP, a debugger, a suspended laptop) cannot
@@ -261,10 +293,14 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
         });
         impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
       }
-      impl_->roudi = std::make_unique<ClientReapingRouDi>(impl_->components->rouDiMemoryManager,
-                                                          impl_->components->portManager);
-      impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(
-          iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+      {
+        const QuietStdout quiet(!options.verbose);
+        impl_->roudi = std::make_unique<ClientReapingRouDi>(impl_->components->rouDiMemoryManager,
+                                                            impl_->components->portManager);
+        // Registering waits for RouDi's message thread, which prints its line before it serves.
+        impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(
+            iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
+      }
       impl_->in_process = true;
       impl_->description = "camera: started RouDi inside this process (" + std::to_string(data_bytes >> 20) +
                            " MiB of frame pools:" + sizes + ")";

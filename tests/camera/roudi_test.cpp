@@ -232,6 +232,40 @@ TEST(PausedClient, ASubscriberStoppedForThreeSecondsKeepsReceivingAfterContinue)
   EXPECT_EQ(said.find("Keepalive"), std::string::npos) << said;
 }
 
+// What a child that starts the in-process RouDi (verbose or not) writes to its stdout and stderr.
+std::string output_of_roudi_start(bool verbose) {
+  const std::string out = ::testing::TempDir() + "doppel_roudi_start.txt";
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const int fd = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    StreamingOptions options;
+    options.roudi = RouDiMode::kInProcess;
+    options.verbose = verbose;
+    {
+      StreamingHost host({small_camera("quiet")}, options);
+    }
+    std::fflush(stdout);
+    ::_exit(0);
+  }
+  EXPECT_EQ(reap(child, 30000ms), 0);
+  const std::string said = read_file(out);
+  std::filesystem::remove(out);
+  return said;
+}
+
+// iceoryx prints this line past its logger; only --verbose shows it.
+TEST(RouDiTest, StartingRouDiPrintsNothingOfIceoryxUnlessVerbose) {
+  ASSERT_FALSE(roudi_running());
+  const std::string quiet = output_of_roudi_start(false);
+  EXPECT_EQ(quiet.find("RouDi is ready"), std::string::npos) << quiet;
+  EXPECT_EQ(quiet.find("Log level"), std::string::npos) << quiet;
+  ASSERT_TRUE(eventually([] { return !roudi_running(); }, 3000ms));
+  const std::string verbose = output_of_roudi_start(true);
+  EXPECT_NE(verbose.find("RouDi is ready"), std::string::npos) << verbose;
+}
+
 // A unix socket at `path`, as iceoryx leaves one behind.
 void make_socket(const std::string& path) {
   const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
