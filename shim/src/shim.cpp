@@ -13,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <linux/close_range.h>
 #include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <termios.h>
@@ -64,6 +65,8 @@ struct Real {
   FILE* (*fopen64)(const char*, const char*);
   int (*fclose)(FILE*);
   int (*close)(int);
+  int (*close_range)(unsigned, unsigned, int);
+  void (*closefrom)(int);
   int (*dup)(int);
   int (*dup2)(int, int);
   int (*dup3)(int, int, int);
@@ -119,6 +122,8 @@ void resolve_all() noexcept {
   resolve(g_real.fopen64, "fopen64");
   resolve(g_real.fclose, "fclose");
   resolve(g_real.close, "close");
+  resolve(g_real.close_range, "close_range");
+  resolve(g_real.closefrom, "closefrom");
   resolve(g_real.dup, "dup");
   resolve(g_real.dup2, "dup2");
   resolve(g_real.dup3, "dup3");
@@ -277,6 +282,8 @@ int opened(int fd, const Target& target) noexcept {
   if (fd >= 0 && target.port >= 0) {
     g_ports[target.port].dtr_rts.store(TIOCM_DTR | TIOCM_RTS, std::memory_order_relaxed);  // tty_port_open raises them
     track(fd, target.port);
+  } else {
+    untrack(fd);  // a number freed behind the table's back (e.g. by a raw close) is not Doppel's any more
   }
   return fd;
 }
@@ -486,6 +493,16 @@ SHIM_EXPORT int fclose(FILE* file) {
 SHIM_EXPORT int close(int fd) {
   untrack(fd);
   return real(&Real::close, "close")(fd);
+}
+SHIM_EXPORT int close_range(unsigned first, unsigned last, int flags) noexcept {
+  if ((flags & CLOSE_RANGE_CLOEXEC) == 0) {
+    for (unsigned fd = first; fd <= last && fd < static_cast<unsigned>(kMaxFds); ++fd) untrack(static_cast<int>(fd));
+  }
+  return real(&Real::close_range, "close_range")(first, last, flags);
+}
+SHIM_EXPORT void closefrom(int first) noexcept {
+  for (int fd = first < 0 ? 0 : first; fd < kMaxFds; ++fd) untrack(fd);
+  real(&Real::closefrom, "closefrom")(first);
 }
 SHIM_EXPORT int dup(int fd) noexcept {
   const int copy = real(&Real::dup, "dup")(fd);

@@ -78,7 +78,7 @@ TEST(FtdiSerial, ModemLinesAreDtrAndRtsOnly) {
   EXPECT_EQ(ftdi_modem_lines(sut), TIOCM_DTR | TIOCM_RTS);
   ftdi_update_modem_lines(sut, 0, TIOCM_DTR);
   EXPECT_EQ(ftdi_modem_lines(sut), TIOCM_RTS);
-  ftdi_update_modem_lines(sut, TIOCM_DTR | TIOCM_CTS | TIOCM_LOOP, 0);
+  ftdi_update_modem_lines(sut, TIOCM_DTR | TIOCM_CTS | TIOCM_RI, 0);
   EXPECT_EQ(ftdi_modem_lines(sut), TIOCM_DTR | TIOCM_RTS);
   ftdi_update_modem_lines(sut, TIOCM_RTS, TIOCM_RTS | TIOCM_DTR);
   EXPECT_EQ(ftdi_modem_lines(sut), TIOCM_RTS);

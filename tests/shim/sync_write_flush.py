@@ -7,6 +7,7 @@ Prints "sent N" and "goal ID VALUE" per servo; exit 0 when every read-back equal
 Usage: python3 sync_write_flush.py DEVICE COUNT
 """
 import sys
+import time
 
 import serial
 
@@ -32,6 +33,9 @@ def main():
         port.write(packet(0xFE, 0x83, params))
         port.flushOutput()
     print("sent", count)
+    # A USB adapter paces the writes at the line rate; a pty takes them at once and Doppel's wire
+    # model serves them at 1 Mbps: let the last packet cross (10 bits per byte) before reading back.
+    time.sleep(count * len(packet(0xFE, 0x83, params)) * 10 / 1000000 + 0.1)
     ok = True
     for servo in (1, 2, 3):
         port.reset_input_buffer()
