@@ -11,15 +11,8 @@
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device.h"
 #include "dynamixel/protocol1.h"
+#include "fuzz_check.h"
 
-// Aborts with the failed condition and its line, so libFuzzer keeps the input that broke it.
-#define FUZZ_CHECK(cond)                                                          \
-  do {                                                                            \
-    if (!(cond)) {                                                                \
-      std::fprintf(stderr, "invariant failed: %s (line %d)\n", #cond, __LINE__); \
-      std::abort();                                                               \
-    }                                                                             \
-  } while (0)
 
 namespace doppel::dynamixel::fuzz {
 

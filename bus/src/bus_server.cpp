@@ -44,7 +44,16 @@ BusServer::BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusSer
   if (options.adapter_latency_ms > AdapterLatency::kMaxLatencyMs) {
     throw std::invalid_argument("BusServer: adapter_latency_ms must be 0..255");
   }
+  requested_latency_ms_.store(options.adapter_latency_ms, std::memory_order_relaxed);
 }
+
+bool BusServer::set_adapter_latency_ms(uint32_t latency_ms) noexcept {
+  if (latency_ms > AdapterLatency::kMaxLatencyMs) return false;
+  requested_latency_ms_.store(latency_ms, std::memory_order_relaxed);
+  return true;
+}
+
+uint32_t BusServer::adapter_latency_ms() const noexcept { return requested_latency_ms_.load(std::memory_order_relaxed); }
 
 void BusServer::run(const std::atomic<bool>& stop) noexcept {
   // Timer slack (default 50 µs) would otherwise delay every timed wake-up by up to that much.
@@ -160,6 +169,9 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   }
 
   timing_.begin_reply(instruction_end_ns);
+  if (options_.timing_mode == TimingMode::kWire) {
+    adapter_.set_latency_ms(requested_latency_ms_.load(std::memory_order_relaxed));  // between replies: nothing buffered
+  }
   adapter_.begin_reply();
   uint64_t merged = 0;
   auto emit = [&](const Delivery& delivery) noexcept {

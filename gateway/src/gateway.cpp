@@ -9,6 +9,7 @@
 
 #include "body/kinematic_body.h"
 #include "body/physics_body.h"
+#include "bus/latency_timer_files.h"
 #include "bus/link_directory.h"
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
@@ -94,6 +95,10 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
     robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, std::move(body), options_));
   }
+  latency_files_ = std::make_unique<bus::LatencyTimerFiles>(std::cerr);
+  for (auto& robot : robots_) {
+    robot->add_latency_timer_files(*latency_files_);
+  }
   if (options.camera && (world_ != nullptr || !session.world_cameras.empty())) {
     std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by robot
     for (std::size_t r = 0; r < configs.size(); ++r) {
@@ -120,6 +125,7 @@ void Gateway::start() {
   for (auto& robot : robots_) {
     robot->start(stop_, options_.rt_priority);
   }
+  latency_files_->start();
   if (cameras_ != nullptr) {
     cameras_->start();
   }
@@ -131,6 +137,9 @@ void Gateway::start() {
 
 void Gateway::stop() {
   stop_ = true;
+  if (latency_files_ != nullptr) {
+    latency_files_->stop();
+  }
   if (simulation_thread_.joinable()) {
     simulation_thread_.join();
   }

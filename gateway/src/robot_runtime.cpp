@@ -197,6 +197,12 @@ RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index,
   }
 }
 
+void RobotRuntime::add_latency_timer_files(bus::LatencyTimerFiles& files) {
+  for (auto& bus : buses_) {
+    files.add(bus::LatencyTimerFiles::path_for_link(bus->link()), bus->server());
+  }
+}
+
 void RobotRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
   for (auto& bus : buses_) {
     bus->start(stop, rt_priority);

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bus/bus_server.h"
+#include "bus/latency_timer_files.h"
 #include "bus/pty_port.h"
 #include "body/simulated_body.h"
 #include "concurrency/snapshot.h"
@@ -64,6 +65,9 @@ class BusRuntime final : public bus::DeviceSync {
   std::string describe() const;
   std::string summary() const;
 
+  bus::BusServer& server() noexcept { return *server_; }
+  const std::string& link() const noexcept { return port_->link_path(); }
+
  private:
   // A device's simulation side and its index in the body.
   template <typename Role>
@@ -104,6 +108,9 @@ class RobotRuntime {
 
   std::string describe() const;
   std::string summary() const;
+
+  // Gives every bus its latency-timer file beside its link. Setup; throws.
+  void add_latency_timer_files(bus::LatencyTimerFiles& files);
 
  private:
   RobotConfig config_;

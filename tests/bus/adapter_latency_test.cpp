@@ -123,3 +123,22 @@ TEST(AdapterLatency, RejectsTimerAbove255Ms) {
 
 }  // namespace
 }  // namespace doppel::bus
+
+namespace doppel::bus {
+namespace {
+
+// A driver writes the FTDI latency_timer file between two replies: the next status waits for the
+// new period's expiry (16 ms -> 1 ms), and values outside 0..255 change nothing.
+TEST(AdapterLatency, SetLatencyBetweenRepliesAppliesToTheNextReply) {
+  AdapterLatency sut(16);
+  EXPECT_EQ(deliver(sut, {{630 * kUs, 6}}), (std::vector<Delivery>{{16 * kMs, 0, 6}}));
+
+  EXPECT_TRUE(sut.set_latency_ms(1));
+  EXPECT_FALSE(sut.set_latency_ms(256));
+
+  EXPECT_EQ(sut.latency_ms(), 1u);
+  EXPECT_EQ(deliver(sut, {{20 * kMs + 630 * kUs, 6}}), (std::vector<Delivery>{{21 * kMs, 0, 6}}));
+}
+
+}  // namespace
+}  // namespace doppel::bus

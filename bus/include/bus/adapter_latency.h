@@ -55,6 +55,15 @@ class AdapterLatency {
   // Empties the adapter buffer (new client session); the timer keeps its phase. rt-safe.
   void reset() noexcept { batch_count_ = 0; reply_offset_ = 0; }
 
+  // Changes the latency timer between replies (0 = off); the timer keeps its phase. False (and no
+  // change) above kMaxLatencyMs. rt-safe.
+  bool set_latency_ms(uint32_t latency_ms) noexcept {
+    if (latency_ms > kMaxLatencyMs) return false;
+    latency_ms_ = latency_ms;
+    period_ns_ = static_cast<int64_t>(latency_ms) * 1'000'000;
+    return true;
+  }
+
   uint32_t latency_ms() const noexcept { return latency_ms_; }
 
  private:

@@ -112,6 +112,13 @@ class BusServer {
 
   const BusServerOptions& options() const noexcept { return options_; }
 
+  // Sets the USB adapter's latency timer (ms, 0 = no adapter) as a driver does through the FTDI
+  // latency_timer file; the bus thread applies it before the next reply (fast timing models no
+  // adapter: the setting is kept, not applied). False above 255 ms. Any thread, lock-free.
+  bool set_adapter_latency_ms(uint32_t latency_ms) noexcept;
+  // The latency timer set (options or set_adapter_latency_ms). Any thread, lock-free.
+  uint32_t adapter_latency_ms() const noexcept;
+
  private:
   struct Counters {
     std::atomic<uint64_t> packets{0}, bad_checksums{0}, bytes_in{0}, bytes_out{0}, dropped_bytes{0},
@@ -149,6 +156,7 @@ class BusServer {
   int64_t last_input_ns_ = 0;   // when the previous input chunk had crossed the wire (fast: was read)
   int64_t last_tick_ns_ = 0;    // last DeviceSync::on_tick
   bool write_blocked_ = false;  // the client's queue was full at the last write
+  std::atomic<uint32_t> requested_latency_ms_{0};  // set_adapter_latency_ms, applied by the bus thread
 };
 
 }  // namespace doppel::bus

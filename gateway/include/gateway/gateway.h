@@ -21,6 +21,7 @@ class World;
 
 namespace doppel::bus {
 class LinkDirectory;
+class LatencyTimerFiles;
 }
 
 namespace doppel::gateway {
@@ -53,6 +54,7 @@ class Gateway {
   std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
+  std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
