@@ -1,0 +1,137 @@
+// Hardware in the loop over a network: Doppel's link served on loopback by scripts/serve-network
+// (ser2net), reached from the "robot's" side through a pty that socat bridges to it. Expected
+// packets come from shared/reference/dynamixel.md, as in bus_integration_test.cpp.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <thread>
+
+#include "doppel_process.h"
+#include "network_bridge.h"
+#include "reference_client.h"
+
+namespace doppel::testing {
+namespace {
+
+constexpr uint32_t kBaud = 1000000;
+constexpr uint8_t kPing = 0x01, kRead = 0x02;
+
+#define SKIP_WITHOUT_NETWORK_TOOLS()                                                                      \
+  do {                                                                                                    \
+    if (!find_program("ser2net") || !find_program("socat")) {                                             \
+      GTEST_SKIP() << "ser2net or socat is not installed (Debian packages ser2net, socat; scripts/setup " \
+                      "installs them)";                                                                   \
+    }                                                                                                     \
+  } while (0)
+
+// The first transaction may go out before socat has connected and ser2net has opened the pty:
+// retried for up to 5 s, as a driver retries a servo that does not answer yet.
+Bytes first_transaction(SerialClient& client, const Bytes& request, std::size_t expected) {
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  Bytes reply;
+  while (reply.size() != expected && std::chrono::steady_clock::now() < deadline) {
+    reply = client.transact(request, expected, 200);
+  }
+  return reply;
+}
+
+std::string robot_pty(const DoppelProcess& doppel) {
+  return std::filesystem::path(doppel.link_dir()).parent_path().string() + "/robot-ttyUSB0";
+}
+
+TEST(Network, PingAndReadThroughSer2netAndSocatGetTheReferenceStatus) {
+  SKIP_WITHOUT_NETWORK_TOOLS();
+  DoppelProcess doppel({"--robot", "mx-test", "--timing", "wire"});
+  NetworkBridge bridge(doppel.link_dir(), free_loopback_ports(1), kBaud, 0, robot_pty(doppel));
+  SerialClient robot(bridge.path(), kBaud);
+  // Reference §1.7: PING ID 1 = FF FF 01 02 01 FB, its status FF FF 01 02 00 FC.
+  EXPECT_EQ(first_transaction(robot, {0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB}, 6),
+            (Bytes{0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC}))
+      << bridge.output();
+  // Model Number of the MX-64 (ID 2): 310 (reference §3.1).
+  EXPECT_EQ(robot.transact(p1_instruction(2, kRead, {0, 2}), 8), p1_instruction(2, 0, {310 & 0xFF, 310 >> 8}));
+  for (int i = 0; i < 50; ++i) {
+    ASSERT_EQ(robot.transact(p1_instruction(1, kPing), 6), p1_instruction(1, 0)) << "transaction " << i;
+  }
+}
+
+TEST(Network, Ser2netOpensTheLinkAtTheRateItIsGiven) {
+  SKIP_WITHOUT_NETWORK_TOOLS();
+  // The bus runs at 1 Mbps; served at 57600 bps every packet reaches Doppel at the wrong rate,
+  // and a real servo would not understand it either, whatever rate the robot's pty is set to.
+  DoppelProcess doppel({"--robot", "mx-test", "--timing", "wire"});
+  NetworkBridge bridge(doppel.link_dir(), free_loopback_ports(1), 57600, 0, robot_pty(doppel));
+  SerialClient robot(bridge.path(), kBaud);
+  EXPECT_TRUE(first_transaction(robot, p1_instruction(1, kPing), 6).empty());
+  EXPECT_NE(doppel.stop(), -1);
+  const std::string output = doppel.output();
+  const std::string counter = "not understood at the line's baud rate ";
+  const std::size_t at = output.find(counter);
+  ASSERT_NE(at, std::string::npos) << output;
+  EXPECT_GT(std::stoi(output.substr(at + counter.size())), 0) << output;
+}
+
+TEST(Network, TheRobotMayCloseAndReopenItsPty) {
+  SKIP_WITHOUT_NETWORK_TOOLS();
+  // DynamixelSDK's setBaudRate closes and reopens the port; socat keeps the TCP session meanwhile.
+  DoppelProcess doppel({"--robot", "mx-test", "--timing", "fast"});
+  NetworkBridge bridge(doppel.link_dir(), free_loopback_ports(1), kBaud, 0, robot_pty(doppel));
+  {
+    SerialClient first(bridge.path(), kBaud);
+    ASSERT_EQ(first_transaction(first, p1_instruction(1, kPing), 6), p1_instruction(1, 0)) << bridge.output();
+  }
+  for (int open = 0; open < 5; ++open) {
+    SerialClient again(bridge.path(), kBaud);
+    EXPECT_EQ(again.transact(p1_instruction(3, kPing), 6), p1_instruction(3, 0)) << "reopen " << open;
+  }
+}
+
+TEST(Network, ServeNetworkNamesWhatIsWrong) {
+  auto [missing_code, missing] = run_command(serve_network_script() + " --link-dir /nonexistent/doppel-links");
+  EXPECT_EQ(missing_code, 1);
+  EXPECT_NE(missing.find("'/nonexistent/doppel-links' does not exist"), std::string::npos) << missing;
+
+  char dir_template[] = "/tmp/doppel-serve-XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  auto [empty_code, empty] = run_command(serve_network_script() + " --link-dir " + dir);
+  EXPECT_EQ(empty_code, 1);
+  EXPECT_NE(empty.find("no ttyDXL links in '" + dir + "'"), std::string::npos) << empty;
+
+  std::filesystem::create_symlink("/dev/null", dir + "/ttyDXL0");
+  auto [port_code, port] = run_command(serve_network_script() + " --link-dir " + dir + " --port 70000");
+  EXPECT_EQ(port_code, 2);
+  EXPECT_NE(port.find("'70000' is not a TCP port"), std::string::npos) << port;
+  auto [baud_code, baud] = run_command(serve_network_script() + " --link-dir " + dir + " --baud ttyDXL7=57600");
+  EXPECT_EQ(baud_code, 2);
+  EXPECT_NE(baud.find("'ttyDXL7', which is not a link"), std::string::npos) << baud;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Network, ServeNetworkListensOnLoopbackUnlessTold) {
+  char dir_template[] = "/tmp/doppel-serve-XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  std::filesystem::create_directory(dir + "/robot1");
+  std::filesystem::create_symlink("/dev/null", dir + "/ttyDXL0");
+  std::filesystem::create_symlink("/dev/null", dir + "/robot1/ttyDXL0");
+  auto [code, config] = run_command(serve_network_script() + " --link-dir " + dir +
+                                    " --port 5000 --baud robot1/ttyDXL0=4000000 --print-config");
+  EXPECT_EQ(code, 0) << config;
+  EXPECT_NE(config.find("accepter: tcp,127.0.0.1,5000\n  connector: serialdev," + dir + "/ttyDXL0,1000000n81,local"),
+            std::string::npos)
+      << config;
+  EXPECT_NE(config.find("accepter: tcp,127.0.0.1,5001\n  connector: serialdev," + dir +
+                        "/robot1/ttyDXL0,4000000n81,local"),
+            std::string::npos)
+      << config;
+  auto [rfc_code, rfc] = run_command(serve_network_script() + " --link-dir " + dir + " --rfc2217 --print-config");
+  EXPECT_EQ(rfc_code, 0);
+  EXPECT_NE(rfc.find("accepter: telnet(rfc2217),tcp,127.0.0.1,4000"), std::string::npos) << rfc;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace doppel::testing
