@@ -1,6 +1,11 @@
 // Hardware in the loop over a network: Doppel's link served on loopback by scripts/serve-network
 // (ser2net), reached from the "robot's" side through a pty that socat bridges to it. Expected
 // packets come from shared/reference/dynamixel.md, as in bus_integration_test.cpp.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -135,6 +140,22 @@ TEST(Network, ServeNetworkNamesWhatIsWrong) {
   auto [baud_code, baud] = run_command(serve_network_script() + " --link-dir " + dir + " --baud ttyDXL7=57600");
   EXPECT_EQ(baud_code, 2);
   EXPECT_NE(baud.find("'ttyDXL7', which is not a link"), std::string::npos) << baud;
+
+  // ser2net itself would only log a port it cannot bind and run on without it.
+  int listener = ::socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(listener, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof(address);
+  ASSERT_EQ(::bind(listener, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+  ASSERT_EQ(::listen(listener, 1), 0);
+  ASSERT_EQ(::getsockname(listener, reinterpret_cast<sockaddr*>(&address), &length), 0);
+  const std::string taken = std::to_string(ntohs(address.sin_port));
+  auto [busy_code, busy] = run_command(serve_network_script() + " --link-dir " + dir + " --port " + taken);
+  ::close(listener);
+  EXPECT_EQ(busy_code, 1);
+  EXPECT_NE(busy.find("port " + taken + " on 127.0.0.1 is in use"), std::string::npos) << busy;
   std::filesystem::remove_all(dir);
 }
 
