@@ -10,3 +10,8 @@ add_test(NAME bus_latency_smoke COMMAND bus_latency --quick)
 add_test(NAME bus_throughput_smoke COMMAND bus_throughput --seconds 0.3)
 add_test(NAME control_loop_smoke COMMAND control_loop --seconds 0.5)
 set_tests_properties(bus_latency_smoke bus_throughput_smoke control_loop_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE)
+
+# What serving a bus over loopback TCP (scripts/serve-network: ser2net, socat) adds to a round trip.
+doppel_bus_tool(network_latency)
+add_test(NAME network_latency_smoke COMMAND network_latency --quick)
+set_tests_properties(network_latency_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE SKIP_RETURN_CODE 77)
