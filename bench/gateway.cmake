@@ -1,5 +1,5 @@
 # End-to-end bus benchmarks against the real doppel executable (figures in docs/benchmarks.md).
-foreach(tool bus_latency bus_throughput control_loop)
+foreach(tool bus_latency bus_throughput control_loop reopen_race flush_loss)
   doppel_bus_tool(${tool})
 endforeach()
 target_link_libraries(control_loop PRIVATE doppel::base)
