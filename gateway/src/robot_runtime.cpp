@@ -60,7 +60,8 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   bus::BusServerOptions server_options;
   server_options.timing_mode = options.timing;
   server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
-  server_options.adapter_latency_ms = options.latency_timer_ms;
+  server_options.adapter_latency_ms = config.latency_timer_ms.value_or(options.latency_timer_ms);
+  server_options.adapter = config.adapter;
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
 }

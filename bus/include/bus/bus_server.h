@@ -15,6 +15,7 @@
 #include <cstdint>
 
 #include "bus/adapter_latency.h"
+#include "bus/adapter_profile.h"
 #include "bus/pty_port.h"
 #include "bus/reply_schedule.h"
 #include "bus/spin_budget.h"
@@ -22,6 +23,7 @@
 #include "concurrency/spsc_queue.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/packet_framer.h"
+#include "dynamixel/usb2ax.h"
 
 namespace doppel::bus {
 
@@ -29,6 +31,7 @@ struct BusServerOptions {
   TimingMode timing_mode = TimingMode::kWire;                // kFast: answer at once
   int64_t processing_ns = WireTiming::kDefaultProcessingNs;  // device firmware time before RDT, ns
   uint32_t adapter_latency_ms = 0;   // USB adapter latency timer, ms (0 = none, FTDI default 16); wire mode only
+  AdapterProfile adapter = AdapterProfile::kFtdi;  // kUsb2ax ignores adapter_latency_ms (it has no such timer)
   int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
   SpinBudget* spin_budget = nullptr; // who may busy-wait at once; nullptr = SpinBudget::process()
   int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
@@ -132,6 +135,10 @@ class BusServer {
   void await_due(int64_t due_ns) noexcept;
   void on_connect() noexcept;
   void on_hang_up() noexcept;
+  // kUsb2ax: lets the adapter see `packet` first; true when it consumed it (bus_server_usb2ax.cpp).
+  bool usb2ax_intercepts(const dynamixel::InstructionPacket& packet, int64_t seen_ns, uint32_t baud_bps) noexcept;
+  void usb2ax_sync_read(int64_t start_ns, uint32_t baud_bps, ReplyTrace trace) noexcept;
+  void schedule_adapter_status(const dynamixel::StatusPacket& status, int64_t due_ns, ReplyTrace trace) noexcept;
 
   PtyPort& port_;
   dynamixel::BusDevices& devices_;
@@ -142,6 +149,8 @@ class BusServer {
   AdapterLatency adapter_;
   void tick() noexcept;
 
+  dynamixel::Usb2axFirmware usb2ax_;
+  int64_t host_delay_ns_ = 0;   // kUsb2ax in wire mode: its send timeout before bytes reach the host
   dynamixel::PacketFramer parser_;
   ReplySchedule schedule_;
   TraceQueue traces_;
