@@ -81,6 +81,9 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     if (device.id() > max_id) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is outside 0.." + std::to_string(max_id));
     }
+    if (config.adapter == bus::AdapterProfile::kUsb2ax && device.id() == 253) {
+      file.fail(device, "id", -1, "ID 253 is the USB2AX adapter's own ID on this bus (adapter: \"usb2ax\")");
+    }
     if (!ids.insert(device.id()).second) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is used twice on bus '" + config.name + "'");
     }
