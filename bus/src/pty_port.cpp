@@ -88,7 +88,7 @@ PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
 
     // Opening and closing the slave once puts the master in its "no client" state (POLLHUP/EIO),
     // the same state every later hang-up leaves it in, and sets raw mode for clients that do not.
-    make_slave_raw_and_flush(true);
+    make_slave_raw_and_flush();
 
     inotify_fd_ = ::inotify_init1(IN_NONBLOCK | IN_CLOEXEC);
     if (inotify_fd_ >= 0 && ::inotify_add_watch(inotify_fd_, slave_path_.c_str(), IN_OPEN) < 0) {
@@ -210,7 +210,8 @@ void PtyPort::disconnect() noexcept {
   const timespec zero{0, 0};
   const SysResult r = posix_call([&] { return ::ppoll(&pfd, 1, &zero, nullptr); });
   const bool client_present = r.ok() && (pfd.revents & POLLHUP) == 0;
-  make_slave_raw_and_flush(!client_present);
+  // Its input queue may already hold our answers to it, so it is not flushed either.
+  if (!client_present) make_slave_raw_and_flush();
   // Our own open of the slave raised an IN_OPEN event; it must not look like a new client.
   drain_inotify();
   connected_ = false;
@@ -231,7 +232,7 @@ bool bytes_pass_unchanged(const termios& tio) noexcept {
 
 }  // namespace
 
-void PtyPort::make_slave_raw_and_flush(bool may_set_raw) noexcept {
+void PtyPort::make_slave_raw_and_flush() noexcept {
   // TIOCGPTPEER opens exactly our slave without a path lookup; the path is the fallback for
   // kernels before 4.13.
   SysResult r = posix_call(
@@ -244,9 +245,10 @@ void PtyPort::make_slave_raw_and_flush(bool may_set_raw) noexcept {
   // Writing the termios is a read-modify-write of the whole set, speed included: a client that
   // opens and sets its rate in between would get the old rate back (tests/gateway
   // reopen_race_test.cpp). So they are written only when the last client left the bytes to be
-  // changed, which no serial driver does.
+  // changed, which no serial driver does (and disconnect() does not come here at all once a new
+  // client holds the slave).
   termios tio{};
-  if (may_set_raw && ::tcgetattr(slave, &tio) == 0 && !bytes_pass_unchanged(tio)) {
+  if (::tcgetattr(slave, &tio) == 0 && !bytes_pass_unchanged(tio)) {
     ::cfmakeraw(&tio);  // keeps the line speed the last client set
     tio.c_cflag |= CLOCAL | CREAD;
     tio.c_cc[VMIN] = 0;

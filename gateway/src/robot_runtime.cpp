@@ -154,7 +154,10 @@ void BusRuntime::sense(int64_t sim_time_ns, double servo_current_a) noexcept {
 std::string BusRuntime::describe() const {
   std::ostringstream out;
   out << "  " << port_->link_path() << " -> " << port_->slave_path() << "   bus '" << config_.name << "', "
-      << protocol_name(config_.protocol) << ", " << config_.baud_bps << " bps\n";
+      << protocol_name(config_.protocol) << ", " << config_.baud_bps << " bps";
+  if (config_.adapter == bus::AdapterProfile::kUsb2ax) out << ", USB2AX adapter (answers ID 253 and SYNC READ 0x84)";
+  if (config_.latency_timer_ms) out << ", FTDI latency timer " << *config_.latency_timer_ms << " ms";
+  out << "\n";
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const DeviceConfig& device = config_.devices[i];
     char line[128];

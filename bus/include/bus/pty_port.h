@@ -10,10 +10,11 @@
 //   client is open. A master-side tcflush(TCOFLUSH) does not remove them (it only empties the
 //   flip buffer). So on hang-up disconnect() opens the slave itself (TIOCGPTPEER), flushes its
 //   input queue, restores raw mode if the old client left a mode that changes bytes (echo, line
-//   editing, translations) and closes it again: the next open starts clean. The termios are never
-//   written when they are raw already or a new client has opened since the hang-up: a
-//   read-modify-write there would put the old rate back over the rate the new client just set
-//   (a driver that reopens the port at another rate, as DynamixelSDK's setBaudRate does).
+//   editing, translations) and closes it again: the next open starts clean. When a new client has
+//   opened since the hang-up, disconnect() touches nothing: a read-modify-write of the termios
+//   would put the old rate back over the rate the new client just set (a driver that reopens the
+//   port at another rate, as DynamixelSDK's setBaudRate does), and a flush could remove answers
+//   already written to it. The termios are not written either when they are raw already.
 // - Bytes a client wrote before closing are still readable before the EIO; the caller should read
 //   them (complete packets did cross the wire) and drop only a trailing partial packet.
 // - While nobody is connected the master polls POLLHUP permanently, so waiting for a client cannot
@@ -95,9 +96,9 @@ class PtyPort final {
   const std::string& slave_path() const noexcept { return slave_path_; }  // /dev/pts/N
 
  private:
-  // Opens the slave, sets raw mode if `may_set_raw` and the last client left the line in a mode
-  // that changes bytes, flushes the slave's input queue, closes it.
-  void make_slave_raw_and_flush(bool may_set_raw) noexcept;
+  // Opens the slave, sets raw mode if the last client left the line in a mode that changes bytes,
+  // flushes the slave's input queue, closes it.
+  void make_slave_raw_and_flush() noexcept;
   void drain_inotify() noexcept;
   void close_all() noexcept;
 
