@@ -1,5 +1,5 @@
 # End-to-end bus benchmarks against the real doppel executable (figures in docs/benchmarks.md).
-foreach(tool bus_latency bus_throughput control_loop)
+foreach(tool bus_latency bus_throughput control_loop reopen_race flush_loss)
   doppel_bus_tool(${tool})
 endforeach()
 target_link_libraries(control_loop PRIVATE doppel::base)
@@ -9,7 +9,10 @@ target_link_libraries(bus_latency PRIVATE util)  # openpty
 add_test(NAME bus_latency_smoke COMMAND bus_latency --quick)
 add_test(NAME bus_throughput_smoke COMMAND bus_throughput --seconds 0.3)
 add_test(NAME control_loop_smoke COMMAND control_loop --seconds 0.5)
-set_tests_properties(bus_latency_smoke bus_throughput_smoke control_loop_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE)
+add_test(NAME reopen_race_smoke COMMAND reopen_race --startups 20 --load 0)
+add_test(NAME flush_loss_smoke COMMAND flush_loss --packets 200 --timing fast)
+set_tests_properties(bus_latency_smoke bus_throughput_smoke control_loop_smoke reopen_race_smoke flush_loss_smoke
+                     PROPERTIES LABELS bench RUN_SERIAL TRUE)
 
 # What serving a bus over loopback TCP (scripts/serve-network: ser2net, socat) adds to a round trip.
 doppel_bus_tool(network_latency)

@@ -40,11 +40,16 @@ BusServer::BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusSer
       options_(validated(options)),
       spin_budget_(options.spin_budget != nullptr ? *options.spin_budget : SpinBudget::process()),
       timing_(options.timing_mode, options.processing_ns),
-      adapter_(options.timing_mode == TimingMode::kFast ? 0 : options.adapter_latency_ms) {
+      adapter_(options.timing_mode == TimingMode::kFast || options.adapter == AdapterProfile::kUsb2ax
+                   ? 0
+                   : options.adapter_latency_ms) {
   if (options.adapter_latency_ms > AdapterLatency::kMaxLatencyMs) {
     throw std::invalid_argument("BusServer: adapter_latency_ms must be 0..255");
   }
   requested_latency_ms_.store(options.adapter_latency_ms, std::memory_order_relaxed);
+  if (options.adapter == AdapterProfile::kUsb2ax && options.timing_mode == TimingMode::kWire) {
+    host_delay_ns_ = usb2ax_.send_timeout_ns();
+  }
 }
 
 bool BusServer::set_adapter_latency_ms(uint32_t latency_ms) noexcept {
@@ -155,6 +160,7 @@ void BusServer::process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, ui
 
 void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
                          uint32_t baud_bps) noexcept {
+  if (options_.adapter == AdapterProfile::kUsb2ax && usb2ax_intercepts(packet, seen_ns, baud_bps)) return;
   if (sync_ != nullptr) sync_->before_dispatch();
   const auto statuses = devices_.dispatch(packet, baud_bps);
   if (sync_ != nullptr) sync_->after_dispatch();
@@ -169,13 +175,13 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   }
 
   timing_.begin_reply(instruction_end_ns);
-  if (options_.timing_mode == TimingMode::kWire) {
+  if (options_.timing_mode == TimingMode::kWire && options_.adapter == AdapterProfile::kFtdi) {
     adapter_.set_latency_ms(requested_latency_ms_.load(std::memory_order_relaxed));  // between replies: nothing buffered
   }
   adapter_.begin_reply();
   uint64_t merged = 0;
   auto emit = [&](const Delivery& delivery) noexcept {
-    if (!schedule_.push_segment(delivery.due_ns, delivery.count)) ++merged;
+    if (!schedule_.push_segment(delivery.due_ns + host_delay_ns_, delivery.count)) ++merged;
   };
   ReplyTrace trace;
   trace.seen_ns = seen_ns;

@@ -205,12 +205,32 @@ void PtyPort::drain_inotify() noexcept {
 }
 
 void PtyPort::disconnect() noexcept {
-  make_slave_raw_and_flush();
+  // A client that opened since the hang-up holds the slave already: its termios are its own.
+  pollfd pfd{master_fd_, POLLIN, 0};
+  const timespec zero{0, 0};
+  const SysResult r = posix_call([&] { return ::ppoll(&pfd, 1, &zero, nullptr); });
+  const bool client_present = r.ok() && (pfd.revents & POLLHUP) == 0;
+  // Its input queue may already hold our answers to it, so it is not flushed either.
+  if (!client_present) make_slave_raw_and_flush();
   // Our own open of the slave raised an IN_OPEN event; it must not look like a new client.
   drain_inotify();
   connected_ = false;
   hung_up_ = false;
 }
+
+namespace {
+
+// The termios flags that change the bytes themselves (translation, echo, line editing, signals,
+// character size, parity). VMIN/VTIME and the speed only shape the client's own reads.
+bool bytes_pass_unchanged(const termios& tio) noexcept {
+  termios raw = tio;
+  ::cfmakeraw(&raw);
+  raw.c_cflag |= CLOCAL | CREAD;
+  return raw.c_iflag == tio.c_iflag && raw.c_oflag == tio.c_oflag && raw.c_lflag == tio.c_lflag &&
+         raw.c_cflag == tio.c_cflag;
+}
+
+}  // namespace
 
 void PtyPort::make_slave_raw_and_flush() noexcept {
   // TIOCGPTPEER opens exactly our slave without a path lookup; the path is the fallback for
@@ -222,8 +242,13 @@ void PtyPort::make_slave_raw_and_flush() noexcept {
   }
   if (!r.ok()) return;
   const int slave = static_cast<int>(r.value);
+  // Writing the termios is a read-modify-write of the whole set, speed included: a client that
+  // opens and sets its rate in between would get the old rate back (tests/gateway
+  // reopen_race_test.cpp). So they are written only when the last client left the bytes to be
+  // changed, which no serial driver does (and disconnect() does not come here at all once a new
+  // client holds the slave).
   termios tio{};
-  if (::tcgetattr(slave, &tio) == 0) {
+  if (::tcgetattr(slave, &tio) == 0 && !bytes_pass_unchanged(tio)) {
     ::cfmakeraw(&tio);  // keeps the line speed the last client set
     tio.c_cflag |= CLOCAL | CREAD;
     tio.c_cc[VMIN] = 0;

@@ -53,6 +53,20 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     }
     config.supply_voltage_v = bus.supply_voltage_v();
   }
+  if (bus.adapter() == "usb2ax") {
+    config.adapter = bus::AdapterProfile::kUsb2ax;
+  } else if (!bus.adapter().empty() && bus.adapter() != "ftdi") {
+    file.fail(bus, "adapter", -1, "unknown adapter '" + bus.adapter() + "' (ftdi or usb2ax)");
+  }
+  if (bus.has_latency_timer_ms()) {
+    if (config.adapter != bus::AdapterProfile::kFtdi) {
+      file.fail(bus, "latency_timer_ms", -1, "a USB2AX has no latency timer (only adapter \"ftdi\" has one)");
+    }
+    if (bus.latency_timer_ms() < 1 || bus.latency_timer_ms() > 255) {
+      file.fail(bus, "latency_timer_ms", -1, "must be 1..255 ms (the FTDI latency timer's range)");
+    }
+    config.latency_timer_ms = bus.latency_timer_ms();
+  }
   if (bus.device_size() == 0) {
     file.fail(bus, "device", -1, "a bus needs at least one device");
   }
@@ -66,6 +80,9 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     }
     if (device.id() > max_id) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is outside 0.." + std::to_string(max_id));
+    }
+    if (config.adapter == bus::AdapterProfile::kUsb2ax && device.id() == 253) {
+      file.fail(device, "id", -1, "ID 253 is the USB2AX adapter's own ID on this bus (adapter: \"usb2ax\")");
     }
     if (!ids.insert(device.id()).second) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is used twice on bus '" + config.name + "'");

@@ -60,7 +60,8 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   bus::BusServerOptions server_options;
   server_options.timing_mode = options.timing;
   server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
-  server_options.adapter_latency_ms = options.latency_timer_ms;
+  server_options.adapter_latency_ms = config.latency_timer_ms.value_or(options.latency_timer_ms);
+  server_options.adapter = config.adapter;
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
 }
@@ -153,7 +154,10 @@ void BusRuntime::sense(int64_t sim_time_ns, double servo_current_a) noexcept {
 std::string BusRuntime::describe() const {
   std::ostringstream out;
   out << "  " << port_->link_path() << " -> " << port_->slave_path() << "   bus '" << config_.name << "', "
-      << protocol_name(config_.protocol) << ", " << config_.baud_bps << " bps\n";
+      << protocol_name(config_.protocol) << ", " << config_.baud_bps << " bps";
+  if (config_.adapter == bus::AdapterProfile::kUsb2ax) out << ", USB2AX adapter (answers ID 253 and SYNC READ 0x84)";
+  if (config_.latency_timer_ms) out << ", FTDI latency timer " << *config_.latency_timer_ms << " ms";
+  out << "\n";
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const DeviceConfig& device = config_.devices[i];
     char line[128];

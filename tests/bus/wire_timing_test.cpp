@@ -26,6 +26,17 @@ TEST(WireDuration, LongRunsDoNotAccumulateRounding) {
   EXPECT_EQ(wire_duration_ns(8, 0), 0);  // B0: no rate, no time
 }
 
+// An adapter that talks to the servos on its own (a USB2AX SYNC READ) holds the wire: host bytes
+// seen meanwhile start crossing when it is done, never earlier, and an earlier hold changes nothing.
+TEST(WireTiming, HostBytesWaitForAWireHeldByTheAdapter) {
+  WireTiming sut(TimingMode::kWire, 0);
+  sut.hold_until(1'000 * kUs);
+  sut.hold_until(500 * kUs);
+  const WireSpan ping = sut.host_bytes(100 * kUs, 6, 1'000'000);
+  EXPECT_EQ(ping.start_ns, 1'000 * kUs);
+  EXPECT_EQ(ping.end_ns, 1'060 * kUs);
+}
+
 // Reference §4.2: P1 READ of 2 bytes, 8 bytes out and 8 back, default RDT 500 µs: 0.66 ms at
 // 1 Mbps when the device adds no processing time.
 TEST(WireTiming, P1ReadAt1MbpsMatchesReferenceRoundTrip) {

@@ -132,6 +132,29 @@ TEST(RobotConfig, BaudRateTheRegisterCannotHoldIsRejected) {
                               " device { id: 1 model: \"RX-28\" }\n}\n", "x"));
 }
 
+TEST(RobotConfig, AdapterAndLatencyTimerPerBus) {
+  const std::string bus_head = "name: \"r\"\nbus {\n baud_bps: 1000000\n protocol: PROTOCOL_1\n";
+  const std::string servo = " device { id: 1 model: \"AX-12A\" }\n}\n";
+  RobotConfig ftdi = parse_robot(bus_head + servo, "x");
+  EXPECT_EQ(ftdi.buses[0].adapter, bus::AdapterProfile::kFtdi);
+  EXPECT_FALSE(ftdi.buses[0].latency_timer_ms.has_value());
+  RobotConfig usb2ax = parse_robot(bus_head + " adapter: \"usb2ax\"\n" + servo, "x");
+  EXPECT_EQ(usb2ax.buses[0].adapter, bus::AdapterProfile::kUsb2ax);
+  RobotConfig timer = parse_robot(bus_head + " adapter: \"ftdi\" latency_timer_ms: 1\n" + servo, "x");
+  EXPECT_EQ(timer.buses[0].latency_timer_ms, 1u);
+
+  const std::string unknown = error_of(bus_head + " adapter: \"cp2102\"\n" + servo);
+  EXPECT_NE(unknown.find("Bus.adapter"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("usb2ax"), std::string::npos) << unknown;
+  const std::string no_timer = error_of(bus_head + " adapter: \"usb2ax\" latency_timer_ms: 16\n" + servo);
+  EXPECT_NE(no_timer.find("Bus.latency_timer_ms"), std::string::npos) << no_timer;
+  const std::string range = error_of(bus_head + " latency_timer_ms: 256\n" + servo);
+  EXPECT_NE(range.find("1..255"), std::string::npos) << range;
+  const std::string own_id =
+      error_of(bus_head + " adapter: \"usb2ax\"\n device { id: 253 model: \"AX-12A\" }\n}\n");
+  EXPECT_NE(own_id.find("Device.id"), std::string::npos) << own_id;
+}
+
 TEST(RobotConfig, BusWithoutSupplyRunsOnTheFumanoidBattery) {
   // The FUmanoid's battery is a 4S LiPo: 4 cells x 3.7 V nominal. A bus that names its own supply keeps it.
   RobotConfig sut = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -15,7 +16,10 @@
 
 namespace doppel::testing {
 
-std::string doppel_executable() { return DOPPEL_EXECUTABLE; }
+std::string doppel_executable() {
+  const char* chosen = std::getenv("DOPPEL_EXECUTABLE");
+  return chosen != nullptr && *chosen != '\0' ? chosen : DOPPEL_EXECUTABLE;
+}
 
 std::pair<int, std::string> run_command(const std::string& command) {
   FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");

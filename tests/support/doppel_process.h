@@ -38,7 +38,8 @@ class DoppelProcess {
   std::string output_file_;
 };
 
-// Path of the doppel executable under test.
+// Path of the doppel executable under test: $DOPPEL_EXECUTABLE if set (a benchmark comparing two
+// builds), else the one this build made.
 std::string doppel_executable();
 
 // Runs `command` in a shell as a user would type it; returns its exit code and everything it wrote

@@ -15,6 +15,7 @@
 #include <cstdint>
 
 #include "bus/adapter_latency.h"
+#include "bus/adapter_profile.h"
 #include "bus/pty_port.h"
 #include "bus/reply_schedule.h"
 #include "bus/spin_budget.h"
@@ -22,6 +23,7 @@
 #include "concurrency/spsc_queue.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/packet_framer.h"
+#include "dynamixel/usb2ax.h"
 
 namespace doppel::bus {
 
@@ -29,6 +31,7 @@ struct BusServerOptions {
   TimingMode timing_mode = TimingMode::kWire;                // kFast: answer at once
   int64_t processing_ns = WireTiming::kDefaultProcessingNs;  // device firmware time before RDT, ns
   uint32_t adapter_latency_ms = 0;   // USB adapter latency timer, ms (0 = none, FTDI default 16); wire mode only
+  AdapterProfile adapter = AdapterProfile::kFtdi;  // kUsb2ax ignores adapter_latency_ms (it has no such timer)
   int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
   SpinBudget* spin_budget = nullptr; // who may busy-wait at once; nullptr = SpinBudget::process()
   int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
@@ -114,7 +117,7 @@ class BusServer {
 
   // Sets the USB adapter's latency timer (ms, 0 = no adapter) as a driver does through the FTDI
   // latency_timer file; the bus thread applies it before the next reply (fast timing models no
-  // adapter: the setting is kept, not applied). False above 255 ms. Any thread, lock-free.
+  // adapter, and a USB2AX has no such timer: the setting is kept, not applied). False above 255 ms. Any thread, lock-free.
   bool set_adapter_latency_ms(uint32_t latency_ms) noexcept;
   // The latency timer set (options or set_adapter_latency_ms). Any thread, lock-free.
   uint32_t adapter_latency_ms() const noexcept;
@@ -139,6 +142,10 @@ class BusServer {
   void await_due(int64_t due_ns) noexcept;
   void on_connect() noexcept;
   void on_hang_up() noexcept;
+  // kUsb2ax: lets the adapter see `packet` first; true when it consumed it (bus_server_usb2ax.cpp).
+  bool usb2ax_intercepts(const dynamixel::InstructionPacket& packet, int64_t seen_ns, uint32_t baud_bps) noexcept;
+  void usb2ax_sync_read(int64_t start_ns, uint32_t baud_bps, ReplyTrace trace) noexcept;
+  void schedule_adapter_status(const dynamixel::StatusPacket& status, int64_t due_ns, ReplyTrace trace) noexcept;
 
   PtyPort& port_;
   dynamixel::BusDevices& devices_;
@@ -149,6 +156,8 @@ class BusServer {
   AdapterLatency adapter_;
   void tick() noexcept;
 
+  dynamixel::Usb2axFirmware usb2ax_;
+  int64_t host_delay_ns_ = 0;   // kUsb2ax in wire mode: its send timeout before bytes reach the host
   dynamixel::PacketFramer parser_;
   ReplySchedule schedule_;
   TraceQueue traces_;

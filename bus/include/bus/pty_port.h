@@ -9,7 +9,12 @@
 //   handed to the *next* client that opens the slave, and writes to the master succeed while no
 //   client is open. A master-side tcflush(TCOFLUSH) does not remove them (it only empties the
 //   flip buffer). So on hang-up disconnect() opens the slave itself (TIOCGPTPEER), flushes its
-//   input queue, restores raw mode and closes it again: the next open starts clean.
+//   input queue, restores raw mode if the old client left a mode that changes bytes (echo, line
+//   editing, translations) and closes it again: the next open starts clean. When a new client has
+//   opened since the hang-up, disconnect() touches nothing: a read-modify-write of the termios
+//   would put the old rate back over the rate the new client just set (a driver that reopens the
+//   port at another rate, as DynamixelSDK's setBaudRate does), and a flush could remove answers
+//   already written to it. The termios are not written either when they are raw already.
 // - Bytes a client wrote before closing are still readable before the EIO; the caller should read
 //   them (complete packets did cross the wire) and drop only a trailing partial packet.
 // - While nobody is connected the master polls POLLHUP permanently, so waiting for a client cannot
@@ -91,6 +96,8 @@ class PtyPort final {
   const std::string& slave_path() const noexcept { return slave_path_; }  // /dev/pts/N
 
  private:
+  // Opens the slave, sets raw mode if the last client left the line in a mode that changes bytes,
+  // flushes the slave's input queue, closes it.
   void make_slave_raw_and_flush() noexcept;
   void drain_inotify() noexcept;
   void close_all() noexcept;

@@ -71,6 +71,10 @@ class WireTiming {
   WireSpan status(std::size_t n, uint32_t return_delay_us, bool after_previous, uint32_t baud_bps,
                   int64_t extra_delay_ns = 0, bool continues_previous = false) noexcept;
 
+  // Marks the wire busy until `t_ns` (an adapter talking to the servos on its own). rt-safe.
+  void hold_until(int64_t t_ns) noexcept {
+    if (t_ns > wire_free_at_ns_) wire_free_at_ns_ = t_ns;
+  }
   // Forgets the wire's state (a new client session starts with an idle line). rt-safe.
   void reset() noexcept;
 

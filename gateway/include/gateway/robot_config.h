@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "base/supply.h"
+#include "bus/adapter_profile.h"
 #include "dynamixel/packet.h"
 #include "camera/camera_config.h"
 #include "physics/robot_model.h"
@@ -27,6 +28,8 @@ struct BusConfig {
   uint32_t baud_bps = 1000000;                   // rate the devices listen at
   dynamixel::Protocol protocol = dynamixel::Protocol::kV1;
   double supply_voltage_v = kDefaultSupplyVoltage_v;  // servo supply, V
+  bus::AdapterProfile adapter = bus::AdapterProfile::kFtdi;  // USB adapter in front of the bus
+  std::optional<uint32_t> latency_timer_ms;      // FTDI latency timer, ms; unset = --latency-timer
   std::vector<DeviceConfig> devices;             // in file order
 };
 

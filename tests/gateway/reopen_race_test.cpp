@@ -1,0 +1,56 @@
+// The reopen race (issue #10): a driver that opens the port at one rate, closes it and opens it
+// again at the bus rate before its first packet (DynamixelSDK's setBaudRate) must find the rate it
+// set, and get its answers, also with the CPUs busy. The full 1000-start-up run is
+// bench/reopen_race (docs/benchmarks.md).
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "doppel_process.h"
+#include "reopen_stress.h"
+
+namespace doppel::testing {
+namespace {
+
+std::string write_robot() {
+  const std::string dir = ::testing::TempDir() + "reopen-" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const std::string path = dir + "/reopen.textproto";
+  std::ofstream(path) << "name: \"reopen\"\n"
+                         "bus { baud_bps: 1000000 protocol: PROTOCOL_1 supply_voltage_v: 12 device { id: 1 model: \"AX-12A\" } }\n"
+                         "bus { baud_bps: 57600 protocol: PROTOCOL_1 supply_voltage_v: 12 device { id: 1 model: \"AX-12A\" } }\n";
+  return path;
+}
+
+void expect_clean_startups(const std::string& port, uint32_t first_bps, uint32_t second_bps, int startups) {
+  int kept_rate = 0, answered = 0;
+  for (int i = 0; i < startups; ++i) {
+    const StartupOutcome outcome = reopen_startup(port, first_bps, second_bps, 1, 5, 1000);
+    kept_rate += outcome.line_bps_after == second_bps ? 1 : 0;
+    answered += outcome.answered == 5 ? 1 : 0;
+  }
+  // Every session keeps the rate its client set and gets every answer.
+  EXPECT_EQ(kept_rate, startups) << first_bps << " -> " << second_bps;
+  EXPECT_EQ(answered, startups) << first_bps << " -> " << second_bps;
+}
+
+TEST(ReopenRace, ReopenAtAnotherRateKeepsThatRateUnderLoad) {
+  DoppelProcess doppel({"--robot", write_robot(), "--timing", "wire"}, "ttyDXL1");
+  BusyLoad busy(2);
+  expect_clean_startups(doppel.link("ttyDXL0"), 57600, 1000000, 150);
+  expect_clean_startups(doppel.link("ttyDXL1"), 1000000, 57600, 150);
+  doppel.stop();
+  // Both buses: no packet came at a rate no device listens at.
+  const std::string output = doppel.output();
+  const std::string clean = "not understood at the line's baud rate 0)";
+  const auto first = output.find(clean);
+  ASSERT_NE(first, std::string::npos) << output;
+  EXPECT_NE(output.find(clean, first + 1), std::string::npos) << output;
+}
+
+}  // namespace
+}  // namespace doppel::testing
