@@ -37,17 +37,17 @@ TEST(InitialRegisters, ByNameAndByAddressInFileOrder) {
   EXPECT_EQ(initial[1].item, "P Gain");
   EXPECT_EQ(initial[1].value, 64);
   EXPECT_FALSE(initial[1].eeprom);
-  EXPECT_NE(initial[1].location.find("r.textproto:7:"), std::string::npos) << initial[1].location;
+  EXPECT_NE(initial[1].location.find("r.textproto:8:"), std::string::npos) << initial[1].location;
 }
 
 TEST(InitialRegisters, BadEntriesNameFileLineAndItem) {
   // A read-only item (Model Number, reference §3.4).
   std::string e = error_of(p1_device("RX-64", "    initial { item: \"Model Number\" value: 64 }\n"));
-  EXPECT_NE(e.find("robots/bad.textproto:6:"), std::string::npos) << e;
+  EXPECT_NE(e.find("robots/bad.textproto:7:"), std::string::npos) << e;
   EXPECT_NE(e.find("Model Number (0) is read-only"), std::string::npos) << e;
   // An unknown name.
   e = error_of(p1_device("RX-64", "    initial { item: \"Goal Velocity\" value: 1 }\n"));
-  EXPECT_NE(e.find("robots/bad.textproto:6:"), std::string::npos) << e;
+  EXPECT_NE(e.find("robots/bad.textproto:7:"), std::string::npos) << e;
   EXPECT_NE(e.find("'Goal Velocity' is no item of RX-64"), std::string::npos) << e;
   // Out of range: Status Return Level is 0..2.
   e = error_of(p1_device("RX-64", "    initial { item: \"Status Return Level\" value: 3 }\n"));

@@ -136,7 +136,7 @@ TEST(PersistentEeprom, IdAndProtocolTypeSurviveARestartAndAKill) {
 
 std::pair<int, std::string> run_doppel(const StateDir& dir, const std::string& state_dir) {
   return run_command(doppel_executable() + " --robot " + dir.robot_file() + " --physics none --no-camera --link-dir " +
-                     dir.dir() + "/links --state-dir " + state_dir + " & pid=$!; sleep 1.5; kill $pid 2>/dev/null; wait $pid");
+                     dir.dir() + "/links --state-dir " + state_dir + " 2>&1 & pid=$!; sleep 1.5; kill $pid 2>/dev/null; wait $pid");
 }
 
 TEST(PersistentEeprom, CorruptMismatchedAndUnwritableStateIsRefusedWithTheReason) {
