@@ -87,7 +87,7 @@ constexpr std::array<RegisterSpec, 3> kMxCurrentItems{{
 }};
 constexpr uint8_t kMxFirmwareVersion = 41;
 
-constexpr std::array<RegisterSpec, 35> mx_common(MxDefaults d) {
+constexpr std::array<RegisterSpec, 36> mx_common(MxDefaults d) {
   return {{
       {"Model Number", 0, 2, kRO, kE, d.model_number, 0, 0xFFFF},
       {"Firmware Version", 2, 1, kRO, kE, kMxFirmwareVersion, 0, 255},
@@ -110,6 +110,9 @@ constexpr std::array<RegisterSpec, 35> mx_common(MxDefaults d) {
       {"D Gain", 26, 1, kRW, kR, 0, 0, 254},
       {"I Gain", 27, 1, kRW, kR, 0, 0, 254},
       {"P Gain", 28, 1, kRW, kR, 32, 0, 254},
+      // Undocumented byte that takes any write: ROBOTIS' DARwIn-OP framework SYNC WRITEs 26..31
+      // (D, I, P Gain, 0 here, Goal Position) to its MX-28s every 8 ms (docs/devices.md 3.7).
+      {"Reserved", 29, 1, kRW, kR, 0, 0, 255},
       // Signed so that multi-turn goals fit; Protocol1Servo narrows it to 0..4095 outside multi-turn.
       {"Goal Position", 30, 2, kRW, kR, 2048, -28672, 28672, true},
       {"Moving Speed", 32, 2, kRW, kR, 0, 0, 2047},

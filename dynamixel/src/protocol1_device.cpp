@@ -1,5 +1,7 @@
 #include "dynamixel/protocol1_device.h"
 
+#include <algorithm>
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -26,6 +28,9 @@ Protocol1Device::Protocol1Device(const ModelSpec& spec, uint8_t id, uint8_t baud
     const RegisterSpec& r = spec.registers[i];
     for (uint8_t b = 0; b < r.size; ++b) {
       owner_[r.address + b] = static_cast<uint8_t>(i + 1);
+    }
+    if (r.area == Area::kEeprom) {
+      eeprom_bytes_ = std::max<std::size_t>(eeprom_bytes_, std::size_t{r.address} + r.size);
     }
   }
   load_defaults();
@@ -91,6 +96,51 @@ void Protocol1Device::load_defaults(bool ram_only) noexcept {
 
 uint8_t Protocol1Device::check_write(const Table&, uint8_t, std::size_t) const noexcept { return 0; }
 
+void Protocol1Device::after_write(uint8_t, std::size_t) noexcept {}
+
+std::string Protocol1Device::restore_eeprom(std::span<const uint8_t> bytes) {
+  if (bytes.size() != eeprom_bytes_) {
+    return std::to_string(bytes.size()) + " EEPROM bytes for " + std::string(spec_.name) + ", which has " +
+           std::to_string(eeprom_bytes_);
+  }
+  Table candidate = table_;
+  std::copy(bytes.begin(), bytes.end(), candidate.begin());
+  for (const RegisterSpec& r : spec_.registers) {
+    if (r.area != Area::kEeprom) {
+      continue;
+    }
+    const int32_t value = as_value(r, read_le(candidate, r.address, r.size));
+    if (r.access == Access::kRead ? value != r.default_raw : (value < r.min_raw || value > r.max_raw)) {
+      return std::string(r.name) + " (" + std::to_string(r.address) + ") = " + std::to_string(value) +
+             (r.access == Access::kRead ? " differs from the model's " + std::to_string(r.default_raw)
+                                        : " is outside " + std::to_string(r.min_raw) + ".." + std::to_string(r.max_raw));
+    }
+  }
+  std::copy(bytes.begin(), bytes.end(), table_.begin());
+  load_defaults(true);
+  after_factory_reset();
+  return {};
+}
+
+std::string Protocol1Device::write_item(uint16_t address, int64_t value) {
+  const RegisterSpec* r = address < 256 ? find_register(spec_.registers, static_cast<uint8_t>(address)) : nullptr;
+  if (r == nullptr || r->address != address) {
+    return "no item of " + std::string(spec_.name) + " starts at address " + std::to_string(address);
+  }
+  if (value < -32768 || value > 65535) {
+    return std::string(r->name) + " = " + std::to_string(value) + " does not fit its " + std::to_string(r->size) +
+           " byte(s)";
+  }
+  const auto raw = static_cast<uint16_t>(value);
+  const std::array<uint8_t, 2> bytes{static_cast<uint8_t>(raw & 0xFF), static_cast<uint8_t>(raw >> 8)};
+  const uint8_t error = write(address, bytes.data(), r->size, true);
+  if (error != 0) {
+    return "the firmware refuses " + std::string(r->name) + " = " + std::to_string(value) +
+           ((error & p1_error::kAngleLimit) != 0 ? " (Angle Limit Error)" : " (Range Error)");
+  }
+  return {};
+}
+
 uint8_t Protocol1Device::write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept {
   if (n == 0) {
     return p1_error::kInstruction;
@@ -134,6 +184,7 @@ uint8_t Protocol1Device::write(uint16_t start, const uint8_t* data, std::size_t 
   for (std::size_t i = 0; i < n; ++i) {
     table_[start + i] = data[i];
   }
+  after_write(static_cast<uint8_t>(start), n);
   return 0;
 }
 

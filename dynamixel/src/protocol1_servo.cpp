@@ -98,6 +98,12 @@ void Protocol1Servo::power_on(double position_rad) noexcept {
 
 void Protocol1Servo::after_factory_reset() noexcept { power_on(last_position_rad_); }
 
+void Protocol1Servo::after_write(uint8_t start, std::size_t n) noexcept {
+  if (touches(start, n, p1::kGoalPosition, 2) && !touches(start, n, p1::kTorqueEnable, 1)) {
+    set_register(p1::kTorqueEnable, 1);
+  }
+}
+
 uint8_t Protocol1Servo::check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept {
   const ServoMode m =
       mode_for(read_le(candidate, p1::kCwAngleLimit, 2), read_le(candidate, p1::kCcwAngleLimit, 2));

@@ -129,6 +129,47 @@ void Protocol2Device::after_write(const Table&, const ItemSet&) noexcept {}
 
 void Protocol2Device::reboot() noexcept { load_defaults(true); }
 
+std::string Protocol2Device::restore_eeprom(std::span<const uint8_t> bytes) {
+  if (bytes.size() != x430::kEepromEnd) {
+    return std::to_string(bytes.size()) + " EEPROM bytes for " + std::string(spec_.name) + ", which has " +
+           std::to_string(x430::kEepromEnd);
+  }
+  Table candidate = table_;
+  std::copy(bytes.begin(), bytes.end(), candidate.begin());
+  for (const P2RegisterSpec& r : spec_.registers) {
+    if (r.address >= x430::kEepromEnd) {
+      continue;
+    }
+    const int64_t value = value_in(candidate, r.address);
+    if (r.access == Access::kRead ? value != r.default_raw : (value < r.min_raw || value > r.max_raw)) {
+      return std::string(r.name) + " (" + std::to_string(r.address) + ") = " + std::to_string(value) +
+             (r.access == Access::kRead ? " differs from the model's " + std::to_string(r.default_raw)
+                                        : " is outside " + std::to_string(r.min_raw) + ".." + std::to_string(r.max_raw));
+    }
+  }
+  std::copy(bytes.begin(), bytes.end(), table_.begin());
+  reboot();
+  return {};
+}
+
+std::string Protocol2Device::write_item(uint16_t address, int64_t value) {
+  const int item = item_at(address);
+  if (item < 0 || spec_.registers[static_cast<std::size_t>(item)].address != address) {
+    return "no item of " + std::string(spec_.name) + " starts at address " + std::to_string(address);
+  }
+  const P2RegisterSpec& r = spec_.registers[static_cast<std::size_t>(item)];
+  std::array<uint8_t, 4> bytes{};
+  for (std::size_t b = 0; b < r.size; ++b) {
+    bytes[b] = static_cast<uint8_t>(static_cast<uint64_t>(value) >> (8 * b));
+  }
+  const uint8_t error = write(address, bytes.data(), r.size, true, false);
+  if (error != 0 || value_in(table_, address) != value) {
+    return "the firmware refuses " + std::string(r.name) + " = " + std::to_string(value) + " (error " +
+           std::to_string(error) + ")";
+  }
+  return {};
+}
+
 uint8_t Protocol2Device::write(uint16_t start, const uint8_t* data, std::size_t n, bool commit,
                                bool via_secondary) noexcept {
   if (n == 0) {

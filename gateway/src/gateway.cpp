@@ -2,6 +2,7 @@
 
 #include <pthread.h>
 
+#include <chrono>
 #include <iostream>
 #include <numbers>
 #include <optional>
@@ -16,6 +17,7 @@
 #include "physics/engines.h"
 #include "physics/field.h"
 #include "physics/world.h"
+#include "eeprom_state.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -78,6 +80,17 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
   }
+  // Saved EEPROM areas (read before any port exists: a bad state file stops doppel cleanly).
+  std::vector<std::optional<RobotEeprom>> saved(configs.size());
+  if (!options.state_dir.empty()) {
+    prepare_state_dir(options.state_dir);
+    for (std::size_t r = 0; r < configs.size(); ++r) {
+      state_files_.push_back(state_file_path(options.state_dir, configs[r], r));
+      if (!options.fresh) {
+        saved[r] = read_state(state_files_[r], configs[r]);
+      }
+    }
+  }
   try {
     links_ = std::make_unique<bus::LinkDirectory>(options.link_dir, options.allow_shared_link_dir, std::cerr);
     for (std::size_t r = 1; r < configs.size(); ++r) {
@@ -93,7 +106,9 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     } else {
       body = std::make_unique<body::KinematicBody>();
     }
-    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, std::move(body), options_));
+    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, std::move(body), options_,
+                                                     saved[r] ? &*saved[r] : nullptr,
+                                                     state_files_.empty() ? std::string() : state_files_[r]));
   }
   latency_files_ = std::make_unique<bus::LatencyTimerFiles>(std::cerr);
   for (auto& robot : robots_) {
@@ -133,6 +148,76 @@ void Gateway::start() {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
   });
+  if (!state_files_.empty()) {
+    state_thread_ = std::thread([this] {
+      pthread_setname_np(pthread_self(), "doppel-state");
+      keep_state();
+    });
+  }
+}
+
+bool Gateway::save_state(bool published) {
+  bool ok = true;
+  for (std::size_t r = 0; r < state_files_.size(); ++r) {
+    RobotRuntime& robot = *robots_[r];
+    try {
+      write_file_atomically(state_files_[r], state_json(robot.config(), published ? robot.published_eeprom() : robot.eeprom_now(),
+                                                        robot.model_numbers()));
+    } catch (const std::exception& e) {
+      std::cerr << "doppel: " << e.what() << "\n" << std::flush;
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+void Gateway::keep_state() noexcept {
+  // A driver that changes several EEPROM items writes them in a burst: save once it has been quiet
+  // for kQuiet (or kLongest after the first change, for a driver that never stops).
+  using Clock = std::chrono::steady_clock;
+  constexpr auto kPoll = std::chrono::milliseconds(50);
+  constexpr auto kQuiet = std::chrono::milliseconds(200);
+  constexpr auto kLongest = std::chrono::seconds(2);
+  std::vector<uint64_t> saved_generation(robots_.size());
+  std::vector<uint64_t> seen_generation(robots_.size());
+  std::vector<Clock::time_point> first_change(robots_.size());
+  std::vector<Clock::time_point> last_change(robots_.size());
+  std::vector<bool> failed(robots_.size());
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    saved_generation[r] = seen_generation[r] = robots_[r]->eeprom_generation();
+  }
+  while (!stop_.load(std::memory_order_relaxed)) {
+    std::this_thread::sleep_for(kPoll);
+    const Clock::time_point now = Clock::now();
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      const uint64_t generation = robots_[r]->eeprom_generation();
+      if (generation == saved_generation[r]) {
+        continue;
+      }
+      if (seen_generation[r] == saved_generation[r]) {
+        first_change[r] = now;
+      }
+      if (generation != seen_generation[r]) {
+        seen_generation[r] = generation;
+        last_change[r] = now;
+      }
+      if (now - last_change[r] < kQuiet && now - first_change[r] < kLongest) {
+        continue;
+      }
+      try {
+        RobotRuntime& robot = *robots_[r];
+        write_file_atomically(state_files_[r], state_json(robot.config(), robot.published_eeprom(), robot.model_numbers()));
+        saved_generation[r] = generation;
+        failed[r] = false;
+      } catch (const std::exception& e) {
+        if (!failed[r]) {
+          std::cerr << "doppel: " << e.what() << " (will retry)\n" << std::flush;
+        }
+        failed[r] = true;
+        first_change[r] = last_change[r] = now;
+      }
+    }
+  }
 }
 
 void Gateway::stop() {
@@ -148,6 +233,13 @@ void Gateway::stop() {
   }
   for (auto& robot : robots_) {
     robot->join();
+  }
+  if (state_thread_.joinable()) {
+    state_thread_.join();
+  }
+  if (!state_files_.empty() && !state_saved_) {
+    state_saved_ = true;
+    save_state(false);
   }
 }
 

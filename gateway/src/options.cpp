@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "base/command_line.h"
+#include "eeprom_state.h"
 
 namespace doppel::gateway {
 namespace {
@@ -63,6 +64,11 @@ Options:
                          tail on a loaded machine.
   --robots-dir DIR       Where robot names are looked up (default: the robots/ folder of the source tree,
                          or $DOPPEL_ROBOTS_DIR).
+  --state-dir DIR        Keep each robot's EEPROM areas (IDs, baud rates, Protocol Type, limits the
+                         driver wrote) in DIR across runs, as real servos keep them. Default:
+                         $XDG_STATE_HOME/doppel, else ~/.local/state/doppel. A state file that is
+                         corrupt or belongs to another robot layout stops doppel.
+  --fresh                Start from the robot files' values and overwrite the saved state.
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -102,6 +108,8 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_flag("--external-roudi", options.external_roudi);
   app.add_flag("--verbose", options.verbose);
   app.add_flag("--no-hold{false}", options.hold);
+  app.add_option("--state-dir", options.state_dir)->check(not_empty("the directory"));
+  app.add_flag("--fresh", options.fresh);
   app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
   try {
@@ -111,6 +119,9 @@ Options parse_options(int argc, const char* const* argv) {
   }
   if (options.robots.empty()) {
     options.robots.emplace_back("fumanoid-2011");
+  }
+  if (options.state_dir.empty()) {
+    options.state_dir = default_state_dir();
   }
   return options;
 }

@@ -29,6 +29,145 @@ bool ends_with(const std::string& text, std::string_view suffix) {
   return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// The registry a device's model comes from, given the protocol it should speak (its own or the bus').
+dynamixel::Protocol check_firmware(const proto::RobotFile& file, const proto::Bus& bus, const proto::Device& device,
+                                   dynamixel::Protocol bus_protocol) {
+  const bool p1_model = std::any_of(dynamixel::known_models().begin(), dynamixel::known_models().end(),
+                                    [&](const dynamixel::ModelSpec* m) { return m->name == device.model(); });
+  const dynamixel::P2ModelSpec* p2_model = dynamixel::find_p2_model(device.model());
+  const proto::Protocol wanted = device.protocol() != proto::PROTOCOL_UNSPECIFIED ? device.protocol() : bus.protocol();
+  if (device.protocol() != proto::PROTOCOL_UNSPECIFIED && device.protocol() != proto::PROTOCOL_1 &&
+      device.protocol() != proto::PROTOCOL_2) {
+    file.fail(device, "protocol", -1, "unknown protocol (PROTOCOL_1 or PROTOCOL_2)");
+  }
+  if (p1_model) {
+    if (wanted == proto::PROTOCOL_2) {
+      file.fail(device, device.protocol() == proto::PROTOCOL_2 ? "protocol" : "model", -1,
+                device.model() + " is a Protocol 1.0 model; this bus is PROTOCOL_2 (protocol: PROTOCOL_1 on the "
+                "device puts a Protocol 1.0 firmware on it)");
+    }
+    return dynamixel::Protocol::kV1;
+  }
+  if (p2_model != nullptr) {
+    if (wanted == proto::PROTOCOL_1 && device.protocol() != proto::PROTOCOL_1) {
+      file.fail(device, "model", -1, device.model() + " is a Protocol 2.0 model; set protocol: PROTOCOL_2 on this bus");
+    }
+    if (wanted == proto::PROTOCOL_1 && p2_model->kind != dynamixel::P2DeviceKind::kServo) {
+      file.fail(device, "protocol", -1, device.model() + " cannot speak Protocol 1.0 (only X and MX(2.0) servos can)");
+    }
+    return dynamixel::Protocol::kV2;
+  }
+  try {
+    bus_protocol == dynamixel::Protocol::kV2 ? (void)dynamixel::p2_model_spec(device.model())
+                                             : (void)dynamixel::model_spec(device.model());
+  } catch (const std::invalid_argument& e) {
+    file.fail(device, "model", -1, e.what());
+  }
+  return bus_protocol;
+}
+
+// The protocol a device answers at power-on, for its ID range.
+bool speaks_protocol2(const proto::Bus& bus, const proto::Device& device) {
+  const proto::Protocol wanted = device.protocol() != proto::PROTOCOL_UNSPECIFIED ? device.protocol() : bus.protocol();
+  return wanted == proto::PROTOCOL_2;
+}
+
+// A control-table item as the initial-register check needs it, from either protocol's table.
+struct Item {
+  std::string_view name;
+  uint16_t address = 0;
+  bool writable = false;
+  bool eeprom = false;
+  int64_t min_raw = 0;
+  int64_t max_raw = 0;
+};
+
+std::vector<Item> items_of(const std::string& model, dynamixel::Protocol firmware) {
+  std::vector<Item> items;
+  const auto add = [&](const auto& r) {
+    if (r.name != "Reserved") {
+      items.push_back(Item{r.name, r.address, r.access == dynamixel::Access::kReadWrite,
+                           r.area == dynamixel::Area::kEeprom, r.min_raw, r.max_raw});
+    }
+  };
+  if (firmware == dynamixel::Protocol::kV2) {
+    for (const dynamixel::P2RegisterSpec& r : dynamixel::p2_model_spec(model).registers) add(r);
+  } else {
+    for (const dynamixel::RegisterSpec& r : dynamixel::model_spec(model).registers) add(r);
+  }
+  return items;
+}
+
+// A device's initial register values, checked against its model's control table.
+std::vector<InitialValue> check_initial(const proto::RobotFile& file, const proto::Device& device,
+                                        dynamixel::Protocol firmware, bool speaks_p2) {
+  std::vector<InitialValue> values;
+  const std::vector<Item> items = items_of(device.model(), firmware);
+  if (device.initial_size() > 0 && items.empty()) {
+    file.fail(device, "initial", 0, device.model() + " takes no initial register values (no control table items)");
+  }
+  std::set<uint16_t> seen;
+  for (int i = 0; i < device.initial_size(); ++i) {
+    const proto::InitialRegister& initial = device.initial(i);
+    const Item* item = nullptr;
+    if (initial.item().empty() == !initial.has_address()) {
+      file.fail(initial, "item", -1, "give the item by name (item: \"Return Delay Time\") or by address, not both");
+    }
+    if (!initial.item().empty()) {
+      for (const Item& candidate : items) {
+        if (candidate.name == initial.item()) item = &candidate;
+      }
+      if (item == nullptr) {
+        file.fail(initial, "item", -1, "'" + initial.item() + "' is no item of " + device.model() +
+                                             "'s control table (names as in docs/devices.md)");
+      }
+    } else {
+      for (const Item& candidate : items) {
+        if (candidate.address == initial.address()) item = &candidate;
+      }
+      if (item == nullptr) {
+        file.fail(initial, "address", -1, "no item of " + device.model() + " starts at address " +
+                                              std::to_string(initial.address()));
+      }
+    }
+    const std::string what = std::string(item->name) + " (" + std::to_string(item->address) + ")";
+    const std::string field = initial.item().empty() ? "address" : "item";
+    if (!item->writable) {
+      file.fail(initial, field, -1, what + " is read-only");
+    }
+    if (initial.value() < item->min_raw || initial.value() > item->max_raw) {
+      file.fail(initial, "value", -1, what + " = " + std::to_string(initial.value()) + " is outside " +
+                                          std::to_string(item->min_raw) + ".." + std::to_string(item->max_raw));
+    }
+    if (!seen.insert(item->address).second) {
+      file.fail(initial, field, -1, what + " is set twice");
+    }
+    if (item->name == "ID" && initial.value() != device.id()) {
+      file.fail(initial, "value", -1, "ID " + std::to_string(initial.value()) + " conflicts with the device's id " +
+                                          std::to_string(device.id()) + " (the id field is the ID at power-on)");
+    }
+    if (item->name == "Baud Rate") {
+      file.fail(initial, field, -1, what + " is set by the bus' baud_bps");
+    }
+    if (item->name == "Return Delay Time" && device.has_return_delay_time_raw()) {
+      file.fail(initial, field, -1, what + " is also set by return_delay_time_raw; keep one");
+    }
+    if (item->name == "Protocol Type" && device.protocol() != proto::PROTOCOL_UNSPECIFIED &&
+        (initial.value() == 1) != (device.protocol() == proto::PROTOCOL_1)) {
+      file.fail(initial, "value", -1, "Protocol Type " + std::to_string(initial.value()) +
+                                          " conflicts with the device's protocol");
+    }
+    values.push_back(InitialValue{item->address, initial.value(), item->eeprom, std::string(item->name),
+                                  file.location(initial, field)});
+  }
+  // An X / MX(2.0) servo told to speak Protocol 1.0 starts with Protocol Type 1.
+  if (firmware == dynamixel::Protocol::kV2 && !speaks_p2 && seen.count(dynamixel::x430::kProtocolType) == 0) {
+    values.insert(values.begin(), InitialValue{dynamixel::x430::kProtocolType, dynamixel::x430::kProtocolType1, true,
+                                               "Protocol Type", file.location(device, "protocol")});
+  }
+  return values;
+}
+
 BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription& robot, int bus_index) {
   const proto::Bus& bus = robot.bus(bus_index);
   BusConfig config;
@@ -73,7 +212,9 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
   std::set<uint32_t> ids;
   for (int d = 0; d < bus.device_size(); ++d) {
     const proto::Device& device = bus.device(d);
-    const bool p2 = config.protocol == dynamixel::Protocol::kV2;
+    DeviceConfig device_config;
+    device_config.firmware = check_firmware(file, bus, device, config.protocol);
+    const bool p2 = speaks_protocol2(bus, device);
     const uint32_t max_id = p2 ? 252 : 253;
     if (!device.has_id()) {
       file.fail(device, "id", -1, "missing ID (0.." + std::to_string(max_id) + ")");
@@ -87,38 +228,15 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
     if (!ids.insert(device.id()).second) {
       file.fail(device, "id", -1, "ID " + std::to_string(device.id()) + " is used twice on bus '" + config.name + "'");
     }
-    if (p2) {
-      const dynamixel::P2ModelSpec* model = nullptr;
-      try {
-        model = &dynamixel::p2_model_spec(device.model());
-      } catch (const std::invalid_argument& e) {
-        const bool p1_model = std::any_of(dynamixel::known_models().begin(), dynamixel::known_models().end(),
-                                          [&](const dynamixel::ModelSpec* m) { return m->name == device.model(); });
-        file.fail(device, "model", -1,
-                  p1_model ? device.model() + " is a Protocol 1.0 model; this bus is PROTOCOL_2" : std::string(e.what()));
+    try {
+      if (device_config.firmware == dynamixel::Protocol::kV2) {
+        dynamixel::p2_baud_register(config.baud_bps, dynamixel::p2_model_spec(device.model()));
+      } else {
+        dynamixel::p1_baud_register(config.baud_bps, dynamixel::model_spec(device.model()));
       }
-      try {
-        dynamixel::p2_baud_register(config.baud_bps, *model);
-      } catch (const std::invalid_argument& e) {
-        file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
-      }
-    } else {
-      const dynamixel::ModelSpec* model = nullptr;
-      try {
-        model = &dynamixel::model_spec(device.model());
-      } catch (const std::invalid_argument& e) {
-        file.fail(device, "model", -1,
-                  dynamixel::find_p2_model(device.model()) != nullptr
-                      ? device.model() + " is a Protocol 2.0 model; set protocol: PROTOCOL_2 on this bus"
-                      : std::string(e.what()));
-      }
-      try {
-        dynamixel::p1_baud_register(config.baud_bps, *model);
-      } catch (const std::invalid_argument& e) {
-        file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
-      }
+    } catch (const std::invalid_argument& e) {
+      file.fail(bus, "baud_bps", -1, "device ID " + std::to_string(device.id()) + ": " + e.what());
     }
-    DeviceConfig device_config;
     device_config.id = static_cast<uint8_t>(device.id());
     device_config.model = device.model();
     device_config.name = device.name();
@@ -128,6 +246,7 @@ BusConfig check_bus(const proto::RobotFile& file, const proto::RobotDescription&
       }
       device_config.return_delay_raw = static_cast<uint8_t>(device.return_delay_time_raw());
     }
+    device_config.initial = check_initial(file, device, device_config.firmware, p2);
     config.devices.push_back(std::move(device_config));
   }
   return config;

@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <numbers>
+#include <algorithm>
 #include <sstream>
+#include <stdexcept>
 #include <variant>
 
 #include "dynamixel/device_factory.h"
@@ -37,17 +39,38 @@ const char* protocol_name(dynamixel::Protocol protocol) {
 }  // namespace
 
 BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::SimulatedBody& body,
-                       const std::string& link, const Options& options)
+                       const std::string& link, const Options& options,
+                       const std::vector<std::vector<uint8_t>>* saved, const std::string& state_path)
     : config_(config), bus_index_(bus_index), body_(body) {
-  for (const DeviceConfig& device : config.devices) {
+  for (std::size_t d = 0; d < config.devices.size(); ++d) {
+    const DeviceConfig& device = config.devices[d];
     dynamixel::BuiltDevice built;
-    if (config.protocol == dynamixel::Protocol::kV2) {
+    if (device.firmware == dynamixel::Protocol::kV2) {
       built = dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
                                                device.return_delay_raw.value_or(250));
     } else {
       const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
       built = dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
                                                device.return_delay_raw.value_or(default_return_delay_raw(spec)));
+    }
+    const std::string who = "bus " + std::to_string(bus_index) + " device " + std::to_string(d) + " (" +
+                            device.model + " " + device.name + ")";
+    if (saved != nullptr) {
+      if (const std::string error = built.device->restore_eeprom(saved->at(d)); !error.empty()) {
+        throw std::runtime_error("state file " + state_path + ": " + who + ": " + error +
+                                 " (--fresh starts from the robot file and overwrites it)");
+      }
+    }
+    for (const InitialValue& initial : device.initial) {
+      if (saved != nullptr && initial.eeprom) {
+        continue;  // the saved EEPROM holds what the driver made of it
+      }
+      if (const std::string error = built.device->write_item(initial.address, initial.value); !error.empty()) {
+        throw std::invalid_argument(initial.location + ": " + who + ": initial " + initial.item + ": " + error);
+      }
+    }
+    if (built.device->eeprom().size() > kMaxEepromBytes) {
+      throw std::invalid_argument(who + " has a larger EEPROM than Doppel keeps");
     }
     link_to_body(built.role, device);
     bus_devices_.add(*built.device);
@@ -64,6 +87,50 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   server_options.adapter = config.adapter;
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
+  for (std::size_t d = 0; d < devices_.size(); ++d) {
+    const std::span<const uint8_t> bytes = devices_[d]->eeprom();
+    std::copy(bytes.begin(), bytes.end(), eeprom_seen_.bytes[d].begin());
+  }
+  eeprom_.publish(eeprom_seen_);
+}
+
+void BusRuntime::publish_eeprom_changes() noexcept {
+  bool changed = false;
+  for (std::size_t d = 0; d < devices_.size(); ++d) {
+    const std::span<const uint8_t> bytes = devices_[d]->eeprom();
+    if (!std::equal(bytes.begin(), bytes.end(), eeprom_seen_.bytes[d].begin())) {
+      std::copy(bytes.begin(), bytes.end(), eeprom_seen_.bytes[d].begin());
+      changed = true;
+    }
+  }
+  if (changed) {
+    ++eeprom_seen_.generation;
+    eeprom_.publish(eeprom_seen_);
+  }
+}
+
+std::vector<std::vector<uint8_t>> BusRuntime::eeprom_bytes(const BusEeprom& eeprom) const {
+  std::vector<std::vector<uint8_t>> out;
+  for (std::size_t d = 0; d < devices_.size(); ++d) {
+    const std::size_t n = devices_[d]->eeprom().size();
+    out.emplace_back(eeprom.bytes[d].begin(), eeprom.bytes[d].begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  return out;
+}
+
+std::vector<std::vector<uint8_t>> BusRuntime::eeprom_now() const {
+  std::vector<std::vector<uint8_t>> out;
+  for (const auto& device : devices_) {
+    const std::span<const uint8_t> bytes = device->eeprom();
+    out.emplace_back(bytes.begin(), bytes.end());
+  }
+  return out;
+}
+
+std::vector<uint16_t> BusRuntime::model_numbers() const {
+  std::vector<uint16_t> out;
+  for (const auto& device : devices_) out.push_back(device->model_number());
+  return out;
 }
 
 void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device) {
@@ -73,7 +140,7 @@ void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceCon
     const DeviceConfig& device;
     uint32_t bus;
     void operator()(dynamixel::SimulatedServo* servo) const {
-      const dynamixel::ServoSpec& spec = self.config_.protocol == dynamixel::Protocol::kV2
+      const dynamixel::ServoSpec& spec = device.firmware == dynamixel::Protocol::kV2
                                              ? dynamixel::p2_model_spec(device.model).servo
                                              : dynamixel::model_spec(device.model).servo;
       body::ServoSetup setup{dynamixel::servo_controller_config(device.model),
@@ -130,6 +197,7 @@ void BusRuntime::after_dispatch() noexcept {
   BusCommands& commands = commands_.back();
   for (std::size_t i = 0; i < servos_.size(); ++i) commands.servos[i] = servos_[i].device->command();
   commands_.publish();
+  publish_eeprom_changes();
 }
 
 void BusRuntime::on_tick() noexcept {
@@ -160,8 +228,10 @@ std::string BusRuntime::describe() const {
   out << "\n";
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const DeviceConfig& device = config_.devices[i];
-    char line[128];
-    std::snprintf(line, sizeof(line), "     ID %3u %-14s %s\n", device.id, device.model.c_str(), device.name.c_str());
+    const bool other_protocol = devices_[i]->protocol() != config_.protocol;
+    char line[160];
+    std::snprintf(line, sizeof(line), "     ID %3u %-14s %s%s\n", devices_[i]->id(), device.model.c_str(),
+                  device.name.c_str(), other_protocol ? "  (speaks the other protocol)" : "");
     out << line;
   }
   return out.str();
@@ -187,11 +257,13 @@ std::string BusRuntime::summary() const {
 }
 
 RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index,
-                           std::unique_ptr<body::SimulatedBody> body, const Options& options)
+                           std::unique_ptr<body::SimulatedBody> body, const Options& options,
+                           const RobotEeprom* saved, const std::string& state_path)
     : config_(config), index_(robot_index), body_(std::move(body)) {
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
     buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], b, *body_,
-                                                  link_path(options.link_dir, robot_index, b), options));
+                                                  link_path(options.link_dir, robot_index, b), options,
+                                                  saved != nullptr ? &saved->at(b) : nullptr, state_path));
   }
   // Power-on (before the world's first step): the sensors' first sample and the servos' Present
   // registers exist before any packet.
@@ -231,6 +303,30 @@ void RobotRuntime::sense(int64_t sim_time_ns) noexcept {
   for (auto& bus : buses_) {
     bus->sense(sim_time_ns, servo_current_a);
   }
+}
+
+uint64_t RobotRuntime::eeprom_generation() noexcept {
+  uint64_t generation = 0;
+  for (auto& bus : buses_) generation += bus->published_eeprom().generation;
+  return generation;
+}
+
+RobotEeprom RobotRuntime::published_eeprom() {
+  RobotEeprom out;
+  for (auto& bus : buses_) out.push_back(bus->eeprom_bytes(bus->published_eeprom()));
+  return out;
+}
+
+RobotEeprom RobotRuntime::eeprom_now() const {
+  RobotEeprom out;
+  for (const auto& bus : buses_) out.push_back(bus->eeprom_now());
+  return out;
+}
+
+std::vector<std::vector<uint16_t>> RobotRuntime::model_numbers() const {
+  std::vector<std::vector<uint16_t>> out;
+  for (const auto& bus : buses_) out.push_back(bus->model_numbers());
+  return out;
 }
 
 std::string RobotRuntime::describe() const {

@@ -20,6 +20,7 @@
 #include "dynamixel/built_device.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device_io.h"
+#include "eeprom_state.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 
@@ -32,6 +33,13 @@ struct BusCommands {
   std::array<dynamixel::ServoCommand, kMaxServos> servos{};  // by servo index on the bus
 };
 
+// Every device's EEPROM area as the bus thread last saw it (bus -> state thread).
+inline constexpr std::size_t kMaxEepromBytes = 64;
+struct BusEeprom {
+  uint64_t generation = 0;  // +1 whenever some device's EEPROM changed
+  std::array<std::array<uint8_t, kMaxEepromBytes>, kMaxServos> bytes{};  // by device index on the bus
+};
+
 struct BusFeedback {
   std::array<dynamixel::ServoFeedback, kMaxServos> servos{};  // by servo index on the bus
   std::array<dynamixel::ImuFeedback, kMaxBoards> imus{};      // by IMU index on the bus
@@ -41,10 +49,13 @@ struct BusFeedback {
 
 class BusRuntime final : public bus::DeviceSync {
  public:
-  // Builds the devices of `config` (bus `bus_index` of its robot), links servos and sensors to
-  // `body` (which outlives the bus), opens the port at `link` and the server. Setup; throws.
+  // Builds the devices of `config` (bus `bus_index` of its robot): factory defaults, then the
+  // saved EEPROM areas `saved` (by device; null = none, use the file's initial EEPROM values), then
+  // the initial RAM values; links servos and sensors to `body` (which outlives the bus), opens the
+  // port at `link` and the server. Setup; throws (naming `state_path` for a bad saved EEPROM).
   BusRuntime(const BusConfig& config, std::size_t bus_index, body::SimulatedBody& body, const std::string& link,
-             const Options& options);
+             const Options& options, const std::vector<std::vector<uint8_t>>* saved = nullptr,
+             const std::string& state_path = "");
   ~BusRuntime() override;
 
   void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
@@ -67,8 +78,17 @@ class BusRuntime final : public bus::DeviceSync {
 
   bus::BusServer& server() noexcept { return *server_; }
   const std::string& link() const noexcept { return port_->link_path(); }
+  // State thread: the newest EEPROM areas the bus thread published (generation, bytes). rt-safe.
+  const BusEeprom& published_eeprom() noexcept { return eeprom_.latest(); }
+  // EEPROM bytes per device of `eeprom` (sizes of the devices' areas).
+  std::vector<std::vector<uint8_t>> eeprom_bytes(const BusEeprom& eeprom) const;
+  // The devices' EEPROM areas now; only while the bus thread is not running.
+  std::vector<std::vector<uint8_t>> eeprom_now() const;
+  std::vector<uint16_t> model_numbers() const;
 
  private:
+  // Compares every device's EEPROM with what was published and publishes a change. Bus thread; rt-safe.
+  void publish_eeprom_changes() noexcept;
   // A device's simulation side and its index in the body.
   template <typename Role>
   struct Linked {
@@ -91,14 +111,17 @@ class BusRuntime final : public bus::DeviceSync {
   std::unique_ptr<bus::BusServer> server_;
   concurrency::Snapshot<BusCommands> commands_;
   concurrency::Snapshot<BusFeedback> feedback_;
+  concurrency::Snapshot<BusEeprom> eeprom_;
+  BusEeprom eeprom_seen_{};  // bus thread: the last published EEPROM areas
   std::thread thread_;
 };
 
 class RobotRuntime {
  public:
   // `body`: the robot's body (a PhysicsBody in the gateway's world, or a KinematicBody). Setup; throws.
+  // `saved`: EEPROM areas from the state file `state_path` (null = none). Setup; throws.
   RobotRuntime(const RobotConfig& config, std::size_t robot_index, std::unique_ptr<body::SimulatedBody> body,
-               const Options& options);
+               const Options& options, const RobotEeprom* saved = nullptr, const std::string& state_path = "");
 
   void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
   void join();
@@ -111,6 +134,13 @@ class RobotRuntime {
 
   // Gives every bus its latency-timer file beside its link. Setup; throws.
   void add_latency_timer_files(bus::LatencyTimerFiles& files);
+  const RobotConfig& config() const noexcept { return config_; }
+  // State thread: sum of the buses' EEPROM generations, and the published areas.
+  uint64_t eeprom_generation() noexcept;
+  RobotEeprom published_eeprom();
+  // While the bus threads are stopped: the EEPROM areas now.
+  RobotEeprom eeprom_now() const;
+  std::vector<std::vector<uint16_t>> model_numbers() const;
 
  private:
   RobotConfig config_;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <stdexcept>
 #include <vector>
 
@@ -120,6 +121,23 @@ TEST(Options, HelpDocumentsEveryOption) {
                              "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>",
                              "--session", "--no-camera", "--external-roudi", "--allow-shared-link-dir", "--verbose"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
+  }
+}
+
+TEST(Options, StateDirectoryDefaultsToXdgStateHomeAndFreshIsAFlag) {
+  ::setenv("XDG_STATE_HOME", "/var/tmp/xdg-state", 1);
+  EXPECT_EQ(parse({}).state_dir, "/var/tmp/xdg-state/doppel");
+  EXPECT_FALSE(parse({}).fresh);
+  ::unsetenv("XDG_STATE_HOME");
+  ::setenv("HOME", "/home/someone", 1);
+  EXPECT_EQ(parse({}).state_dir, "/home/someone/.local/state/doppel");
+  const Options sut = parse({"--state-dir", "/s", "--fresh"});
+  EXPECT_EQ(sut.state_dir, "/s");
+  EXPECT_TRUE(sut.fresh);
+  EXPECT_THROW(parse({"--state-dir", ""}), std::invalid_argument);
+  EXPECT_TRUE(Options{}.state_dir.empty());  // a Gateway built in-process keeps no state unless told
+  for (const char* option : {"--state-dir", "--fresh"}) {
+    EXPECT_NE(usage().find(option), std::string::npos) << option;
   }
 }
 

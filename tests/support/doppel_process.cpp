@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -47,6 +48,10 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
   args.push_back(link_dir_);
   if (!camera) {
     args.push_back("--no-camera");
+  }
+  if (std::find(args.begin(), args.end(), "--state-dir") == args.end()) {
+    args.push_back("--state-dir");
+    args.push_back(std::string(dir_template) + "/state");
   }
   std::vector<char*> argv;
   for (std::string& arg : args) {

@@ -5,6 +5,8 @@
 // it reports *when in the reply order* it transmits, and the bus layer turns that into time.
 
 #include <cstdint>
+#include <span>
+#include <string>
 #include <string_view>
 
 #include "dynamixel/packet.h"
@@ -46,6 +48,18 @@ class Device {
   // Reacts to one instruction packet seen on the bus and fills `response` (response.transmits is
   // false on entry). rt-safe: no allocation, no lock, no exception.
   virtual void handle(const InstructionPacket& packet, Response& response) noexcept = 0;
+
+  // The bytes the device keeps across a power cycle (its EEPROM area, from address 0), as stored
+  // now; empty for a device that keeps none. The gateway saves them in its state directory.
+  // rt-safe; read it on the bus thread (or while the bus thread is stopped).
+  virtual std::span<const uint8_t> eeprom() const noexcept { return {}; }
+  // Setup: loads a saved EEPROM area (the size of eeprom()) and powers the device on again with it.
+  // Returns "" or why `bytes` cannot be this device's EEPROM (a read-only byte that differs from the
+  // model's, a value outside its item's range, a wrong size); the device is unchanged then.
+  virtual std::string restore_eeprom(std::span<const uint8_t> bytes);
+  // Setup: writes `value` into the item that starts at `address`, as a WRITE from the host would,
+  // the firmware's checks included (its EEPROM rules too). Returns "" or why the firmware refuses.
+  virtual std::string write_item(uint16_t address, int64_t value);
 };
 
 }  // namespace doppel::dynamixel

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "dynamixel/control_table.h"
@@ -85,6 +86,12 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   uint16_t model_number() const noexcept override { return spec_.model_number; }
   // Executes `packet` as the firmware does and fills `response`. rt-safe.
   void handle(const InstructionPacket& packet, Response& response) noexcept override;
+  // Addresses 0 up to the end of the last EEPROM register.
+  std::span<const uint8_t> eeprom() const noexcept override { return {table_.data(), eeprom_bytes_}; }
+  // Read-only EEPROM registers must hold the model's values, the others values within their range;
+  // then RAM gets its power-on values (after_factory_reset()).
+  std::string restore_eeprom(std::span<const uint8_t> bytes) override;
+  std::string write_item(uint16_t address, int64_t value) override;
 
   const ModelSpec& spec() const noexcept { return spec_; }
   // Unsigned value of the register that starts at `address` (1 or 2 bytes, little-endian);
@@ -107,8 +114,11 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   // Model-specific checks of a write, run on `candidate` (the table as it would be after writing
   // [start, start + n)). Returns error bits; non-zero rejects the whole write.
   virtual uint8_t check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept;
-  // Called after RESET has restored the factory defaults (the device reboots).
+  // Called after RESET has restored the factory defaults (the device reboots), and after a saved
+  // EEPROM area was restored at power-on.
   virtual void after_factory_reset() noexcept {}
+  // Side effects of a committed write of [start, start + n) (the firmware's own register updates).
+  virtual void after_write(uint8_t start, std::size_t n) noexcept;
 
   // Sets a register without any check (the device's own updates of read-only values).
   void set_register(uint8_t address, uint16_t value) noexcept;
@@ -131,6 +141,7 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   void factory_reset() noexcept override;
 
   const ModelSpec& spec_;
+  std::size_t eeprom_bytes_ = 0;  // addresses 0..eeprom_bytes_-1 are the EEPROM area
   Table table_{};
   Table owner_{};  // index + 1 into spec_.registers of the register covering each byte; 0 = none
   HeldWrite held_write_{};

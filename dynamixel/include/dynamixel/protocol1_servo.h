@@ -50,6 +50,9 @@ class Protocol1Servo final : public Protocol1Device, public SimulatedServo {
   uint8_t condition_bits() const noexcept override { return conditions_; }
   uint8_t check_write(const Table& candidate, uint8_t start, std::size_t n) const noexcept override;
   void after_factory_reset() noexcept override;
+  // A write that sets Goal Position switches the torque on (docs/devices.md 3.7), unless it writes
+  // Torque Enable itself.
+  void after_write(uint8_t start, std::size_t n) noexcept override;
 
  private:
   ServoMode mode_for(uint16_t cw_limit_raw, uint16_t ccw_limit_raw) const noexcept;

@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "dynamixel/device.h"
@@ -47,6 +48,12 @@ class Protocol2Device : public Device {
   uint16_t model_number() const noexcept override { return spec_.model_number; }
   // Executes `packet` as the firmware does and fills `response`. rt-safe.
   void handle(const InstructionPacket& packet, Response& response) noexcept override;
+  // Addresses 0..63, the EEPROM area (Protocol Type included).
+  std::span<const uint8_t> eeprom() const noexcept override { return {table_.data(), x430::kEepromEnd}; }
+  // Read-only items must hold the model's values, the others values within their range; then the
+  // device reboots (RAM to its power-on values).
+  std::string restore_eeprom(std::span<const uint8_t> bytes) override;
+  std::string write_item(uint16_t address, int64_t value) override;
 
   const P2ModelSpec& spec() const noexcept { return spec_; }
   // Value of the item that starts at `address` (sign-extended for signed items); 0 when no item

@@ -41,14 +41,19 @@ class Gateway {
   Gateway(const Gateway&) = delete;
   Gateway& operator=(const Gateway&) = delete;
 
-  void start();  // starts the bus and simulation threads
-  void stop();   // stops and joins them; idempotent
+  void start();  // starts the bus and simulation threads (and the state thread with a state directory)
+  void stop();   // stops and joins them, then saves every robot's EEPROM state; idempotent
 
   std::string describe() const;  // the links and the devices behind them, for the user
   std::string summary() const;   // per-bus counters, for the user after stop()
 
+  // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
+  // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
+  bool save_state(bool published);
+
  private:
   void simulate() noexcept;
+  void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
 
   Options options_;
   std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
@@ -58,6 +63,9 @@ class Gateway {
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
+  std::thread state_thread_;
+  std::vector<std::string> state_files_;  // per robot; empty without a state directory
+  bool state_saved_ = false;               // stop() saved the final state
   uint64_t missed_ticks_ = 0;
 };
 

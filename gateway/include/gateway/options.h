@@ -29,6 +29,10 @@ struct Options {
   bool camera = true;                    // --no-camera: stream no camera
   bool verbose = false;                  // --verbose: also print iceoryx's own log lines
   bool external_roudi = false;           // --external-roudi: require an already running iceoryx RouDi
+  // Persistent EEPROM (README "State"): --state-dir DIR keeps each robot's EEPROM areas there
+  // (parse_options' default: $XDG_STATE_HOME/doppel, else ~/.local/state/doppel); "" keeps nothing.
+  std::string state_dir;
+  bool fresh = false;                    // --fresh: start from the robot files, overwrite their saved state
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };

@@ -16,11 +16,24 @@
 
 namespace doppel::gateway {
 
+// One checked initial register value of a device (proto InitialRegister).
+struct InitialValue {
+  uint16_t address = 0;   // where the item starts
+  int64_t value = 0;      // raw value, within the item's range
+  bool eeprom = false;    // the item lies in the EEPROM area (a saved state replaces it)
+  std::string item;       // its control-table name, for messages
+  std::string location;   // "file:line:column" of the entry, for messages
+};
+
 struct DeviceConfig {
   uint8_t id = 0;                               // bus ID
   std::string model;                            // model name of the device registry (dynamixel/model_registry.h)
   std::string name;                             // role on the robot, e.g. "HEAD_YAW"
   std::optional<uint8_t> return_delay_raw;      // Return Delay Time register at power-on, unset = model default
+  // Which registry the model comes from: kV1 = a Protocol 1.0 firmware model, kV2 = a Protocol 2.0
+  // one (which may still start in Protocol 1.0 through Protocol Type = 1 in `initial`).
+  dynamixel::Protocol firmware = dynamixel::Protocol::kV1;
+  std::vector<InitialValue> initial;            // written after the factory defaults, in file order
 };
 
 struct BusConfig {
