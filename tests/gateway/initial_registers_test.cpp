@@ -6,18 +6,10 @@
 #include <string>
 
 #include "gateway/robot_config.h"
+#include "robot_file_error.h"
 
 namespace doppel::gateway {
 namespace {
-
-std::string error_of(const std::string& text) {
-  try {
-    parse_robot(text, "robots/bad.textproto");
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "no error";
-}
 
 std::string p1_device(const std::string& model, const std::string& initial) {
   return "name: \"r\"\nbus {\n  baud_bps: 1000000\n  protocol: PROTOCOL_1\n  device {\n    id: 1 model: \"" + model +

@@ -1,4 +1,5 @@
 #include "gateway/robot_config.h"
+#include "robot_file_error.h"
 
 #include <gtest/gtest.h>
 
@@ -13,15 +14,6 @@
 
 namespace doppel::gateway {
 namespace {
-
-std::string error_of(const std::string& text) {
-  try {
-    parse_robot(text, "robots/bad.textproto");
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "no error";
-}
 
 const char* kGoodBus = R"(name: "r"
 bus {
