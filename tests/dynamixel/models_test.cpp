@@ -86,6 +86,8 @@ constexpr DatasheetRow kDatasheet[] = {
     {"RX-64", 18.5, 64, 5.3, 2.6, 200},       {"MX-28", 12.0, 55, 2.5, 1.4, 193},
     {"MX-64", 12.0, 63, 6.0, 4.1, 200},       {"MX-106", 12.0, 45, 8.4, 5.2, 225},
     {"XM430-W350", 12.0, 46, 4.1, 2.3, 353.5}, {"XL430-W250", 12.0, 61, 1.5, 1.4, 258.5},
+    // e-Manual X540 comparison table at 12 V; gear ratio of the XH540-V pages.
+    {"XH540-W270", 12.0, 39, 9.9, 4.9, 272.5}, {"XH540-W150", 12.0, 70, 7.1, 4.9, 152.3},
 };
 
 TEST(Models, EveryServoHasTheDatasheetPointOfReference) {
