@@ -43,12 +43,13 @@ TEST(Models, UnknownNameThrowsListingKnownNames) {
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
-    for (const char* name : {"AX-12A", "RX-28", "RX-64", "MX-28", "MX-64", "MX-106", "FUMANOID-IMU", "FUMANOID-FOOT"}) {
+    for (const char* name : {"AX-12A", "RX-28", "RX-64", "MX-28", "MX-64", "MX-106", "FUMANOID-IMU", "FUMANOID-FOOT",
+                             "CM-730", "DARWIN-FSR"}) {
       EXPECT_NE(what.find(name), std::string::npos) << name;
     }
     EXPECT_NE(what.find("AX-18A"), std::string::npos);
   }
-  EXPECT_EQ(known_models().size(), 8u);
+  EXPECT_EQ(known_models().size(), 10u);
 }
 
 TEST(Models, OnlyMxAndBoardsUnderstandBulkRead) {
@@ -115,8 +116,10 @@ TEST(Models, EveryServoModelOfBothProtocolsHasAMotor) {
     ASSERT_NE(m->servo.motor, nullptr) << m->name;
     EXPECT_GT(m->servo.motor->torque_constant_nm_a, 0.0) << m->name;
   }
-  EXPECT_EQ(servos, 11u);
+  EXPECT_EQ(servos, 13u);
   EXPECT_EQ(find_servo_spec("FUMANOID-IMU"), nullptr);
+  EXPECT_EQ(find_servo_spec("CM-730"), nullptr);
+  EXPECT_EQ(find_servo_spec("OPEN-CR"), nullptr);
   EXPECT_EQ(find_servo_spec("BITBOTS-CORE"), nullptr);
   EXPECT_THROW((void)servo_spec("AX-18A"), std::invalid_argument);
 }
