@@ -1,5 +1,6 @@
 #include "dynamixel/device_factory.h"
 
+#include "dynamixel/darwin_boards.h"
 #include "dynamixel/fumanoid_boards.h"
 #include "dynamixel/protocol1_servo.h"
 
@@ -13,6 +14,10 @@ BuiltDevice make_protocol1_device(std::string_view model, uint8_t id, uint32_t b
       return built<SimulatedImu>(std::make_unique<FumanoidImu>(id, baud_raw, return_delay_raw));
     case DeviceKind::kFootBoard:
       return built<SimulatedFootBoard>(std::make_unique<FumanoidFootBoard>(id, baud_raw, return_delay_raw));
+    case DeviceKind::kCm730:
+      return built<SimulatedController>(std::make_unique<Cm730>(id, baud_raw, return_delay_raw));
+    case DeviceKind::kDarwinFsr:
+      return built<SimulatedFootBoard>(std::make_unique<DarwinFsr>(id, baud_raw, return_delay_raw));
     case DeviceKind::kServo:
       break;
   }

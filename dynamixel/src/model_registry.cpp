@@ -193,6 +193,71 @@ constexpr std::array<RegisterSpec, 5> kFootValues{{
 constexpr auto kImuTable = merged(board_header(kFumanoidImuModelNumber, 100, 20), kImuValues);
 constexpr auto kFootTable = merged(board_header(kFumanoidFootModelNumber, 101, 10), kFootValues);
 
+// DARwIn-OP CM-730 (firmware 19 = 0x13, the image cm730_0x13.hex the framework ships): the
+// framework's CM730.h gives the addresses, the e-Manual's CM-730 table (platform/op/references)
+// the access and initial values; ranges of writable registers are Doppel's (docs/devices.md).
+constexpr uint16_t kCm730ModelNumber = 0x7300;  // e-Manual: Model Number(L) 0, (H) 0x73
+constexpr std::array<RegisterSpec, 30> kCm730Table{{
+    {"Model Number", cm730::kModelNumber, 2, kRO, kE, kCm730ModelNumber, 0, 0xFFFF},
+    {"Firmware Version", cm730::kFirmwareVersion, 1, kRO, kE, 0x13, 0, 255},
+    {"ID", cm730::kId, 1, kRW, kE, 200, 0, 253},
+    {"Baud Rate", cm730::kBaudRate, 1, kRW, kE, 1, 0, 254},
+    {"Return Delay Time", cm730::kReturnDelayTime, 1, kRW, kE, 0, 0, 254},
+    {"Status Return Level", cm730::kStatusReturnLevel, 1, kRW, kE, 2, 0, 2},
+    {"Dynamixel Power", cm730::kDxlPower, 1, kRW, kR, 0, 0, 1},
+    {"LED Panel", cm730::kLedPanel, 1, kRW, kR, 0, 0, 7},
+    {"LED 5 (Head)", cm730::kLedHead, 2, kRW, kR, 0, 0, 0x7FFF},
+    {"LED 6 (Eye)", cm730::kLedEye, 2, kRW, kR, 0, 0, 0x7FFF},
+    {"Button", cm730::kButton, 1, kRO, kR, 0, 0, 3},
+    {"Gyro Z", cm730::kGyroZ, 2, kRO, kR, 512, 0, 1023},
+    {"Gyro Y", cm730::kGyroY, 2, kRO, kR, 512, 0, 1023},
+    {"Gyro X", cm730::kGyroX, 2, kRO, kR, 512, 0, 1023},
+    {"ACC X", cm730::kAccelX, 2, kRO, kR, 512, 0, 1023},
+    {"ACC Y", cm730::kAccelY, 2, kRO, kR, 512, 0, 1023},
+    {"ACC Z", cm730::kAccelZ, 2, kRO, kR, 512, 0, 1023},
+    {"Present Voltage", cm730::kVoltage, 1, kRO, kR, 0, 0, 255},
+    {"MIC 1", cm730::kLeftMic, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 2", 53, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 3", 55, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 4", 57, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 5", 59, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 6", 61, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 7", 63, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 8", 65, 2, kRO, kR, 0, 0, 1023},
+    {"MIC 2", cm730::kRightMic, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 10", 69, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 11", 71, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 12", 73, 2, kRO, kR, 0, 0, 1023},
+}};
+constexpr std::array<RegisterSpec, 3> kCm730LastAdcs{{
+    {"ADC 13", 75, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 14", 77, 2, kRO, kR, 0, 0, 1023},
+    {"ADC 15", 79, 2, kRO, kR, 0, 0, 1023},
+}};
+constexpr auto kCm730FullTable = merged(kCm730Table, kCm730LastAdcs);
+
+// DARwIn-OP FSR foot board (firmware 17 = 0x11): FSR.h addresses, e-Manual FSR table.
+constexpr uint16_t kDarwinFsrModelNumber = 0x0154;  // e-Manual: Model Number(L) 0x54, (H) 0x01
+constexpr std::array<RegisterSpec, 17> kDarwinFsrTable{{
+    {"Model Number", darwin_fsr::kModelNumber, 2, kRO, kE, kDarwinFsrModelNumber, 0, 0xFFFF},
+    {"Firmware Version", darwin_fsr::kFirmwareVersion, 1, kRO, kE, 0x11, 0, 255},
+    {"ID", darwin_fsr::kId, 1, kRW, kE, 100, 0, 253},
+    {"Baud Rate", darwin_fsr::kBaudRate, 1, kRW, kE, 34, 0, 254},
+    {"Return Delay Time", darwin_fsr::kReturnDelayTime, 1, kRW, kE, 250, 0, 254},
+    {"Status Return Level", darwin_fsr::kStatusReturnLevel, 1, kRW, kE, 2, 0, 2},
+    {"Operating Mode", darwin_fsr::kOperatingMode, 1, kRW, kE, 0, 0, 255},
+    {"LED", darwin_fsr::kLed, 1, kRW, kR, 0, 0, 1},
+    {"FSR1", darwin_fsr::kFsr1, 2, kRO, kR, 0, 0, 0xFFFF},
+    {"FSR2", darwin_fsr::kFsr2, 2, kRO, kR, 0, 0, 0xFFFF},
+    {"FSR3", darwin_fsr::kFsr3, 2, kRO, kR, 0, 0, 0xFFFF},
+    {"FSR4", darwin_fsr::kFsr4, 2, kRO, kR, 0, 0, 0xFFFF},
+    {"FSR_Central_X", darwin_fsr::kFsrX, 1, kRO, kR, 255, 0, 255},
+    {"FSR_Central_Y", darwin_fsr::kFsrY, 1, kRO, kR, 255, 0, 255},
+    {"Present Voltage", darwin_fsr::kPresentVoltage, 1, kRO, kR, 0, 0, 255},
+    {"Registered", darwin_fsr::kRegistered, 1, kRO, kR, 0, 0, 1},
+    {"Lock", darwin_fsr::kLock, 1, kRW, kR, 0, 0, 1},
+}};
+
 // Control tables of the Protocol 2.0 firmware.
 
 // Factory values and items that differ between the X-series models (reference §3.7) and the
@@ -225,7 +290,8 @@ struct XTable {
 constexpr int32_t kGoalPositionLimit = 1048575;  // extended / current-based position modes
 constexpr int32_t kHomingLimit = 1044479;
 
-constexpr XTable x_table(XDefaults d) {
+// `external_ports`: External Port Mode 1-3 (56-58) and Data 1-3 (152-156) of the X540 tables.
+constexpr XTable x_table(XDefaults d, bool external_ports = false) {
   XTable t;
   t.add({"Model Number", x430::kModelNumber, 2, kRO, kE, d.model_number, 0, 0xFFFF});
   t.add({"Model Information", x430::kModelInformation, 4, kRO, kE, 0, 0, 0x7FFFFFFF});
@@ -253,6 +319,11 @@ constexpr XTable x_table(XDefaults d) {
   t.add({"Velocity Limit", x430::kVelocityLimit, 4, kRW, kE, d.velocity_limit, 0, 1023});
   t.add({"Max Position Limit", x430::kMaxPositionLimit, 4, kRW, kE, 4095, 0, 4095});
   t.add({"Min Position Limit", x430::kMinPositionLimit, 4, kRW, kE, 0, 0, 4095});
+  if (external_ports) {
+    for (uint16_t n = 0; n < 3; ++n) {
+      t.add({"External Port Mode", static_cast<uint16_t>(56 + n), 1, kRW, kE, 3, 0, 3});
+    }
+  }
   if (d.startup_configuration) {
     t.add({"Startup Configuration", x430::kStartupConfiguration, 1, kRW, kE, 0, 0, 3});
   }
@@ -289,6 +360,11 @@ constexpr XTable x_table(XDefaults d) {
   t.add({"Position Trajectory", x430::kPositionTrajectory, 4, kRO, kR, 0, INT32_MIN, INT32_MAX, true});
   t.add({"Present Input Voltage", x430::kPresentInputVoltage, 2, kRO, kR, 0, 0, 0xFFFF});
   t.add({"Present Temperature", x430::kPresentTemperature, 1, kRO, kR, 0, 0, 255});
+  if (external_ports) {
+    for (uint16_t n = 0; n < 3; ++n) {
+      t.add({"External Port Data", static_cast<uint16_t>(152 + 2 * n), 2, kRW, kR, 0, 0, 0xFFFF});
+    }
+  }
   // Indirect Address n holds a target address (64..661), Indirect Data n mirrors that byte.
   for (uint16_t n = 0; n < x430::kIndirectSlots; ++n) {
     t.add({"Indirect Address", static_cast<uint16_t>(x430::kIndirectAddress1 + 2 * n), 2, kRW, kR,
@@ -318,6 +394,14 @@ constexpr uint8_t kMx2Firmware = 44;
 constexpr XTable kXm430Table = x_table({1020, kXFirmware, 1193, false, true, 80, 160, 95, 95, 160, 200, 1920, 0, 800});
 // XL430-W250 (reference §3.7 column).
 constexpr XTable kXl430Table = x_table({1060, kXFirmware, 0, true, true, 72, 140, 60, 60, 140, 415, 1000, 4000, 640});
+// XH540-W270 / -W150 (e-Manual xh540-w270, xh540-w150 control tables): model numbers 1100 / 1110,
+// Current Limit 2047 (2.69 mA), Velocity Limit 167 / 300, voltage limits 95..160, gains as XM430 but
+// Position P 800. The W270 page lists Startup Configuration (fw >= 45, so FAST reads and BACKUP);
+// the W150 page does not, so that model gets the older firmware's feature set (docs/devices.md).
+constexpr XTable kXh540W270Table =
+    x_table({1100, kXFirmware, 2047, false, true, 80, 160, 95, 95, 160, 167, 1920, 0, 800}, true);
+constexpr XTable kXh540W150Table =
+    x_table({1110, kMx2Firmware, 2047, false, false, 80, 160, 95, 95, 160, 300, 1920, 0, 800}, true);
 // MX(2.0) (reference §3.6): Min/Max Voltage 95/160, Acceleration Limit 32767, Velocity I/P 1920/100,
 // Position D/I/P 0/0/850; Temperature Limit 80 as the X430 tables (§3.6 lists no change).
 constexpr XTable kMx28V2Table = x_table({30, kMx2Firmware, 0, true, false, 80, 160, 95, 95, 160, 380, 1920, 0, 850});
@@ -401,6 +485,12 @@ constexpr MotorSpec kMx64Motor = datasheet_motor({12.0, 63.0, 6.0, 4.1, 200.0, 0
 constexpr MotorSpec kMx106Motor = datasheet_motor({12.0, 45.0, 8.4, 5.2, 225.0, 0.153}, {10.0, 70.0});
 // XM430-W350: 12 V, 46 rpm, 4.1 N m at 2.3 A, 353.5:1; 82 g (e-Manual).
 constexpr MotorSpec kXm430W350Motor = datasheet_motor({12.0, 46.0, 4.1, 2.3, 353.5, 0.082}, {18.0, 60.0});
+// XH540-W270: 12 V, 39 rpm, 9.9 N m at 4.9 A (e-Manual X540 comparison table); 272.5:1 and 165 g
+// from the e-Manual's XH540-V270 page (same X540 case and gear train; the W page's spec table is an
+// include the sources did not show).
+constexpr MotorSpec kXh540W270Motor = datasheet_motor({12.0, 39.0, 9.9, 4.9, 272.5, 0.165}, {8.0, 80.0});
+// XH540-W150: 12 V, 70 rpm, 7.1 N m at 4.9 A (same table); 152.3:1 and 165 g (XH540-V150 page).
+constexpr MotorSpec kXh540W150Motor = datasheet_motor({12.0, 70.0, 7.1, 4.9, 152.3, 0.165}, {8.0, 80.0});
 // XL430-W250: 12 V, 61 rpm, 1.5 N m, 258.5:1; stall current 1.4 A at 12 V and 57.2 g from the
 // e-Manual product page (reference §5 gives torque and speed only).
 constexpr MotorSpec kXl430W250Motor = datasheet_motor({12.0, 61.0, 1.5, 1.4, 258.5, 0.0572}, {30.0, 40.0});
@@ -468,6 +558,10 @@ const ModelSpec kFumanoidFoot{"FUMANOID-FOOT", kFumanoidFootModelNumber, 1, Devi
 
 const P2ModelSpec kXm430W350 = p2_servo("XM430-W350", kXm430Table, kXModes, kX430CurrentUnitA, kXDriveBits, true,
                                         x_servo(kXm430W350Motor));
+const P2ModelSpec kXh540W270 = p2_servo("XH540-W270", kXh540W270Table, kXModes, kX430CurrentUnitA, kMx2DriveBits,
+                                        true, x_servo(kXh540W270Motor));
+const P2ModelSpec kXh540W150 = p2_servo("XH540-W150", kXh540W150Table, kXModes, kX430CurrentUnitA, kMx2DriveBits,
+                                        false, x_servo(kXh540W150Motor));
 const P2ModelSpec kXl430W250 = p2_servo("XL430-W250", kXl430Table, kXlModes, 0.0, kXDriveBits, true,
                                         x_servo(kXl430W250Motor));
 const P2ModelSpec kMx28V2 = p2_servo("MX-28(2.0)", kMx28V2Table, kXlModes, 0.0, kMx2DriveBits, false,
@@ -476,15 +570,54 @@ const P2ModelSpec kMx64V2 = p2_servo("MX-64(2.0)", kMx64V2Table, kXModes, kMx2Cu
                                      x_servo(kMx64Motor));
 const P2ModelSpec kMx106V2 = p2_servo("MX-106(2.0)", kMx106V2Table, kXModes, kMx2CurrentUnitA,
                                       kMx2DriveBits | x430::kDriveMasterSlave, false, x_servo(kMx106Motor));
+// OpenCR with the OP3 firmware: OPEN-CR.device of ROBOTIS-Framework (addresses, sizes, access,
+// areas, ranges) plus the offsets at 18..23 that only the firmware (dxl_node_op3.h) has; defaults
+// from dxl_node_op3_factory_reset / _init (model 0x7400, firmware 2, ID 200, baud index 4).
+constexpr std::array<P2RegisterSpec, 25> kOpenCrItems{{
+    {"model_number", 0, 2, kRO, kE, 0x7400, 0, 65535},
+    {"version_of_firmware", 2, 1, kRO, kE, 2, 0, 254},
+    {"ID", 3, 1, kRW, kE, 200, 0, 252},
+    {"baudrate", 4, 1, kRW, kE, 4, 0, 252},
+    {"return_delay_time", 5, 1, kRW, kE, 0, 0, 254},
+    {"status_return_level", 16, 1, kRW, kE, 2, 0, 2},
+    {"roll_offset", 18, 2, kRW, kE, 0, -32768, 32767, true},
+    {"pitch_offset", 20, 2, kRW, kE, 0, -32768, 32767, true},
+    {"yaw_offset", 22, 2, kRW, kE, 0, -32768, 32767, true},
+    {"dynamixel_power", 24, 1, kRW, kR, 0, 0, 1},
+    {"LED", 25, 1, kRW, kR, 0, 0, 7},
+    {"LED_RGB", 26, 2, kRW, kR, 0x001F, 0, 32767},
+    {"buzzer", 28, 2, kRW, kR, 0, 0, 65535},
+    {"button", 30, 1, kRO, kR, 0, 0, 15},
+    {"present_voltage", 31, 1, kRO, kR, 0, 50, 250},
+    {"gyro_x", 32, 2, kRO, kR, 0, -32800, 32800, true},
+    {"gyro_y", 34, 2, kRO, kR, 0, -32800, 32800, true},
+    {"gyro_z", 36, 2, kRO, kR, 0, -32800, 32800, true},
+    {"acc_x", 38, 2, kRO, kR, 0, -32768, 32768, true},
+    {"acc_y", 40, 2, kRO, kR, 0, -32768, 32768, true},
+    {"acc_z", 42, 2, kRO, kR, 0, -32768, 32768, true},
+    {"roll", 44, 2, kRO, kR, 0, 0, 4096},
+    {"pitch", 46, 2, kRO, kR, 0, 0, 4096},
+    {"yaw", 48, 2, kRO, kR, 0, 0, 4096},
+    {"imu_control", 50, 1, kRW, kR, 0, 0, 255},
+}};
+const P2ModelSpec kOpenCr{"OPEN-CR", 0x7400, 2, P2DeviceKind::kOpenCr, kOpenCrItems, 51, 0, false, false, 200, 4, {}};
 // Bit-Bots boards (reference §8.2-8.4): factory ID and baud of the current firmware.
 const P2ModelSpec kBitbotsImu{"BITBOTS-IMU", 0xBAFF, 1, P2DeviceKind::kBitbotsImu, {}, 0, 0, false, false, 241, 3, {}};
 const P2ModelSpec kBitFoot{"BITFOOT", 0, 1, P2DeviceKind::kBitFoot, {}, 0, 0, false, false, 101, 4, {}};
 const P2ModelSpec kBitbotsCore{"BITBOTS-CORE", 0xABBA, 1, P2DeviceKind::kBitbotsCore, {}, 0, 0, false, true, 42, 4, {}};
 
-const std::array<const ModelSpec*, 8> kModels{&kAx12a, &kRx28, &kRx64, &kMx28, &kMx64, &kMx106, &kFumanoidImu,
-                                              &kFumanoidFoot};
-const std::array<const P2ModelSpec*, 8> kP2Models{&kXm430W350, &kXl430W250, &kMx28V2,  &kMx64V2,
-                                                  &kMx106V2,   &kBitbotsImu, &kBitFoot, &kBitbotsCore};
+// DARwIn-OP boards: BULK READ (CM-730 since firmware 18, the FSR board on the MX-28 core); the FSR
+// board's manual lists 7 843 bps..3 Mbps, the MX baud codes.
+const ModelSpec kCm730{"CM-730", kCm730ModelNumber, 0x13, DeviceKind::kCm730, kCm730FullTable, cm730::kTableBytes, true,
+                       false, {}};
+const ModelSpec kDarwinFsr{"DARWIN-FSR", kDarwinFsrModelNumber, 0x11, DeviceKind::kDarwinFsr, kDarwinFsrTable,
+                           darwin_fsr::kTableBytes, true, true, {}};
+
+const std::array<const ModelSpec*, 10> kModels{&kAx12a, &kRx28,        &kRx64,         &kMx28,  &kMx64,
+                                               &kMx106, &kFumanoidImu, &kFumanoidFoot, &kCm730, &kDarwinFsr};
+const std::array<const P2ModelSpec*, 11> kP2Models{&kXm430W350, &kXl430W250,  &kXh540W270, &kXh540W150,
+                                                   &kMx28V2,    &kMx64V2,     &kMx106V2,   &kBitbotsImu,
+                                                   &kBitFoot,   &kBitbotsCore, &kOpenCr};
 
 // The entry of `name` in `models` (ModelSpec or P2ModelSpec), nullptr for none.
 template <class Model, std::size_t N>

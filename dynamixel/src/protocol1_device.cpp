@@ -33,6 +33,12 @@ Protocol1Device::Protocol1Device(const ModelSpec& spec, uint8_t id, uint8_t baud
       eeprom_bytes_ = std::max<std::size_t>(eeprom_bytes_, std::size_t{r.address} + r.size);
     }
   }
+  const auto one_byte_named = [&](uint8_t address, std::string_view name) {
+    const RegisterSpec* r = find_register(spec.registers, address);
+    return r != nullptr && r->address == address && r->size == 1 && r->name == name;
+  };
+  has_lock_ = one_byte_named(p1::kLock, "Lock");
+  has_registered_ = one_byte_named(p1::kRegistered, "Registered");
   load_defaults();
   const auto check = [&](uint8_t address, uint8_t value, const char* what) {
     const RegisterSpec* r = find_register(spec.registers, address);

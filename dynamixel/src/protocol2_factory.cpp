@@ -1,6 +1,7 @@
 #include "dynamixel/protocol2_factory.h"
 
 #include "dynamixel/bitbots_boards.h"
+#include "dynamixel/opencr_board.h"
 #include "dynamixel/protocol2_servo.h"
 
 namespace doppel::dynamixel {
@@ -15,6 +16,8 @@ BuiltDevice make_protocol2_device(std::string_view model, uint8_t id, uint32_t b
       return built<SimulatedFootBoard>(std::make_unique<BitFoot>(id, baud_raw));
     case P2DeviceKind::kBitbotsCore:
       return built<SimulatedPowerBoard>(std::make_unique<BitbotsCore>(id, baud_raw));
+    case P2DeviceKind::kOpenCr:
+      return built<SimulatedController>(std::make_unique<OpenCr>(id, baud_raw));
     case P2DeviceKind::kServo:
       break;
   }

@@ -154,6 +154,11 @@ void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceCon
       self.feet_.push_back({foot, self.body_.add_foot(bus, device.id)});
     }
     void operator()(dynamixel::SimulatedPowerBoard* power) const { self.power_boards_.push_back(power); }
+    // A sub-controller is the bus's IMU and a power board at once (its buttons are not driven yet).
+    void operator()(dynamixel::SimulatedController* controller) const {
+      (*this)(static_cast<dynamixel::SimulatedImu*>(controller));
+      (*this)(static_cast<dynamixel::SimulatedPowerBoard*>(controller));
+    }
   };
   std::visit(Linker{*this, device, bus}, role);
 }

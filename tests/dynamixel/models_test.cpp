@@ -43,12 +43,13 @@ TEST(Models, UnknownNameThrowsListingKnownNames) {
     FAIL() << "no exception";
   } catch (const std::invalid_argument& e) {
     const std::string what = e.what();
-    for (const char* name : {"AX-12A", "RX-28", "RX-64", "MX-28", "MX-64", "MX-106", "FUMANOID-IMU", "FUMANOID-FOOT"}) {
+    for (const char* name : {"AX-12A", "RX-28", "RX-64", "MX-28", "MX-64", "MX-106", "FUMANOID-IMU", "FUMANOID-FOOT",
+                             "CM-730", "DARWIN-FSR"}) {
       EXPECT_NE(what.find(name), std::string::npos) << name;
     }
     EXPECT_NE(what.find("AX-18A"), std::string::npos);
   }
-  EXPECT_EQ(known_models().size(), 8u);
+  EXPECT_EQ(known_models().size(), 10u);
 }
 
 TEST(Models, OnlyMxAndBoardsUnderstandBulkRead) {
@@ -86,6 +87,8 @@ constexpr DatasheetRow kDatasheet[] = {
     {"RX-64", 18.5, 64, 5.3, 2.6, 200},       {"MX-28", 12.0, 55, 2.5, 1.4, 193},
     {"MX-64", 12.0, 63, 6.0, 4.1, 200},       {"MX-106", 12.0, 45, 8.4, 5.2, 225},
     {"XM430-W350", 12.0, 46, 4.1, 2.3, 353.5}, {"XL430-W250", 12.0, 61, 1.5, 1.4, 258.5},
+    // e-Manual X540 comparison table at 12 V; gear ratio of the XH540-V pages.
+    {"XH540-W270", 12.0, 39, 9.9, 4.9, 272.5}, {"XH540-W150", 12.0, 70, 7.1, 4.9, 152.3},
 };
 
 TEST(Models, EveryServoHasTheDatasheetPointOfReference) {
@@ -113,8 +116,10 @@ TEST(Models, EveryServoModelOfBothProtocolsHasAMotor) {
     ASSERT_NE(m->servo.motor, nullptr) << m->name;
     EXPECT_GT(m->servo.motor->torque_constant_nm_a, 0.0) << m->name;
   }
-  EXPECT_EQ(servos, 11u);
+  EXPECT_EQ(servos, 13u);
   EXPECT_EQ(find_servo_spec("FUMANOID-IMU"), nullptr);
+  EXPECT_EQ(find_servo_spec("CM-730"), nullptr);
+  EXPECT_EQ(find_servo_spec("OPEN-CR"), nullptr);
   EXPECT_EQ(find_servo_spec("BITBOTS-CORE"), nullptr);
   EXPECT_THROW((void)servo_spec("AX-18A"), std::invalid_argument);
 }

@@ -12,7 +12,8 @@
 namespace doppel::dynamixel {
 
 // The simulation side of one device; the pointer is never null and points into BuiltDevice::device.
-using DeviceRole = std::variant<SimulatedServo*, SimulatedImu*, SimulatedFootBoard*, SimulatedPowerBoard*>;
+using DeviceRole =
+    std::variant<SimulatedServo*, SimulatedImu*, SimulatedFootBoard*, SimulatedPowerBoard*, SimulatedController*>;
 
 struct BuiltDevice {
   std::unique_ptr<Device> device;  // what the bus dispatches packets to

@@ -109,6 +109,59 @@ inline constexpr uint8_t kLock = 47;
 inline constexpr uint8_t kSampleCounter = 48;  // uint16, +1 per latched sample, wraps
 }  // namespace fumanoid
 
+// Register addresses of the DARwIn-OP CM-730 sub-controller: the framework's CM730.h
+// (darwinop-ens/darwin-op, Framework/include/CM730.h) and the e-Manual's CM-730 table (docs/devices.md).
+namespace cm730 {
+inline constexpr uint8_t kModelNumber = 0;
+inline constexpr uint8_t kFirmwareVersion = 2;
+inline constexpr uint8_t kId = 3;
+inline constexpr uint8_t kBaudRate = 4;
+inline constexpr uint8_t kReturnDelayTime = 5;
+inline constexpr uint8_t kStatusReturnLevel = 16;
+inline constexpr uint8_t kDxlPower = 24;   // 1 = the servos' supply is switched on
+inline constexpr uint8_t kLedPanel = 25;   // bits 0..2 = LED2, LED3, LED4
+inline constexpr uint8_t kLedHead = 26;    // LED 5, RGB555: red bits 0-4, green 5-9, blue 10-14
+inline constexpr uint8_t kLedEye = 28;     // LED 6, RGB555
+inline constexpr uint8_t kButton = 30;     // bit 0 MODE, bit 1 START
+inline constexpr uint8_t kGyroZ = 38;      // 10 bit, 512 = no rotation
+inline constexpr uint8_t kGyroY = 40;
+inline constexpr uint8_t kGyroX = 42;
+inline constexpr uint8_t kAccelX = 44;     // 10 bit, 512 = 0 g
+inline constexpr uint8_t kAccelY = 46;
+inline constexpr uint8_t kAccelZ = 48;
+inline constexpr uint8_t kVoltage = 50;    // 0.1 V
+inline constexpr uint8_t kLeftMic = 51;    // MIC 1 / ADC 1, 10 bit
+inline constexpr uint8_t kAdc2 = 53;       // ADC 2..8 at 53, 55, ..., 65
+inline constexpr uint8_t kRightMic = 67;   // MIC 2 / ADC 9
+inline constexpr uint8_t kAdc10 = 69;      // ADC 10..15 at 69, 71, ..., 79
+inline constexpr uint8_t kTableBytes = 81; // CM730::MAXNUM_ADDRESS
+}  // namespace cm730
+
+// Register addresses of the DARwIn-OP FSR foot boards: the framework's FSR.h
+// (darwinop-ens/darwin-op, Framework/include/FSR.h) and the e-Manual's FSR table (docs/devices.md).
+namespace darwin_fsr {
+inline constexpr uint8_t kModelNumber = 0;
+inline constexpr uint8_t kFirmwareVersion = 2;
+inline constexpr uint8_t kId = 3;
+inline constexpr uint8_t kBaudRate = 4;
+inline constexpr uint8_t kReturnDelayTime = 5;
+inline constexpr uint8_t kStatusReturnLevel = 16;
+inline constexpr uint8_t kOperatingMode = 19;  // FSR.h only; stored, no effect
+inline constexpr uint8_t kLed = 25;
+inline constexpr uint8_t kFsr1 = 26;           // FSR1..4 at 26, 28, 30, 32: 1 mN
+inline constexpr uint8_t kFsr2 = 28;
+inline constexpr uint8_t kFsr3 = 30;
+inline constexpr uint8_t kFsr4 = 32;
+inline constexpr uint8_t kFsrX = 34;           // centre of pressure 0..254, 255 = no load
+inline constexpr uint8_t kFsrY = 35;
+inline constexpr uint8_t kPresentVoltage = 42; // 0.1 V
+inline constexpr uint8_t kRegistered = 44;
+inline constexpr uint8_t kLock = 47;
+inline constexpr uint8_t kTableBytes = 48;     // FSR::MAXNUM_ADDRESS
+inline constexpr uint8_t kRightFootId = 111;   // FSR::ID_R_FSR
+inline constexpr uint8_t kLeftFootId = 112;    // FSR::ID_L_FSR
+}  // namespace darwin_fsr
+
 enum class Access : uint8_t { kRead, kReadWrite };
 enum class Area : uint8_t { kEeprom, kRam };
 

@@ -106,8 +106,26 @@ class SimulatedBoard {
   ~SimulatedBoard() = default;
 };
 
+// Which buttons of a board are held down: bit n is bit n of the board's Button register.
+struct ButtonInput {
+  uint8_t pressed = 0;  // bit mask, 1 = pressed
+};
+
 using SimulatedImu = SimulatedBoard<ImuFeedback>;
 using SimulatedFootBoard = SimulatedBoard<FootFeedback>;
 using SimulatedPowerBoard = SimulatedBoard<PowerFeedback>;
+using SimulatedButtons = SimulatedBoard<ButtonInput>;
+
+// A robot's sub-controller board (DARwIn-OP CM-730, OP3 OpenCR): one device that carries the IMU,
+// measures the supply and has the robot's buttons, so it takes all three inputs.
+class SimulatedController : public SimulatedImu, public SimulatedPowerBoard, public SimulatedButtons {
+ public:
+  using SimulatedImu::apply;
+  using SimulatedPowerBoard::apply;
+  using SimulatedButtons::apply;
+
+ protected:
+  ~SimulatedController() = default;
+};
 
 }  // namespace doppel::dynamixel

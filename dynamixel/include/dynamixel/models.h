@@ -13,7 +13,13 @@
 
 namespace doppel::dynamixel {
 
-enum class DeviceKind : uint8_t { kServo, kImu, kFootBoard };
+enum class DeviceKind : uint8_t {
+  kServo,
+  kImu,        // Doppel's FUmanoid IMU board
+  kFootBoard,  // Doppel's FUmanoid foot board
+  kCm730,      // DARwIn-OP sub-controller (darwin_boards.h)
+  kDarwinFsr,  // DARwIn-OP FSR foot board (darwin_boards.h)
+};
 enum class ServoFamily : uint8_t { kNone, kAxRx, kMx };
 
 // How the firmware's motor controller turns a goal into a duty (servo_controller.h).

@@ -100,7 +100,8 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   // The control table bytes 0..spec().table_bytes-1 (reserved bytes read 0).
   std::span<const uint8_t> table() const noexcept { return {table_.data(), spec_.table_bytes}; }
   // Lock (47) is 1: only addresses 24..35 accept writes until the device is rebuilt (power cycle).
-  bool locked() const noexcept { return table_[p1::kLock] != 0; }
+  // Models without a Lock register (CM-730: byte 47 is ACC_Y) are never locked.
+  bool locked() const noexcept { return has_lock_ && table_[p1::kLock] != 0; }
   const DeviceCounters& counters() const noexcept { return counters_; }
 
  protected:
@@ -137,7 +138,12 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   const uint8_t* read(uint8_t start, uint8_t length) noexcept override;
   uint8_t write(uint16_t start, const uint8_t* data, std::size_t n, bool commit) noexcept override;
   HeldWrite& held_write() noexcept override { return held_write_; }
-  void set_registered(bool registered) noexcept override { table_[p1::kRegistered] = registered ? 1 : 0; }
+  // Only models with a Registered register (44) show it (CM-730: byte 44 is ACC_X).
+  void set_registered(bool registered) noexcept override {
+    if (has_registered_) {
+      table_[p1::kRegistered] = registered ? 1 : 0;
+    }
+  }
   void factory_reset() noexcept override;
 
   const ModelSpec& spec_;
@@ -146,6 +152,8 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   Table owner_{};  // index + 1 into spec_.registers of the register covering each byte; 0 = none
   HeldWrite held_write_{};
   DeviceCounters counters_{};
+  bool has_lock_ = false;        // a one-byte register "Lock" at 47
+  bool has_registered_ = false;  // a one-byte register "Registered" at 44
 };
 
 }  // namespace doppel::dynamixel

@@ -132,6 +132,7 @@ enum class P2DeviceKind : uint8_t {
   kBitbotsImu,   // Bit-Bots IMU DXL module (bitbots_boards.h)
   kBitFoot,      // Bit-Bots BitFoot foot pressure board
   kBitbotsCore,  // Bit-Bots CORE board
+  kOpenCr,       // ROBOTIS OpenCR with the OP3 firmware (opencr_board.h)
 };
 
 struct P2ModelSpec {
@@ -139,7 +140,7 @@ struct P2ModelSpec {
   uint16_t model_number = 0;      // Model Number (0), PING params 1-2
   uint8_t firmware_version = 0;   // Firmware Version (6), PING param 3
   P2DeviceKind kind = P2DeviceKind::kServo;
-  std::span<const P2RegisterSpec> registers;  // servos: every item, ascending address; boards: empty
+  std::span<const P2RegisterSpec> registers;  // servos, OpenCR: every item, ascending address; Bit-Bots boards: empty
   uint16_t table_bytes = 0;       // servos: addresses 0..table_bytes-1 exist; beyond -> Access Error
   uint32_t operating_modes = 0;   // servos: bit m set = Operating Mode m allowed
   bool has_current = false;       // servos: Current Limit / Goal Current / Present Current
