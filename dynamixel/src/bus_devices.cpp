@@ -60,7 +60,14 @@ void BusDevices::add(Device& device) {
     throw std::length_error("BusDevices: a bus holds at most " + std::to_string(kMaxDevices) +
                             " devices");
   }
+  powered_[count_] = true;
   devices_[count_++] = &device;
+}
+
+void BusDevices::set_powered(std::size_t index, bool powered) noexcept {
+  if (index < count_) {
+    powered_[index] = powered;
+  }
 }
 
 std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& packet,
@@ -69,6 +76,7 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
 
   // Every device whose UART decodes the line sees the packet; note its ID before it may change.
   std::size_t listeners = 0;
+  std::size_t powered = 0;
   std::size_t transmitting = 0;
   for (std::size_t i = 0; i < count_; ++i) {
     Response& r = responses_[i];
@@ -77,6 +85,10 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     r.chain_position = 0;
     r.status.size = 0;
     Device& d = *devices_[i];
+    if (!powered_[i]) {
+      continue;
+    }
+    ++powered;
     if (!baud_rates_match(d.baud_bps(), line_baud_bps)) {
       continue;
     }
@@ -88,7 +100,7 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
       order_[transmitting++] = static_cast<uint8_t>(i);
     }
   }
-  if (listeners == 0 && count_ > 0) {
+  if (listeners == 0 && powered > 0) {
     ++counters_.baud_mismatches;
   }
 

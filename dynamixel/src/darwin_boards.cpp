@@ -84,6 +84,7 @@ void DarwinFsr::apply(const FootFeedback& feedback) noexcept {
 }
 
 void DarwinFsr::set_supply_voltage(double volts) noexcept {
+  supply_v_ = volts;
   set_register(darwin_fsr::kPresentVoltage, byte_of(volts, 0.1));
 }
 

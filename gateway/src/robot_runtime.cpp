@@ -72,13 +72,14 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     if (built.device->eeprom().size() > kMaxEepromBytes) {
       throw std::invalid_argument(who + " has a larger EEPROM than Doppel keeps");
     }
-    link_to_body(built.role, device);
+    link_to_body(built.role, device, d);
     bus_devices_.add(*built.device);
     devices_.push_back(std::move(built.device));
   }
   if (servos_.size() > kMaxServos || imus_.size() > kMaxBoards || feet_.size() > kMaxBoards) {
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
   }
+  wire_supply_switch();
 
   bus::BusServerOptions server_options;
   server_options.timing_mode = options.timing;
@@ -133,25 +134,27 @@ std::vector<uint16_t> BusRuntime::model_numbers() const {
   return out;
 }
 
-void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device) {
+void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device,
+                              std::size_t device_index) {
   const auto bus = static_cast<uint32_t>(bus_index_);
   struct Linker {
     BusRuntime& self;
     const DeviceConfig& device;
     uint32_t bus;
+    std::size_t index;
     void operator()(dynamixel::SimulatedServo* servo) const {
       const dynamixel::ServoSpec& spec = device.firmware == dynamixel::Protocol::kV2
                                              ? dynamixel::p2_model_spec(device.model).servo
                                              : dynamixel::model_spec(device.model).servo;
       body::ServoSetup setup{dynamixel::servo_controller_config(device.model),
                              no_load_speed_rad_s(spec, self.config_.supply_voltage_v), self.config_.supply_voltage_v};
-      self.servos_.push_back({servo, self.body_.add_servo(bus, device.id, setup)});
+      self.servos_.push_back({servo, self.body_.add_servo(bus, device.id, setup), index});
     }
     void operator()(dynamixel::SimulatedImu* imu) const {
-      self.imus_.push_back({imu, self.body_.add_imu(bus, device.id)});
+      self.imus_.push_back({imu, self.body_.add_imu(bus, device.id), index});
     }
     void operator()(dynamixel::SimulatedFootBoard* foot) const {
-      self.feet_.push_back({foot, self.body_.add_foot(bus, device.id)});
+      self.feet_.push_back({foot, self.body_.add_foot(bus, device.id), index});
     }
     void operator()(dynamixel::SimulatedPowerBoard* power) const { self.power_boards_.push_back(power); }
     // A sub-controller is the bus's IMU and a power board at once (its buttons are not driven yet).
@@ -160,7 +163,45 @@ void BusRuntime::link_to_body(const dynamixel::DeviceRole& role, const DeviceCon
       (*this)(static_cast<dynamixel::SimulatedPowerBoard*>(controller));
     }
   };
-  std::visit(Linker{*this, device, bus}, role);
+  std::visit(Linker{*this, device, bus, device_index}, role);
+}
+
+void BusRuntime::wire_supply_switch() {
+  for (const auto& device : devices_) {
+    const auto* cm730 = dynamic_cast<const dynamixel::Cm730*>(device.get());
+    if (cm730 == nullptr) continue;
+    if (supply_switch_ != nullptr) {
+      throw std::invalid_argument("bus '" + config_.name + "' has two CM-730 sub-controllers; one switches its supply");
+    }
+    supply_switch_ = cm730;
+  }
+  if (supply_switch_ == nullptr) return;
+  supply_on_ = supply_switch_->dxl_power_on();
+  for (std::size_t d = 0; d < devices_.size(); ++d) {
+    dynamixel::Device* device = devices_[d].get();
+    if (device == supply_switch_) continue;
+    Gated gated{d, dynamic_cast<dynamixel::Protocol1Device*>(device), dynamic_cast<dynamixel::Protocol2Device*>(device)};
+    if (gated.p1 == nullptr && gated.p2 == nullptr) {
+      throw std::invalid_argument("bus '" + config_.name + "': " + config_.devices[d].model + " " +
+                                  config_.devices[d].name + " cannot be powered by the CM-730's Dynamixel Power");
+    }
+    gated_.push_back(gated);
+    bus_devices_.set_powered(d, supply_on_);
+  }
+}
+
+void BusRuntime::follow_supply_switch() noexcept {
+  if (supply_switch_ == nullptr || supply_switch_->dxl_power_on() == supply_on_) {
+    return;
+  }
+  supply_on_ = !supply_on_;
+  for (const Gated& gated : gated_) {
+    if (supply_on_) {
+      if (gated.p1 != nullptr) gated.p1->power_cycle();
+      if (gated.p2 != nullptr) gated.p2->power_cycle();
+    }
+    bus_devices_.set_powered(gated.device_index, supply_on_);
+  }
 }
 
 BusRuntime::~BusRuntime() { join(); }
@@ -199,8 +240,14 @@ void BusRuntime::before_dispatch() noexcept {
 }
 
 void BusRuntime::after_dispatch() noexcept {
+  follow_supply_switch();
   BusCommands& commands = commands_.back();
-  for (std::size_t i = 0; i < servos_.size(); ++i) commands.servos[i] = servos_[i].device->command();
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    commands.servos[i] = servos_[i].device->command();
+    if (!bus_devices_.powered(servos_[i].device_index)) {
+      commands.servos[i].torque_enabled = false;  // no supply, no torque
+    }
+  }
   commands_.publish();
   publish_eeprom_changes();
 }
@@ -231,6 +278,10 @@ std::string BusRuntime::describe() const {
   if (config_.adapter == bus::AdapterProfile::kUsb2ax) out << ", USB2AX adapter (answers ID 253 and SYNC READ 0x84)";
   if (config_.latency_timer_ms) out << ", FTDI latency timer " << *config_.latency_timer_ms << " ms";
   out << "\n";
+  if (supply_switch_ != nullptr) {
+    out << "     Dynamixel Power (24) of the CM-730 switches the other devices' supply: while it is 0 they\n"
+        << "     neither answer nor hold (the DARwIn-OP framework's Connect() writes 1)\n";
+  }
   for (std::size_t i = 0; i < devices_.size(); ++i) {
     const DeviceConfig& device = config_.devices[i];
     const bool other_protocol = devices_[i]->protocol() != config_.protocol;

@@ -19,6 +19,9 @@
 #include "concurrency/snapshot.h"
 #include "dynamixel/built_device.h"
 #include "dynamixel/bus_devices.h"
+#include "dynamixel/darwin_boards.h"
+#include "dynamixel/protocol1_device.h"
+#include "dynamixel/protocol2_device.h"
 #include "dynamixel/device_io.h"
 #include "eeprom_state.h"
 #include "gateway/options.h"
@@ -94,9 +97,21 @@ class BusRuntime final : public bus::DeviceSync {
   struct Linked {
     Role* device;
     std::size_t body_index;
+    std::size_t device_index;  // in devices_ and bus_devices_
+  };
+  // A device whose supply a sub-controller switches; exactly one of the two is set.
+  struct Gated {
+    std::size_t device_index;
+    dynamixel::Protocol1Device* p1;
+    dynamixel::Protocol2Device* p2;
   };
 
-  void link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device);
+  void link_to_body(const dynamixel::DeviceRole& role, const DeviceConfig& device, std::size_t device_index);
+  // Setup: a CM-730 on the bus switches every other device's supply with its Dynamixel Power.
+  void wire_supply_switch();
+  // After every packet: follows a change of Dynamixel Power (off: silent and limp; on: a power
+  // cycle, RAM to power-on values). Bus thread; rt-safe.
+  void follow_supply_switch() noexcept;
 
   BusConfig config_;
   std::size_t bus_index_;
@@ -107,6 +122,9 @@ class BusRuntime final : public bus::DeviceSync {
   std::vector<Linked<dynamixel::SimulatedFootBoard>> feet_;
   std::vector<dynamixel::SimulatedPowerBoard*> power_boards_;
   dynamixel::BusDevices bus_devices_;
+  const dynamixel::Cm730* supply_switch_ = nullptr;  // the bus' CM-730, if any
+  bool supply_on_ = true;                            // bus thread: its Dynamixel Power as last followed
+  std::vector<Gated> gated_;                         // the devices it switches
   std::unique_ptr<bus::PtyPort> port_;
   std::unique_ptr<bus::BusServer> server_;
   concurrency::Snapshot<BusCommands> commands_;

@@ -198,6 +198,30 @@ TEST(BusDevices, SilentDevicesProduceNothing) {
   EXPECT_EQ(a.seen, 1);
 }
 
+TEST(BusDevices, UnpoweredDeviceNeitherSeesNorAnswersUntilPoweredAgain) {
+  ScriptedDevice controller(200, 1000000, {0xFF, 0xFF, 0xC8, 0x02, 0x00, 0x35});
+  ScriptedDevice servo(1, 1000000, {0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC});
+  BusDevices sut;
+  sut.add(controller);
+  sut.add(servo);
+  EXPECT_TRUE(sut.powered(1));
+
+  sut.set_powered(1, false);
+  const auto off = sut.dispatch(any_packet(), 1000000);
+
+  ASSERT_EQ(off.size(), 1u);
+  EXPECT_EQ(off[0].device_id, 200);
+  EXPECT_EQ(servo.seen, 0);
+  EXPECT_FALSE(sut.powered(1));
+  EXPECT_EQ(sut.counters().baud_mismatches, 0u);
+
+  sut.set_powered(1, true);
+  const auto on = sut.dispatch(any_packet(), 1000000);
+  ASSERT_EQ(on.size(), 1u);
+  EXPECT_TRUE(on[0].collision);  // both answer the broadcast PING again
+  EXPECT_EQ(servo.seen, 1);
+}
+
 TEST(BusDevices, AddThrowsWhenFull) {
   std::vector<ScriptedDevice> devices;
   devices.reserve(BusDevices::kMaxDevices + 1);

@@ -158,6 +158,18 @@ TEST(DarwinFsr, ForcesInMillinewtonAndCentreOfPressure) {
   EXPECT_EQ(sut.register_raw(darwin_fsr::kFsrY), 255);
 }
 
+TEST(DarwinFsr, PowerCycleClearsRamButKeepsIdAndReadsTheSupplyAgain) {
+  DarwinFsr sut(111, 1, 0);
+  sut.set_supply_voltage(12.0);
+  ASSERT_EQ(sut.write_item(darwin_fsr::kLed, 1), "");
+
+  sut.power_cycle();
+
+  EXPECT_EQ(sut.register_raw(darwin_fsr::kLed), 0);
+  EXPECT_EQ(sut.id(), 111);
+  EXPECT_EQ(sut.register_raw(darwin_fsr::kPresentVoltage), 120);
+}
+
 TEST(DarwinBoards, TheFrameworksBulkReadOfCm730AndFsrs) {
   Cm730 cm(200, 1, 0);
   DarwinFsr left(112, 1, 0);

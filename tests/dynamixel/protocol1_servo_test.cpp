@@ -69,6 +69,26 @@ TEST(Protocol1ServoGolden, WriteGoalPosition512) {
   EXPECT_EQ(sut.register_raw(p1::kGoalPosition), 512);
 }
 
+// A switched-off supply (the CM-730's Dynamixel Power) loses RAM, keeps EEPROM (e-Manual: RAM
+// area values are reset to their initial values when power is turned on).
+TEST(Protocol1Servo, PowerCycleResetsRamAndKeepsEeprom) {
+  auto sut = make_servo("MX-28", 7);
+  sut.apply(at(0.5));
+  ASSERT_EQ(sut.write_item(p1::kReturnDelayTime, 0), "");
+  ASSERT_EQ(sut.write_item(p1::kPGain, 64), "");
+  ASSERT_EQ(sut.write_item(p1::kGoalPosition, 1000), "");  // switches the torque on (docs/devices.md 3.7)
+  ASSERT_EQ(sut.register_raw(p1::kTorqueEnable), 1);
+
+  sut.power_cycle();
+
+  EXPECT_EQ(sut.register_raw(p1::kTorqueEnable), 0);
+  EXPECT_EQ(sut.register_raw(p1::kPGain), 32);  // MX-28 initial P gain
+  EXPECT_EQ(sut.register_raw(p1::kGoalPosition), sut.register_raw(p1::kPresentPosition));
+  EXPECT_EQ(sut.register_raw(p1::kReturnDelayTime), 0);
+  EXPECT_EQ(sut.id(), 7);
+  EXPECT_FALSE(sut.command().torque_enabled);
+}
+
 TEST(Protocol1ServoGolden, BroadcastWriteIdIsExecutedWithoutReply) {
   auto sut = make_servo("RX-64", 9);
 

@@ -48,6 +48,30 @@ TEST(RobotConfig, DefaultRobotIsTheThesisKidSizeHumanoid) {
   EXPECT_EQ(ids["FOOT_RIGHT_PITCH"], 20);
 }
 
+// darwinop-ens/darwin-op Framework/include/JointData.h (IDs 1..20), CM730.h (ID_CM 200), FSR.h
+// (ID_R_FSR 111, ID_L_FSR 112).
+TEST(RobotConfig, DarwinOpHasTheFrameworksIdsOnOneBus) {
+  RobotConfig sut = load_robot("darwin-op", DOPPEL_ROBOTS_DIR);
+  ASSERT_EQ(sut.buses.size(), 1u);
+  const BusConfig& bus = sut.buses[0];
+  EXPECT_EQ(bus.baud_bps, 1000000u);
+  EXPECT_EQ(bus.protocol, dynamixel::Protocol::kV1);
+  const char* joints[] = {"R_SHOULDER_PITCH", "L_SHOULDER_PITCH", "R_SHOULDER_ROLL", "L_SHOULDER_ROLL",
+                          "R_ELBOW",          "L_ELBOW",          "R_HIP_YAW",       "L_HIP_YAW",
+                          "R_HIP_ROLL",       "L_HIP_ROLL",       "R_HIP_PITCH",     "L_HIP_PITCH",
+                          "R_KNEE",           "L_KNEE",           "R_ANKLE_PITCH",   "L_ANKLE_PITCH",
+                          "R_ANKLE_ROLL",     "L_ANKLE_ROLL",     "HEAD_PAN",        "HEAD_TILT"};
+  std::map<std::string, std::pair<int, std::string>> devices;
+  for (const DeviceConfig& device : bus.devices) devices[device.name] = {device.id, device.model};
+  ASSERT_EQ(devices.size(), 23u);
+  for (int id = 1; id <= 20; ++id) {
+    EXPECT_EQ(devices[joints[id - 1]], std::make_pair(id, std::string("MX-28"))) << joints[id - 1];
+  }
+  EXPECT_EQ(devices["CM730"], std::make_pair(200, std::string("CM-730")));
+  EXPECT_EQ(devices["R_FSR"], std::make_pair(111, std::string("DARWIN-FSR")));
+  EXPECT_EQ(devices["L_FSR"], std::make_pair(112, std::string("DARWIN-FSR")));
+}
+
 TEST(RobotConfig, EveryShippedRobotLoads) {
   std::vector<std::string> names = list_robots(DOPPEL_ROBOTS_DIR);
   EXPECT_GE(names.size(), 2u);

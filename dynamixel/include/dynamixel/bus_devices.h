@@ -49,12 +49,19 @@ class BusDevices {
   // (within kBaudTolerance) and returns their statuses in wire order. rt-safe.
   std::span<const OutgoingStatus> dispatch(const InstructionPacket& packet, uint32_t line_baud_bps) noexcept;
 
+  // Switches the supply of the device added `index`-th (0-based) off or on, as a sub-controller's
+  // Dynamixel Power does: an unpowered device neither sees packets nor answers. Devices are
+  // powered when added; restoring RAM at power-on is the caller's (the device's power_cycle()). rt-safe.
+  void set_powered(std::size_t index, bool powered) noexcept;
+  bool powered(std::size_t index) const noexcept { return index < count_ && powered_[index]; }
+
   std::span<Device* const> devices() const noexcept { return {devices_.data(), count_}; }
   const BusDeviceCounters& counters() const noexcept { return counters_; }
 
  private:
   std::array<Device*, kMaxDevices> devices_{};
   std::size_t count_ = 0;
+  std::array<bool, kMaxDevices> powered_{};
   std::array<Response, kMaxDevices> responses_{};
   std::array<OutgoingStatus, kMaxDevices> outgoing_{};
   std::array<uint8_t, kMaxDevices> sender_ids_{};   // ID of each device before it handled the packet

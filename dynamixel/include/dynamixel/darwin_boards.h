@@ -34,7 +34,8 @@ class Cm730 final : public Protocol1Device, public SimulatedController {
   // Button = bits 0 (MODE) and 1 (START) of `input.pressed`. rt-safe.
   void apply(const ButtonInput& input) noexcept override;
   // Dynamixel Power (24) is 1: the manual's "turn on the power of all DYNAMIXEL connected to
-  // CM-730". Doppel's devices only report it; gating the servos is the bus wiring's (docs/devices.md).
+  // CM-730". The board only reports it; the gateway switches the other devices of its bus with it
+  // (BusDevices::set_powered, docs/devices.md).
   bool dxl_power_on() const noexcept { return register_raw(cm730::kDxlPower) != 0; }
 };
 
@@ -55,6 +56,13 @@ class DarwinFsr final : public Protocol1Device, public SimulatedFootBoard {
   void apply(const FootFeedback& feedback) noexcept override;
   // Present Voltage (42) in 0.1 V; the board is fed from the servo bus. rt-safe.
   void set_supply_voltage(double volts) noexcept;
+
+ protected:
+  // RESET and a power cycle clear the RAM; the supply is still there, so Present Voltage reads it again.
+  void after_factory_reset() noexcept override { set_supply_voltage(supply_v_); }
+
+ private:
+  double supply_v_ = 0.0;
 };
 
 }  // namespace doppel::dynamixel

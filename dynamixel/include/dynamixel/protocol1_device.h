@@ -93,6 +93,13 @@ class Protocol1Device : public Device, private Protocol1RegisterFile {
   std::string restore_eeprom(std::span<const uint8_t> bytes) override;
   std::string write_item(uint16_t address, int64_t value) override;
 
+  // Its supply was switched off and on (a sub-controller's Dynamixel Power): RAM to its power-on
+  // values as at RESET's reboot (after_factory_reset()), EEPROM kept. rt-safe.
+  void power_cycle() noexcept {
+    load_defaults(true);
+    after_factory_reset();
+  }
+
   const ModelSpec& spec() const noexcept { return spec_; }
   // Unsigned value of the register that starts at `address` (1 or 2 bytes, little-endian);
   // 0 when no register starts there. rt-safe.

@@ -55,6 +55,10 @@ class Protocol2Device : public Device {
   std::string restore_eeprom(std::span<const uint8_t> bytes) override;
   std::string write_item(uint16_t address, int64_t value) override;
 
+  // Its supply was switched off and on (a sub-controller's Dynamixel Power): RAM to its power-on
+  // values as after REBOOT, EEPROM kept. rt-safe.
+  void power_cycle() noexcept { reboot(); }
+
   const P2ModelSpec& spec() const noexcept { return spec_; }
   // Value of the item that starts at `address` (sign-extended for signed items); 0 when no item
   // starts there. Reads the stored bytes (Indirect Data reads its own, not its target). rt-safe.
