@@ -40,6 +40,7 @@ LatencyTimerFiles::~LatencyTimerFiles() {
     if (::lstat(file.path.c_str(), &now) == 0 && now.st_dev == file.dev && now.st_ino == file.ino) {
       ::unlink(file.path.c_str());
     }
+    ::close(file.pin_fd);
   }
   ::close(stop_fd_);
   ::close(inotify_fd_);
@@ -60,11 +61,22 @@ void LatencyTimerFiles::write_value(const std::string& path, uint32_t latency_ms
 
 void LatencyTimerFiles::add(const std::string& path, BusServer& server) {
   write_value(path, server.adapter_latency_ms());
+  const int pin_fd = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
   struct stat created {};
-  if (::lstat(path.c_str(), &created) != 0) throw system_error("cannot stat the latency-timer file", path);
+  if (pin_fd < 0 || ::fstat(pin_fd, &created) != 0) {
+    const int saved = errno;
+    if (pin_fd >= 0) ::close(pin_fd);
+    errno = saved;
+    throw system_error("cannot open the latency-timer file", path);
+  }
   const int watch = ::inotify_add_watch(inotify_fd_, path.c_str(), IN_CLOSE_WRITE | IN_DONT_FOLLOW);
-  if (watch < 0) throw system_error("cannot watch the latency-timer file", path);
-  files_.push_back(Watched{path, &server, watch, created.st_dev, created.st_ino});
+  if (watch < 0) {
+    const int saved = errno;
+    ::close(pin_fd);
+    errno = saved;
+    throw system_error("cannot watch the latency-timer file", path);
+  }
+  files_.push_back(Watched{path, &server, watch, created.st_dev, created.st_ino, pin_fd});
 }
 
 void LatencyTimerFiles::start() {

@@ -49,6 +49,7 @@ class LatencyTimerFiles {
     int watch;   // inotify watch descriptor
     dev_t dev;   // identity of the file created here, so a replaced file is left alone at exit
     ino_t ino;
+    int pin_fd;  // held open until exit: the inode stays allocated, so no replacement can reuse its number
   };
 
   void watch_loop() noexcept;
