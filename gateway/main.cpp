@@ -38,8 +38,15 @@ int main(int argc, char** argv) {
     options.robots_dir = default_robots_dir();
   }
   if (options.list_robots) {
+    // One line a robot: its name, then its description, or why its file cannot be used.
     for (const std::string& name : list_robots(options.robots_dir)) {
-      std::cout << name << "\n";
+      std::string about;
+      try {
+        about = load_robot(name, options.robots_dir).description;
+      } catch (const std::exception& e) {
+        about = std::string("(cannot be loaded: ") + e.what() + ")";
+      }
+      std::cout << name << std::string(name.size() < 16 ? 16 - name.size() : 1, ' ') << about << "\n";
     }
     return 0;
   }

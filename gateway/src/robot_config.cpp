@@ -385,6 +385,7 @@ RobotConfig check_robot(const proto::RobotFile& file) {
   RobotConfig config;
   config.source = file.path();
   config.name = robot.name();
+  config.description = robot.description();
   if (config.name.empty()) {
     file.fail(robot, "name", -1, "missing robot name");
   }

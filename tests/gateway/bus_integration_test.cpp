@@ -422,7 +422,8 @@ TEST(Doppel, CommandLineErrorsAreClear) {
   EXPECT_NE(robot.find("fumanoid-2011"), std::string::npos) << robot;
   auto [list_code, list] = run("--list-robots");
   EXPECT_EQ(list_code, 0);
-  EXPECT_NE(list.find("mx-test"), std::string::npos) << list;
+  // One line a robot, with the description from its file.
+  EXPECT_NE(list.find("mx-test         MX-28, MX-64, MX-106, AX-12A"), std::string::npos) << list;
 }
 
 // Issue 16: a /tmp/doppel made beforehand by another user as a symlink must not receive the links.

@@ -54,6 +54,7 @@ struct CameraSetup {
 
 struct RobotConfig {
   std::string name;                              // robot name from the file
+  std::string description;                       // its one line for humans (may be empty)
   std::string source;                            // file it was read from
   std::vector<BusConfig> buses;                  // in port order
   std::optional<physics::RobotModel> body;       // the figure, when the file describes one
