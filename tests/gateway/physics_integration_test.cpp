@@ -2,6 +2,7 @@
 // from the physics world (both engines), via the default robot's FUmanoid IMU and foot boards.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -78,9 +79,15 @@ TEST_P(Body, StandsWithTorqueOnAndTheFeetCarryItsWeight) {
   EXPECT_LT(std::fabs(pose.roll_deg), 5.0) << pose.roll_deg;
   EXPECT_NEAR(pose.feet_n, kRobotMassKg * 9.80665, 0.1 * kRobotMassKg * 9.80665);
   // Present Load reflects the work of a loaded knee (ID 15): not zero, as in the kinematic model.
-  Bytes load = client.transact(p1_instruction(15, 0x02, {40, 2}), 8);
-  ASSERT_EQ(load.size(), 8u);
-  EXPECT_GT(static_cast<uint16_t>(word(load, 5)) & 0x3FF, 0);
+  // Inside its Compliance Margin an RX servo drives no PWM, and a standing knee chatters about its
+  // goal, so a single reading may be 0 (it was, once in CI); 20 readings cannot all be.
+  int largest_load = 0;
+  for (int i = 0; i < 20; ++i) {
+    Bytes load = client.transact(p1_instruction(15, 0x02, {40, 2}), 8);
+    ASSERT_EQ(load.size(), 8u);
+    largest_load = std::max(largest_load, static_cast<uint16_t>(word(load, 5)) & 0x3FF);
+  }
+  EXPECT_GT(largest_load, 0);
 }
 
 TEST_P(Body, ALimpRobotCollapses) {
