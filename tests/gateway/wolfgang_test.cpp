@@ -331,8 +331,8 @@ bool check_statuses(const Bytes& reply, const std::vector<uint8_t>& ids, std::si
   return true;
 }
 
-void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_point start, int cycles,
-             BusCycleStats& stats) {
+void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_point start,
+             std::chrono::steady_clock::time_point stop, BusCycleStats& stats) {
   SerialClient client(path, kBaud);
   const std::vector<uint8_t>& ids = kServos[static_cast<std::size_t>(b)];
   auto sync_read = [&](uint16_t address, uint16_t length) {
@@ -376,13 +376,13 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     client.send(p2_instruction(kBroadcast, kSyncWrite, torque));
   }
 
-  stats.cycle_ms.reserve(static_cast<std::size_t>(cycles));
+  stats.cycle_ms.reserve(30000);
   Bytes goal_write = read_params(kGoalPosition, 4);
   const std::size_t goal_offset = goal_write.size();
   goal_write.resize(goal_offset + 5 * ids.size());
   constexpr auto kPeriod = std::chrono::microseconds(2000);
   auto next = start;
-  for (int cycle = 0; cycle < cycles; ++cycle) {
+  for (int cycle = 0; next < stop; ++cycle) {
     std::this_thread::sleep_until(next);
     const auto begin = std::chrono::steady_clock::now();
     bool ok = check_statuses(client.transact(read_positions, ids.size() * 15, 50), ids, 4);
@@ -401,9 +401,13 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     } else if (cycle % 10 == 0) {
       ok = check_statuses(client.transact(read_core, 11 + kCoreBlockLength, 50), {kCoreId}, kCoreBlockLength) && ok;
     }
-    // Goal Position: a slow 0..15-count ramp on every joint (writes differ every cycle).
+    // Goal Position: a slow 0..15-count ramp (1.3 deg) on every joint, so that the writes change,
+    // towards the inside of its URDF range: the shoulder rolls stand 0.1 deg from their stops
+    // (RShoulderRoll 0..180, LShoulderRoll -180..0 deg), and a servo held against a stop stalls
+    // into an overload error (seen: ID 4's status Alert bit after 46 s).
     for (std::size_t k = 0; k < ids.size(); ++k) {
-      const Bytes g = le32(goal[k] + (cycle / 50) % 16);
+      const int32_t direction = ids[k] == 4 ? -1 : 1;
+      const Bytes g = le32(goal[k] + direction * ((cycle / 50) % 16));
       goal_write[goal_offset + 5 * k] = ids[k];
       std::copy(g.begin(), g.end(), goal_write.begin() + static_cast<std::ptrdiff_t>(goal_offset + 5 * k + 1));
     }
@@ -430,12 +434,13 @@ double percentile(std::vector<double> v, double p) {
 }
 
 TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
-  constexpr int kCycles = 30000;  // 60 s at 2 ms
+  // 60 s of cycles: 30000 at 2 ms each; a cycle that overruns delays the next (as the driver's loop).
   std::array<BusCycleStats, 4> stats;
   std::vector<std::thread> threads;
   const auto start = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  const auto stop = start + std::chrono::seconds(60);
   for (int b = 0; b < 4; ++b) {
-    threads.emplace_back(run_bus, doppel_.link("ttyDXL" + std::to_string(b)), b, start, kCycles,
+    threads.emplace_back(run_bus, doppel_.link("ttyDXL" + std::to_string(b)), b, start, stop,
                          std::ref(stats[static_cast<std::size_t>(b)]));
   }
   for (std::thread& t : threads) t.join();
@@ -446,7 +451,7 @@ TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
                 names[b], s.cycles, s.errors, s.over_period, percentile(s.cycle_ms, 0.5),
                 percentile(s.cycle_ms, 0.99), percentile(s.cycle_ms, 1.0));
     RecordProperty(std::string(names[b]) + "_over_2ms", static_cast<int>(s.over_period));
-    EXPECT_EQ(s.cycles, kCycles) << names[b];
+    EXPECT_GT(s.cycles, 1000) << names[b];  // the loop ran (no timing asserted: the machine is shared)
     EXPECT_EQ(s.errors, 0) << names[b];
   }
   // The driver start of every thread reached the servos: torque on at the team's head gain.
