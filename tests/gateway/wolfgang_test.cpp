@@ -9,7 +9,6 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -287,8 +286,8 @@ TEST_F(WolfgangHeld, UntilTheDriverEnablesTorque) {
   // Every joint within 7 units (0.6 deg) of where it started, except the shoulder pitches (IDs 1 and
   // 2): the handler's grip (physics/src/world.cpp hold_law) on the URDF's 41 g shoulder link between
   // the 2.08 kg torso and the 0.44 kg arm lets the arm sag about 1 deg on ODE (11-14 units) and 2.5
-  // deg on Bullet in 3 s; with a 0.3 kg shoulder link both engines hold it within 7 units. A limit of
-  // 3.5 deg still tells a held arm from a free one (which swings down by tens of degrees).
+  // deg on Bullet in 3 s; with a 0.3 kg shoulder link both engines hold it within 7 units. Their
+  // limit here is 40 units (3.5 deg), above that measured sag.
   for (std::size_t i = 0; i < positions.size(); ++i) {
     const bool shoulder_pitch = i == 14 || i == 15;  // kServos[3][0..1]
     EXPECT_NEAR(positions[i], initial[i], shoulder_pitch ? 40 : 7) << "servo " << i << " in kServos order";
@@ -398,7 +397,7 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
         // Buttons at rest: all three released; a determined answer, compared byte for byte.
         ok = client.transact(read_buttons, 11 + kButtonsLength, 50) == p2_status(kImuId, 0, {0, 0, 0}) && ok;
       }
-    } else if (cycle % 10 == 0) {
+    } else if (b == kArmsBus && cycle % 10 == 0) {
       ok = check_statuses(client.transact(read_core, 11 + kCoreBlockLength, 50), {kCoreId}, kCoreBlockLength) && ok;
     }
     // Goal Position: a slow 0..15-count ramp (1.3 deg) on every joint, so that the writes change,
