@@ -455,6 +455,11 @@ TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
   }
   // The driver start of every thread reached the servos: torque on at the team's head gain.
   SerialClient head(doppel_.link("ttyDXL2"), kBaud);
+  // Still standing after a minute of ramped goals (a fallen robot's servos would stall into
+  // overload errors): the torso IMU's accelerometer z still carries most of gravity.
+  const auto imu = parse_p2_statuses(head.transact(p2_instruction(kImuId, kRead, read_params(kImuBlock, kImuBlockLength)), 51));
+  ASSERT_TRUE(imu && imu->size() == 1 && (*imu)[0].params.size() == kImuBlockLength);
+  EXPECT_GT(f32_at((*imu)[0].params, 20), 0.9 * kGravity);
   EXPECT_EQ(head.transact(p2_instruction(19, kRead, read_params(kTorqueEnable, 1)), 12), p2_status(19, 0, {1}));
   EXPECT_EQ(head.transact(p2_instruction(19, kRead, read_params(kPositionPGain, 2)), 13), p2_status(19, 0, le16(500)));
 }
