@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "gateway/robot_config.h"
 #include "held_pose.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
@@ -214,6 +215,50 @@ TEST(Wolfgang, IsListed) {
   auto [code, list] = run_command(doppel_executable() + " --list-robots");
   EXPECT_EQ(code, 0);
   EXPECT_NE(list.find("wolfgang        Bit-Bots Wolfgang-OP"), std::string::npos) << list;
+}
+
+// The file against the team's configuration: wolfgang.yaml's IDs and model numbers (311 =
+// MX-64(2.0), 321 = MX-106(2.0), 1100 = XH540-W270), the CORE documentation's bus numbering,
+// Return Delay Time 0 on every servo, the URDF's mass and the Basler camera's settings.
+TEST(Wolfgang, FileMatchesTheTeamsConfiguration) {
+  const gateway::RobotConfig robot = gateway::load_robot("wolfgang", DOPPEL_ROBOTS_DIR);
+  ASSERT_EQ(robot.buses.size(), 4u);
+  const std::vector<std::vector<std::pair<std::string, std::string>>> expected = {
+      {{"RHipYaw", "MX-106(2.0)"}, {"RHipRoll", "MX-106(2.0)"}, {"RHipPitch", "MX-106(2.0)"},
+       {"RKnee", "XH540-W270"}, {"RAnklePitch", "MX-106(2.0)"}, {"RAnkleRoll", "MX-106(2.0)"}},
+      {{"LHipYaw", "MX-106(2.0)"}, {"LHipRoll", "MX-106(2.0)"}, {"LHipPitch", "MX-106(2.0)"},
+       {"LKnee", "XH540-W270"}, {"LAnklePitch", "MX-106(2.0)"}, {"LAnkleRoll", "MX-106(2.0)"}},
+      {{"HeadPan", "MX-64(2.0)"}, {"HeadTilt", "MX-64(2.0)"}},
+      {{"RShoulderPitch", "MX-64(2.0)"}, {"LShoulderPitch", "MX-64(2.0)"}, {"RShoulderRoll", "MX-64(2.0)"},
+       {"LShoulderRoll", "MX-64(2.0)"}, {"RElbow", "MX-64(2.0)"}, {"LElbow", "MX-64(2.0)"}}};
+  const std::vector<std::pair<uint8_t, std::string>> boards = {
+      {kRightFoot, "BITFOOT"}, {kLeftFoot, "BITFOOT"}, {kImuId, "BITBOTS-IMU"}, {kCoreId, "BITBOTS-CORE"}};
+  for (std::size_t b = 0; b < 4; ++b) {
+    const gateway::BusConfig& bus = robot.buses[b];
+    EXPECT_EQ(bus.baud_bps, kBaud);
+    EXPECT_EQ(bus.protocol, dynamixel::Protocol::kV2);
+    ASSERT_EQ(bus.devices.size(), kServos[b].size() + 1) << "bus " << b;
+    for (std::size_t k = 0; k < kServos[b].size(); ++k) {
+      const gateway::DeviceConfig& d = bus.devices[k];
+      EXPECT_EQ(d.id, kServos[b][k]);
+      EXPECT_EQ(d.name, expected[b][k].first);
+      EXPECT_EQ(d.model, expected[b][k].second) << d.name;
+      EXPECT_EQ(d.return_delay_raw, std::optional<uint8_t>(0)) << d.name;
+    }
+    EXPECT_EQ(bus.devices.back().id, boards[b].first);
+    EXPECT_EQ(bus.devices.back().model, boards[b].second);
+  }
+  ASSERT_TRUE(robot.body.has_value());
+  EXPECT_NEAR(robot.body->mass_kg, kRobotMassKg, 0.001);
+  ASSERT_EQ(robot.cameras.size(), 1u);
+  const camera::CameraConfig& cam = robot.cameras[0].config;
+  EXPECT_EQ(cam.width_px, 2048);
+  EXPECT_EQ(cam.height_px, 1536);
+  EXPECT_EQ(cam.fps, 10.0);
+  EXPECT_EQ(cam.format, camera::PixelFormat::kBayerRggb);  // PixelFormat_BayerRG8
+  EXPECT_EQ(cam.lens.model, camera::LensModel::kPinhole);
+  // The calibrations' fx = 1336 px (camera_calibration_amy.yaml and others); 75 deg gives 1334.5.
+  EXPECT_NEAR(cam.lens.fx_px, 1336.2, 0.005 * 1336.2);
 }
 
 // At the team's gains the robot keeps its walk-ready stance: the IMU reads the lean, no rotation
