@@ -7,6 +7,10 @@ std::size_t KinematicBody::add_servo(uint32_t, uint8_t, const ServoSetup& setup)
   return servos_.size() - 1;
 }
 
+void KinematicBody::reset() noexcept {
+  for (Servo& servo : servos_) servo.joint = KinematicJoint(servo.joint.no_load_speed_rad_s());
+}
+
 std::size_t KinematicBody::add_imu(uint32_t, uint8_t) { return 0; }  // every IMU reads the same
 
 std::size_t KinematicBody::add_foot(uint32_t, uint8_t) { return foot_boards_++; }

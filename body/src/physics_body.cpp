@@ -22,6 +22,13 @@ std::size_t PhysicsBody::add_foot(uint32_t bus, uint8_t id) {
   return add_sensor(feet_, world_.find_foot(robot_, bus, id), [&] { return kinematic_.add_foot(bus, id); });
 }
 
+void PhysicsBody::reset() noexcept {
+  for (Slot<ServoDrive>& slot : servos_) {
+    if (slot.in_world) slot.in_world->reset(world_);
+  }
+  kinematic_.reset();
+}
+
 void PhysicsBody::drive(std::size_t servo, const dynamixel::ServoCommand& command, double dt_s) noexcept {
   if (servo >= servos_.size()) {
     return;

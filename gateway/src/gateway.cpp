@@ -18,7 +18,9 @@
 #include "physics/field.h"
 #include "physics/world.h"
 #include "eeprom_state.h"
+#include "control/http_api.h"
 #include "robot_runtime.h"
+#include "sim_controller.h"
 
 namespace doppel::gateway {
 
@@ -128,9 +130,30 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
     cameras_ = std::make_unique<CameraFeed>(world_.get(), cameras, session.world_cameras, options_);
   }
+  std::vector<SimController::Robot> controlled;
+  for (std::size_t r = 0; r < configs.size(); ++r) {
+    controlled.push_back({robots_[r].get(), world_ != nullptr ? in_world[r] : std::nullopt, configs[r].name});
+  }
+  const physics::FieldSpec field;
+  controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
+                                                0.5 * field.field_length_m + field.border_strip_width_m,
+                                                0.5 * field.field_width_m + field.border_strip_width_m);
+  if (options.viewer) {
+    try {
+      control_api_ = std::make_unique<control::HttpApi>(*controller_, options.viewer_address,
+                                                        options.viewer_port.value_or(control::kDefaultPort));
+    } catch (const std::runtime_error& e) {
+      if (options.viewer_port) {
+        throw std::runtime_error(std::string("--viewer: ") + e.what());
+      }
+      std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
+    }
+  }
 }
 
 Gateway::~Gateway() { stop(); }
+
+uint16_t Gateway::control_port() const noexcept { return control_api_ != nullptr ? control_api_->port() : 0; }
 
 void Gateway::start() {
   if (simulation_thread_.joinable()) {
@@ -148,6 +171,9 @@ void Gateway::start() {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
   });
+  if (control_api_ != nullptr) {
+    control_api_->start();
+  }
   if (!state_files_.empty()) {
     state_thread_ = std::thread([this] {
       pthread_setname_np(pthread_self(), "doppel-state");
@@ -221,6 +247,9 @@ void Gateway::keep_state() noexcept {
 }
 
 void Gateway::stop() {
+  if (control_api_ != nullptr) {
+    control_api_->stop();  // no request waits for a simulation thread that is gone
+  }
   stop_ = true;
   if (latency_files_ != nullptr) {
     latency_files_->stop();
@@ -248,21 +277,25 @@ void Gateway::simulate() noexcept {
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
   while (!stop_.load(std::memory_order_relaxed)) {
-    for (auto& robot : robots_) {
-      robot->drive(dt_s);
+    // Paused (doppel-ctl pause), the world and the sensors' time stand still; the buses answer on.
+    if (controller_->begin_tick()) {
+      for (auto& robot : robots_) {
+        robot->drive(dt_s);
+      }
+      if (world_ != nullptr) {
+        world_->step();
+        sim_time_ns = world_->time_ns();
+      } else {
+        sim_time_ns += kSimulationStepNs;
+      }
+      if (cameras_ != nullptr) {
+        cameras_->offer(world_.get(), sim_time_ns);
+      }
+      for (auto& robot : robots_) {
+        robot->sense(sim_time_ns);
+      }
     }
-    if (world_ != nullptr) {
-      world_->step();
-      sim_time_ns = world_->time_ns();
-    } else {
-      sim_time_ns += kSimulationStepNs;
-    }
-    if (cameras_ != nullptr) {
-      cameras_->offer(world_.get(), sim_time_ns);
-    }
-    for (auto& robot : robots_) {
-      robot->sense(sim_time_ns);
-    }
+    controller_->end_tick(sim_time_ns);
     clock.wait_next();
   }
   missed_ticks_ = clock.missed_ticks();
@@ -275,6 +308,10 @@ std::string Gateway::describe() const {
   }
   if (cameras_ != nullptr) {
     out << cameras_->describe();
+  }
+  if (control_api_ != nullptr) {
+    out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
+        << "/api/state (doppel-ctl --url http://" << control_api_->address() << ":" << control_api_->port() << ")\n";
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))

@@ -62,6 +62,9 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
       }
     }
     for (const InitialValue& initial : device.initial) {
+      if (!initial.eeprom) {
+        initial_ram_.push_back({d, initial.address, initial.value});
+      }
       if (saved != nullptr && initial.eeprom) {
         continue;  // the saved EEPROM holds what the driver made of it
       }
@@ -72,6 +75,8 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     if (built.device->eeprom().size() > kMaxEepromBytes) {
       throw std::invalid_argument(who + " has a larger EEPROM than Doppel keeps");
     }
+    every_device_.push_back(Gated{d, dynamic_cast<dynamixel::Protocol1Device*>(built.device.get()),
+                                  dynamic_cast<dynamixel::Protocol2Device*>(built.device.get())});
     link_to_body(built.role, device, d);
     bus_devices_.add(*built.device);
     devices_.push_back(std::move(built.device));
@@ -228,6 +233,19 @@ void BusRuntime::join() {
 }
 
 void BusRuntime::before_dispatch() noexcept {
+  const uint64_t requested = power_on_requested_.load(std::memory_order_acquire);
+  if (requested != power_on_done_.load(std::memory_order_relaxed) && power_on_pending_ != requested) {
+    power_on_pending_ = requested;
+    for (const Gated& device : every_device_) {
+      if (device.p1 != nullptr) device.p1->power_cycle();
+      if (device.p2 != nullptr) device.p2->power_cycle();
+    }
+    for (const RamValue& ram : initial_ram_) {
+      (void)devices_[ram.device_index]->write_item(ram.address, ram.value);  // checked at start-up
+    }
+    supply_on_ = supply_switch_ == nullptr || supply_switch_->dxl_power_on();
+    for (const Gated& gated : gated_) bus_devices_.set_powered(gated.device_index, supply_on_);
+  }
   // The simulation publishes at 1 kHz; between two of its steps the registers are already current.
   if (!feedback_.update()) {
     return;
@@ -250,6 +268,10 @@ void BusRuntime::after_dispatch() noexcept {
   }
   commands_.publish();
   publish_eeprom_changes();
+  if (power_on_pending_ != 0) {
+    power_on_done_.store(power_on_pending_, std::memory_order_release);  // the new commands are out
+    power_on_pending_ = 0;
+  }
 }
 
 void BusRuntime::on_tick() noexcept {
@@ -258,6 +280,9 @@ void BusRuntime::on_tick() noexcept {
 }
 
 void BusRuntime::drive(double dt_s) noexcept {
+  if (power_on_requested_.load(std::memory_order_acquire) != power_on_done_.load(std::memory_order_acquire)) {
+    return;  // the commands are those from before a reset's power-on
+  }
   const BusCommands& commands = commands_.latest();
   for (std::size_t i = 0; i < servos_.size(); ++i) body_.drive(servos_[i].body_index, commands.servos[i], dt_s);
 }
@@ -359,6 +384,11 @@ void RobotRuntime::sense(int64_t sim_time_ns) noexcept {
   for (auto& bus : buses_) {
     bus->sense(sim_time_ns, servo_current_a);
   }
+}
+
+void RobotRuntime::power_on() noexcept {
+  body_->reset();
+  for (auto& bus : buses_) bus->request_power_on();
 }
 
 uint64_t RobotRuntime::eeprom_generation() noexcept {

@@ -75,6 +75,10 @@ class BusRuntime final : public bus::DeviceSync {
   // Simulation thread, after the world stepped: publishes what the devices measure; the power
   // boards measure `servo_current_a` drawn from the bus supply. rt-safe.
   void sense(int64_t sim_time_ns, double servo_current_a) noexcept;
+  // A simulation reset: the bus thread power-cycles every device (RAM to its power-on values, then
+  // the robot file's initial RAM values; EEPROM stays) within one tick (10 ms); until then drive()
+  // hands no command to the body. Any thread, lock-free.
+  void request_power_on() noexcept { power_on_requested_.fetch_add(1, std::memory_order_acq_rel); }
 
   std::string describe() const;
   std::string summary() const;
@@ -131,6 +135,18 @@ class BusRuntime final : public bus::DeviceSync {
   concurrency::Snapshot<BusFeedback> feedback_;
   concurrency::Snapshot<BusEeprom> eeprom_;
   BusEeprom eeprom_seen_{};  // bus thread: the last published EEPROM areas
+  // Power-on on request (request_power_on): every device as P1/P2 device, the RAM values of the
+  // file's `initial` entries, and the requests seen / completed (commands published after it).
+  struct RamValue {
+    std::size_t device_index;
+    uint16_t address;
+    int64_t value;
+  };
+  std::vector<Gated> every_device_;
+  std::vector<RamValue> initial_ram_;
+  std::atomic<uint64_t> power_on_requested_{0};
+  std::atomic<uint64_t> power_on_done_{0};
+  uint64_t power_on_pending_ = 0;  // bus thread: the request being carried out, 0 = none
   std::thread thread_;
 };
 
@@ -146,6 +162,9 @@ class RobotRuntime {
   // Simulation thread, around one world step (see BusRuntime). rt-safe.
   void drive(double dt_s) noexcept;
   void sense(int64_t sim_time_ns) noexcept;
+  // Simulation thread, after the world put the robot back (World::reset_robot): every servo of the
+  // robot powers on again (body controllers, device RAM). rt-safe.
+  void power_on() noexcept;
 
   std::string describe() const;
   std::string summary() const;

@@ -66,6 +66,12 @@ struct World::RobotSlot {
   bool release_pending = false;
   std::vector<double> hold_position;  // per link, rad or m
   std::vector<int> link_motor;        // per link: motor slot or -1
+  std::vector<double> initial_position;    // per link: the file's initial joint positions
+  std::vector<Eigen::Isometry3d> initial_X_RB;  // per body: its pose in R in the initial pose
+  double floor_z = 0.0;               // height of R above the floor that puts the lowest point on it
+  Eigen::Isometry3d start_X_WR = Eigen::Isometry3d::Identity();  // where the robot started
+  Eigen::Vector3d push_force = Eigen::Vector3d::Zero();
+  uint32_t push_steps = 0;
   int marker_body = 0;                // body that carries the team marker
   Eigen::Isometry3d marker_X_BM = Eigen::Isometry3d::Identity();
   uint8_t team = 0;
@@ -193,6 +199,10 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
     }
   }
   X_WR.translation().z() -= lowest;
+  robot.initial_position = q;
+  robot.initial_X_RB = X_RB;
+  robot.floor_z = -lowest;
+  robot.start_X_WR = X_WR;
 
   // Team marker: a flat tile on top of the highest body (the head), level at the design pose.
   const BodyModel& marker_body = model.bodies[static_cast<size_t>(robot.marker_body)];
@@ -381,6 +391,81 @@ void World::place_held(size_t robot, const Eigen::Isometry3d& X_WR) {
   update_sensors();
 }
 
+void World::set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noexcept {
+  const int root = slot.first_body + slot.model.root;
+  backend_->set_pinned(root, false);
+  for (size_t b = 0; b < slot.initial_X_RB.size(); ++b) {
+    backend_->set_body_state(slot.first_body + static_cast<int>(b), X_WR * slot.initial_X_RB[b],
+                             Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  }
+  std::copy(slot.initial_position.begin(), slot.initial_position.end(), slot.hold_position.begin());
+  if (slot.held) {
+    backend_->set_pinned(root, true);
+  }
+  const size_t robot = static_cast<size_t>(&slot - robots_.data());
+  for (ImuSlot& imu : imus_) {
+    if (imu.robot == robot) imu.has_prev = false;
+  }
+  for (MotorSlot& m : motors_) {
+    if (m.robot == robot) {
+      m.state.position_rad = m.direction * slot.initial_position[static_cast<size_t>(m.link)] + m.offset_rad;
+      m.state.velocity_rad_s = 0.0;
+    }
+  }
+  update_sensors();
+}
+
+void World::place_robot(size_t robot, double x_m, double y_m, double yaw_rad) noexcept {
+  if (robot >= robots_.size()) return;
+  RobotSlot& slot = robots_[robot];
+  Eigen::Isometry3d X_WR = Eigen::Isometry3d::Identity();
+  X_WR.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  X_WR.translation() = Eigen::Vector3d(x_m, y_m, slot.floor_z);
+  set_robot_frame(slot, X_WR);
+}
+
+void World::reset_robot(size_t robot) noexcept {
+  if (robot >= robots_.size()) return;
+  RobotSlot& slot = robots_[robot];
+  slot.push_steps = 0;
+  slot.release_pending = false;
+  slot.held = options_.hold == HoldMode::kUntilTorque;
+  if (!slot.held) {
+    release(robot);
+  }
+  set_robot_frame(slot, slot.start_X_WR);
+  for (MotorSlot& m : motors_) {
+    if (m.robot == robot) {
+      m.command = MotorCommand{};
+      m.thermal.set_temperature_c(options_.ambient_c);
+      m.state.temperature_c = options_.ambient_c;
+    }
+  }
+}
+
+void World::push(size_t robot, const Eigen::Vector3d& f_W, uint32_t steps) noexcept {
+  if (robot >= robots_.size()) return;
+  robots_[robot].push_force = f_W;
+  robots_[robot].push_steps = steps;
+}
+
+Eigen::Isometry3d World::robot_pose(size_t robot) const noexcept {
+  const RobotSlot& slot = robots_[robot];
+  const Eigen::Isometry3d X_WB = backend_->body(slot.first_body + slot.model.root).X_WB;
+  return X_WB * slot.initial_X_RB[static_cast<size_t>(slot.model.root)].inverse();
+}
+
+double World::tilt_rad(size_t robot) const noexcept {
+  const double up = std::clamp(robot_pose(robot).linear()(2, 2), -1.0, 1.0);
+  return std::acos(up);
+}
+
+void World::reset_ball() noexcept {
+  Eigen::Vector3d p = options_.ball.position_m;
+  p.z() = options_.ball.radius_m;
+  place_ball(p, Eigen::Vector3d::Zero());
+}
+
 void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexcept {
   if (motor.index < motors_.size()) {
     motors_[motor.index].thermal.set_temperature_c(temperature_c);
@@ -417,6 +502,12 @@ void World::step() noexcept {
     backend_->set_drive(m.joint, m.law);
   }
 
+  for (RobotSlot& robot : robots_) {
+    if (robot.push_steps > 0) {
+      backend_->add_force(robot.first_body + robot.model.root, robot.push_force);
+      --robot.push_steps;
+    }
+  }
   backend_->step(options_.step_s);
   ++steps_;
 

@@ -49,6 +49,9 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
   if (!camera) {
     args.push_back("--no-camera");
   }
+  if (std::find(args.begin(), args.end(), "--viewer") == args.end()) {
+    args.push_back("--no-viewer");  // tests run side by side: none takes the default control port
+  }
   if (std::find(args.begin(), args.end(), "--state-dir") == args.end()) {
     args.push_back("--state-dir");
     args.push_back(std::string(dir_template) + "/state");

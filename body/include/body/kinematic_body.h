@@ -29,6 +29,7 @@ class KinematicBody final : public SimulatedBody {
   // Each cell carries mass x g / (4 x the number of foot boards added).
   dynamixel::FootFeedback foot(std::size_t foot, int64_t sim_time_ns) const noexcept override;
   double servo_supply_current_a() const noexcept override { return 0.0; }
+  void reset() noexcept override;
   std::string_view description() const noexcept override { return "no body: joints move kinematically"; }
 
  private:

@@ -17,6 +17,7 @@ class KinematicJoint {
   void step(const dynamixel::ServoCommand& command, double dt_s) noexcept;
 
   double position_rad() const noexcept { return position_rad_; }
+  double no_load_speed_rad_s() const noexcept { return no_load_speed_rad_s_; }
   double velocity_rad_s() const noexcept { return velocity_rad_s_; }
 
  private:

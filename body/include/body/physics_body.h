@@ -30,6 +30,7 @@ class PhysicsBody final : public SimulatedBody {
   dynamixel::FootFeedback foot(std::size_t foot, int64_t sim_time_ns) const noexcept override;
   // Sum of the motors' supply currents (physics::MotorState::supply_current_a) of the servos added.
   double servo_supply_current_a() const noexcept override;
+  void reset() noexcept override;
   std::string_view description() const noexcept override { return "body simulated"; }
 
   // The servo's motor in the world; nullopt when its joint moves kinematically.

@@ -23,6 +23,9 @@ class ServoDrive {
   // After world.step(): what the servo measures. rt-safe.
   dynamixel::ServoFeedback sense(const physics::World& world, int64_t sim_time_ns) const noexcept;
 
+  // Power-on: the controller forgets its state, at the motor's present angle. rt-safe.
+  void reset(const physics::World& world) noexcept;
+
   physics::MotorHandle motor() const noexcept { return motor_; }
 
  private:

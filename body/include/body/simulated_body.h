@@ -42,6 +42,11 @@ class SimulatedBody {
   // servo supply measures). rt-safe.
   virtual double servo_supply_current_a() const noexcept = 0;
 
+  // Power-on of every servo of the body (a simulation reset): the firmware controllers forget
+  // their state and kinematic joints return to where they started. Call it after the world has put
+  // the robot back (World::reset_robot). Simulation thread, rt-safe.
+  virtual void reset() noexcept = 0;
+
   // What moves the joints, for the user ("body simulated", ...).
   virtual std::string_view description() const noexcept = 0;
 };

@@ -19,6 +19,9 @@ namespace doppel::physics {
 class World;
 }
 
+namespace doppel::control {
+class HttpApi;
+}
 namespace doppel::bus {
 class LinkDirectory;
 class LatencyTimerFiles;
@@ -28,6 +31,7 @@ namespace doppel::gateway {
 
 class RobotRuntime;
 class CameraFeed;
+class SimController;
 
 class Gateway {
  public:
@@ -45,6 +49,7 @@ class Gateway {
   void stop();   // stops and joins them, then saves every robot's EEPROM state; idempotent
 
   std::string describe() const;  // the links and the devices behind them, for the user
+  uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
   std::string summary() const;   // per-bus counters, for the user after stop()
 
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
@@ -61,6 +66,8 @@ class Gateway {
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
+  std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
+  std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
   std::thread state_thread_;

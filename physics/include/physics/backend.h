@@ -90,6 +90,8 @@ class Backend {
   virtual void set_pinned(int body, bool pinned) noexcept = 0;
   // The drive law of a revolute/prismatic joint for the next steps (max_torque 0 = free joint).
   virtual void set_drive(int joint, const DriveLaw& law) noexcept = 0;
+  // A force through the body's centre of mass, world frame, N, for the next step only (a push).
+  virtual void add_force(int body, const Eigen::Vector3d& f_W) noexcept = 0;
 
   // One fixed step of `dt_s` seconds. rt-safe.
   virtual void step(double dt_s) noexcept = 0;

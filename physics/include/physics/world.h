@@ -152,6 +152,24 @@ class World {
   // Puts a held robot's robot frame at X_WR (joints at their held positions), e.g. to tilt it.
   // Setup code (allocates); the robot stays held.
   void place_held(size_t robot, const Eigen::Isometry3d& X_WR);
+  // Simulation control (doppel-ctl, the viewer; docs/control.md), called between steps. rt-safe.
+  // place_robot stands the robot in its initial pose (the file's initial joint angles) with its
+  // robot frame at (x, y) heading yaw, at rest, lowered onto the floor; a held robot stays held. Its
+  // servos are not touched: once free, they drive the joints to their goals from there.
+  void place_robot(size_t robot, double x_m, double y_m, double yaw_rad) noexcept;
+  // Puts the robot back as it started: placed at its start placement, motors at ambient
+  // temperature, no push, held again if the world holds robots until their first Torque Enable.
+  void reset_robot(size_t robot) noexcept;
+  // Pushes the robot's root body (the figure's trunk) with `f_W` (N, world frame, through its
+  // centre of mass) during the next `steps` steps, e.g. a balance test's shove.
+  void push(size_t robot, const Eigen::Vector3d& f_W, uint32_t steps) noexcept;
+  // Where the robot is: its robot frame R in the world, inferred from the root body (R's origin is
+  // on the floor between the feet when it stands in its initial pose). rt-safe.
+  Eigen::Isometry3d robot_pose(size_t robot) const noexcept;
+  // Angle between the robot frame's z axis and the vertical, rad (0 upright, pi/2 lying). rt-safe.
+  double tilt_rad(size_t robot) const noexcept;
+  // Puts the ball back where the options placed it, at rest. rt-safe.
+  void reset_ball() noexcept;
   // Sets a motor's winding temperature (tests, scenarios). rt-safe.
   void set_motor_temperature(MotorHandle motor, double temperature_c) noexcept;
 
@@ -184,6 +202,7 @@ class World {
   struct FootSlot;
 
   void build_robot(size_t index, const RobotPlacement& placement);
+  void set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noexcept;
   void update_sensors() noexcept;
   DriveLaw hold_law(double target, double position) const noexcept;
 

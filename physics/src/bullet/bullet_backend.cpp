@@ -428,6 +428,12 @@ class BulletBackend final : public Backend {
     }
   }
 
+  void add_force(int index, const Eigen::Vector3d& f_W) noexcept override {
+    btRigidBody& body = *bodies_[static_cast<size_t>(index)];
+    body.activate(true);
+    body.applyCentralForce(bt(f_W));  // stepSimulation clears the forces after the step
+  }
+
   void step(double dt_s) noexcept override {
     BlockPool::stock(8);
     for (Joint& j : joints_) {

@@ -248,6 +248,12 @@ class OdeBackend final : public Backend {
     }
   }
 
+  void add_force(int index, const Eigen::Vector3d& f_W) noexcept override {
+    dBodyID body = bodies_[static_cast<size_t>(index)];
+    dBodyEnable(body);
+    dBodyAddForce(body, f_W.x(), f_W.y(), f_W.z());  // ODE zeroes the accumulator after each step
+  }
+
   void step(double dt_s) noexcept override {
     ensure_ode_thread();
     BlockPool::stock(8);

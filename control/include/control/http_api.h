@@ -1,0 +1,67 @@
+#pragma once
+// The simulation-control API over HTTP (JSON), served by doppel on loopback by default: what
+// doppel-ctl and the viewer talk to. Every request is checked completely before the SimControl
+// sees it, so a bad one changes nothing and gets a 4xx answer with {"error": "..."}.
+//
+//   GET  /api/state                                   -> the state (state_json)
+//   POST /api/pause | /api/resume | /api/reset        -> the state afterwards
+//   POST /api/step   {"ms": 100}                      -> after the steps ran
+//   POST /api/place  {"robot": 0 | "name", "x": 1.0, "y": 0.5, "yaw": 1.57}
+//   POST /api/push   {"robot": ..., "fx": 20, "fy": 0, "fz": 0, "ms": 100}
+//   POST /api/ball   {"x": 0.5, "y": 0}
+// Units: m, rad, N, ms, field frame. docs/control.md has the details.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <nlohmann/json.hpp>
+
+#include "control/sim_control.h"
+
+namespace httplib {
+class Server;
+}
+
+namespace doppel::control {
+
+inline constexpr uint16_t kDefaultPort = 7580;
+inline constexpr uint32_t kMaxStepMs = 60'000;
+inline constexpr uint32_t kMaxPushMs = 10'000;
+inline constexpr double kMaxPushForceN = 1000.0;
+
+nlohmann::json state_json(const SimState& state);
+
+// A request as the API takes it, for tests of the checks without a socket: `method` "GET" or
+// "POST", `path` as in the table above, `body` the request body. Returns the HTTP status and the
+// JSON answer.
+struct Answer {
+  int status = 200;
+  nlohmann::json body;
+};
+Answer handle(SimControl& control, const std::string& method, const std::string& path, const std::string& body);
+
+class HttpApi {
+ public:
+  // Binds `address`:`port` at once (port 0: any free port), so that a port in use is reported
+  // before anything runs. Throws std::runtime_error naming the address and port.
+  HttpApi(SimControl& control, const std::string& address, uint16_t port);
+  ~HttpApi();
+  HttpApi(const HttpApi&) = delete;
+  HttpApi& operator=(const HttpApi&) = delete;
+
+  uint16_t port() const noexcept { return port_; }
+  const std::string& address() const noexcept { return address_; }
+  void start();  // serves on a thread of its own (and the library's worker threads)
+  void stop();   // idempotent
+
+ private:
+  SimControl& control_;
+  std::string address_;
+  uint16_t port_ = 0;
+  std::unique_ptr<httplib::Server> server_;
+  std::thread thread_;
+};
+
+}  // namespace doppel::control

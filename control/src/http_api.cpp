@@ -1,0 +1,215 @@
+#include "control/http_api.h"
+
+#include <httplib.h>
+#include <sys/socket.h>
+
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <stdexcept>
+
+namespace doppel::control {
+namespace {
+
+using nlohmann::json;
+
+// A request that cannot be applied as asked: its status and message.
+struct Refused {
+  int status;
+  std::string message;
+};
+
+json error_body(const std::string& message) { return json{{"error", message}}; }
+
+json parse_object(const std::string& body) {
+  if (body.empty()) return json::object();
+  json request = json::parse(body, nullptr, false);
+  if (request.is_discarded()) throw Refused{400, "the request body is not JSON"};
+  if (!request.is_object()) throw Refused{400, "the request body must be a JSON object"};
+  return request;
+}
+
+void only_fields(const json& request, const std::set<std::string>& allowed) {
+  for (const auto& [key, value] : request.items()) {
+    if (allowed.count(key) == 0) throw Refused{400, "unknown field '" + key + "'"};
+  }
+}
+
+double number(const json& request, const std::string& field) {
+  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
+  const json& value = request.at(field);
+  if (!value.is_number()) throw Refused{400, "field '" + field + "' must be a number"};
+  const double x = value.get<double>();
+  if (!std::isfinite(x)) throw Refused{400, "field '" + field + "' must be finite"};
+  return x;
+}
+
+uint32_t milliseconds(const json& request, uint32_t most) {
+  if (!request.contains("ms")) throw Refused{400, "missing field 'ms'"};
+  const json& value = request.at("ms");
+  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field 'ms' must be a whole number"};
+  const int64_t ms = value.get<int64_t>();
+  if (ms < 1 || ms > most) {
+    throw Refused{400, "field 'ms' must be within 1.." + std::to_string(most) + ", got " + std::to_string(ms)};
+  }
+  return static_cast<uint32_t>(ms);
+}
+
+std::size_t robot_index(const json& request, const SimState& state) {
+  if (!request.contains("robot")) throw Refused{400, "missing field 'robot' (a robot's index or name)"};
+  const json& robot = request.at("robot");
+  if (robot.is_number_integer() || robot.is_number_unsigned()) {
+    const int64_t index = robot.get<int64_t>();
+    if (index < 0 || static_cast<std::size_t>(index) >= state.robots.size()) {
+      throw Refused{404, "no robot " + std::to_string(index) + " (there are " + std::to_string(state.robots.size()) + ")"};
+    }
+    return static_cast<std::size_t>(index);
+  }
+  if (!robot.is_string()) throw Refused{400, "field 'robot' must be a robot's index or name"};
+  const std::string name = robot.get<std::string>();
+  std::optional<std::size_t> found;
+  for (std::size_t r = 0; r < state.robots.size(); ++r) {
+    if (state.robots[r].name != name) continue;
+    if (found) throw Refused{400, "two robots are named '" + name + "': give its index"};
+    found = r;
+  }
+  if (!found) throw Refused{404, "no robot named '" + name + "'"};
+  return *found;
+}
+
+void on_carpet(const SimState& state, double x, double y) {
+  if (std::abs(x) > state.carpet_half_length_m || std::abs(y) > state.carpet_half_width_m) {
+    throw Refused{400, "(" + json(x).dump() + ", " + json(y).dump() + ") is off the carpet (|x| <= " +
+                           json(state.carpet_half_length_m).dump() + ", |y| <= " + json(state.carpet_half_width_m).dump() + " m)"};
+  }
+}
+
+void simulated(const SimState& state, std::size_t robot) {
+  if (!state.robots[robot].simulated) {
+    throw Refused{409, "robot " + std::to_string(robot) + " '" + state.robots[robot].name +
+                           "' has no body in the world (no figure, or --physics none)"};
+  }
+}
+
+Outcome apply(SimControl& control, const std::string& action, const json& request) {
+  if (action == "pause" || action == "resume" || action == "reset") {
+    only_fields(request, {});
+    return action == "pause" ? control.pause() : action == "resume" ? control.resume() : control.reset();
+  }
+  if (action == "step") {
+    only_fields(request, {"ms"});
+    return control.step(milliseconds(request, kMaxStepMs));
+  }
+  const SimState state = control.state();
+  if (action == "place") {
+    only_fields(request, {"robot", "x", "y", "yaw"});
+    const std::size_t robot = robot_index(request, state);
+    const double x = number(request, "x"), y = number(request, "y"), yaw = number(request, "yaw");
+    on_carpet(state, x, y);
+    simulated(state, robot);
+    return control.place(robot, x, y, yaw);
+  }
+  if (action == "push") {
+    only_fields(request, {"robot", "fx", "fy", "fz", "ms"});
+    const std::size_t robot = robot_index(request, state);
+    const double fx = number(request, "fx"), fy = number(request, "fy"), fz = number(request, "fz");
+    if (std::sqrt(fx * fx + fy * fy + fz * fz) > kMaxPushForceN) {
+      throw Refused{400, "a push of more than " + std::to_string(static_cast<int>(kMaxPushForceN)) + " N is refused"};
+    }
+    const uint32_t ms = milliseconds(request, kMaxPushMs);
+    simulated(state, robot);
+    return control.push(robot, fx, fy, fz, ms);
+  }
+  if (action == "ball") {
+    only_fields(request, {"x", "y"});
+    const double x = number(request, "x"), y = number(request, "y");
+    if (!state.ball_m) throw Refused{409, "there is no ball (no world: --physics none or no robot with a body)"};
+    on_carpet(state, x, y);
+    return control.ball(x, y);
+  }
+  throw Refused{404, "no such request: /api/" + action};
+}
+
+}  // namespace
+
+json state_json(const SimState& state) {
+  json robots = json::array();
+  for (const RobotState& robot : state.robots) {
+    json joints = json::object();
+    for (const JointState& joint : robot.joints) joints[joint.name] = joint.position_rad;
+    robots.push_back({{"name", robot.name},
+                      {"simulated", robot.simulated},
+                      {"pose", {{"x", robot.x_m}, {"y", robot.y_m}, {"z", robot.z_m}, {"yaw", robot.yaw_rad}}},
+                      {"tilt", robot.tilt_rad},
+                      {"fallen", robot.fallen},
+                      {"held", robot.held},
+                      {"joints", joints}});
+  }
+  json out = {{"sim_time_s", state.sim_time_s}, {"paused", state.paused}, {"steps_left", state.steps_left},
+              {"robots", robots}};
+  out["ball"] = state.ball_m ? json{{"x", (*state.ball_m)[0]}, {"y", (*state.ball_m)[1]}, {"z", (*state.ball_m)[2]}} : json(nullptr);
+  return out;
+}
+
+Answer handle(SimControl& control, const std::string& method, const std::string& path, const std::string& body) {
+  constexpr std::string_view kPrefix = "/api/";
+  if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
+  const std::string action = path.substr(kPrefix.size());
+  if (action == "state") {
+    if (method != "GET") return {405, error_body("/api/state is read with GET")};
+    return {200, state_json(control.state())};
+  }
+  if (method != "POST") return {405, error_body("/api/" + action + " is a POST request")};
+  try {
+    const Outcome outcome = apply(control, action, parse_object(body));
+    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+    return {200, state_json(control.state())};
+  } catch (const Refused& refused) {
+    return {refused.status, error_body(refused.message)};
+  }
+}
+
+HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port)
+    : control_(control), address_(address), server_(std::make_unique<httplib::Server>()) {
+  server_->set_payload_max_length(64 * 1024);
+  // The library's default also sets SO_REUSEPORT, which lets a second doppel share the port
+  // unnoticed (and receive half of the requests): only SO_REUSEADDR here.
+  server_->set_socket_options([](int socket) {
+    const int yes = 1;
+    ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
+  auto serve = [this](const httplib::Request& request, httplib::Response& response) {
+    const Answer answer = handle(control_, request.method, request.path, request.body);
+    response.status = answer.status;
+    response.set_content(answer.body.dump(), "application/json");
+  };
+  server_->Get(R"(/api/.*)", serve);
+  server_->Post(R"(/api/.*)", serve);
+  if (port == 0) {
+    const int bound = server_->bind_to_any_port(address);
+    if (bound <= 0) throw std::runtime_error("cannot listen on " + address + " (any port)");
+    port_ = static_cast<uint16_t>(bound);
+  } else {
+    if (!server_->bind_to_port(address, port)) {
+      throw std::runtime_error("cannot listen on " + address + ":" + std::to_string(port) +
+                               " (in use by another program, another doppel, or not an address of this machine)");
+    }
+    port_ = port;
+  }
+}
+
+HttpApi::~HttpApi() { stop(); }
+
+void HttpApi::start() {
+  if (thread_.joinable()) return;
+  thread_ = std::thread([this] { server_->listen_after_bind(); });
+  // stop() can only end a server that is already listening.
+  while (!server_->is_running()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+void HttpApi::stop() {
+  server_->stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace doppel::control

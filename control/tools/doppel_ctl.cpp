@@ -1,0 +1,88 @@
+// doppel-ctl: the simulation-control API of a running doppel from a shell (docs/control.md).
+// Prints the JSON answer; a refused request prints doppel's reason and exits 1, an unreachable
+// doppel exits 2.
+#include <httplib.h>
+
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "base/command_line.h"
+#include "control/http_api.h"
+
+namespace {
+
+using nlohmann::json;
+
+// A robot is named by its index in `doppel-ctl state` or by its name.
+json robot_ref(const std::string& text) {
+  const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+  return digits && text.size() < 10 ? json(std::stoll(text)) : json(text);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("doppel-ctl: pause, step, reset, place and push a running doppel's simulation", "doppel-ctl");
+  std::string url = "http://127.0.0.1:" + std::to_string(doppel::control::kDefaultPort);
+  app.add_option("--url", url, "doppel's control address (doppel --viewer PORT)")->capture_default_str();
+  app.require_subcommand(1);
+
+  app.add_subcommand("state", "time, pause state, every robot's pose, joints and whether it fell");
+  app.add_subcommand("pause", "freeze the world (the bus answers with frozen values)");
+  app.add_subcommand("resume", "let the world run again");
+  app.add_subcommand("reset", "world and servos to their power-on state");
+  uint32_t step_ms = 0;
+  app.add_subcommand("step", "while paused: run MS milliseconds of simulation, then stay paused")
+      ->add_option("MS", step_ms)->required()->transform(doppel::number_in<uint32_t>(1, doppel::control::kMaxStepMs));
+  std::string robot;
+  double x = 0, y = 0, yaw = 0, fx = 0, fy = 0, fz = 0;
+  uint32_t push_ms = 0;
+  CLI::App* place = app.add_subcommand("place", "stand ROBOT (index or name) in its initial pose at X Y (m), heading YAW (rad)");
+  place->add_option("ROBOT", robot)->required();
+  place->add_option("X", x)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  place->add_option("Y", y)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  place->add_option("YAW", yaw)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  CLI::App* push = app.add_subcommand("push", "push ROBOT's trunk with FX FY FZ (N, field frame) for MS milliseconds");
+  push->add_option("ROBOT", robot)->required();
+  push->add_option("FX", fx)->required()->transform(doppel::number_in<double>(-1e4, 1e4));
+  push->add_option("FY", fy)->required()->transform(doppel::number_in<double>(-1e4, 1e4));
+  push->add_option("FZ", fz)->required()->transform(doppel::number_in<double>(-1e4, 1e4));
+  push->add_option("MS", push_ms)->required()->transform(doppel::number_in<uint32_t>(1, doppel::control::kMaxPushMs));
+  CLI::App* ball = app.add_subcommand("ball", "put the ball at rest at X Y (m)");
+  ball->add_option("X", x)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  ball->add_option("Y", y)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  CLI11_PARSE(app, argc, argv);
+
+  const std::string command = app.get_subcommands().front()->get_name();
+  json body = json::object();
+  if (command == "step") body = {{"ms", step_ms}};
+  if (command == "place") body = {{"robot", robot_ref(robot)}, {"x", x}, {"y", y}, {"yaw", yaw}};
+  if (command == "push") body = {{"robot", robot_ref(robot)}, {"fx", fx}, {"fy", fy}, {"fz", fz}, {"ms", push_ms}};
+  if (command == "ball") body = {{"x", x}, {"y", y}};
+
+  httplib::Client client(url);
+  if (!client.is_valid()) {
+    std::fprintf(stderr, "doppel-ctl: '%s' is not a URL doppel-ctl can use (http://HOST:PORT)\n", url.c_str());
+    return 2;
+  }
+  client.set_connection_timeout(2);
+  client.set_read_timeout(static_cast<time_t>(doppel::control::kMaxStepMs / 1000 + 30));
+  const std::string path = "/api/" + command;
+  httplib::Result result = command == "state" ? client.Get(path) : client.Post(path, body.dump(), "application/json");
+  if (!result) {
+    std::fprintf(stderr, "doppel-ctl: cannot reach doppel at %s (%s); is it running, with its viewer on (--viewer)?\n",
+                 url.c_str(), httplib::to_string(result.error()).c_str());
+    return 2;
+  }
+  const json answer = json::parse(result->body, nullptr, false);
+  if (result->status != 200) {
+    const std::string reason = !answer.is_discarded() && answer.contains("error") ? answer["error"].get<std::string>() : result->body;
+    std::fprintf(stderr, "doppel-ctl: %s: %s (HTTP %d)\n", command.c_str(), reason.c_str(), result->status);
+    return 1;
+  }
+  std::cout << (answer.is_discarded() ? result->body : answer.dump(2)) << "\n";
+  return 0;
+}

@@ -1,0 +1,207 @@
+#include "sim_controller.h"
+
+#include <cmath>
+#include <thread>
+
+#include "robot_runtime.h"
+
+namespace doppel::gateway {
+namespace {
+
+constexpr std::chrono::milliseconds kAnswerTimeout{5000};  // a loaded machine may lag its 1 kHz loop
+
+}  // namespace
+
+SimController::SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m,
+                             double carpet_half_width_m)
+    : world_(world),
+      robots_(std::move(robots)),
+      carpet_half_length_m_(carpet_half_length_m),
+      carpet_half_width_m_(carpet_half_width_m) {
+  if (robots_.size() > kMaxRobots) {
+    throw std::invalid_argument("simulation control: at most " + std::to_string(kMaxRobots) + " robots");
+  }
+  for (const Robot& robot : robots_) {
+    std::vector<std::string> names;
+    if (world_ != nullptr && robot.in_world) {
+      for (const physics::LinkModel& link : world_->robot(*robot.in_world).links) names.push_back(link.name);
+    }
+    if (names.size() > kMaxJoints) {
+      throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
+                                  std::to_string(kMaxJoints) + " links");
+    }
+    joint_names_.push_back(std::move(names));
+  }
+}
+
+control::SimState SimController::state() {
+  Sample sample;
+  {
+    std::lock_guard<std::mutex> lock(read_mutex_);
+    samples_.read(sample);
+  }
+  control::SimState state;
+  state.sim_time_s = static_cast<double>(sample.sim_time_ns) * 1e-9;
+  state.paused = sample.paused;
+  state.steps_left = sample.steps_left;
+  state.carpet_half_length_m = carpet_half_length_m_;
+  state.carpet_half_width_m = carpet_half_width_m_;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    const RobotSample& s = sample.robots[r];
+    control::RobotState robot;
+    robot.name = robots_[r].name;
+    robot.simulated = world_ != nullptr && robots_[r].in_world.has_value();
+    if (robot.simulated) {
+      robot.x_m = s.x;
+      robot.y_m = s.y;
+      robot.z_m = s.z;
+      robot.yaw_rad = s.yaw;
+      robot.tilt_rad = s.tilt;
+      robot.fallen = s.tilt > control::kFallenTiltRad;
+      robot.held = s.held;
+      for (std::size_t j = 0; j < joint_names_[r].size(); ++j) robot.joints.push_back({joint_names_[r][j], s.joints[j]});
+    }
+    state.robots.push_back(std::move(robot));
+  }
+  if (world_ != nullptr && world_->options().ball.present) {
+    state.ball_m = std::vector<double>(sample.ball.begin(), sample.ball.end());
+  }
+  return state;
+}
+
+control::Outcome SimController::submit(Request request, std::chrono::milliseconds timeout) {
+  std::lock_guard<std::mutex> lock(submit_mutex_);
+  request.sequence = ++next_sequence_;
+  if (!requests_.try_push(request)) {
+    return control::Outcome::fail(503, "the simulation has not taken the previous requests yet; try again");
+  }
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (finished_.load(std::memory_order_acquire) < request.sequence) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      return control::Outcome::fail(503, "the simulation thread did not carry the request out within " +
+                                             std::to_string(timeout.count()) + " ms (it is applied when it gets to it)");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const int status = finished_status_.load(std::memory_order_acquire);
+  if (status == 409) return control::Outcome::fail(409, "step needs a paused simulation: pause first");
+  return control::Outcome::done();
+}
+
+control::Outcome SimController::pause() { return submit({Kind::kPause}, kAnswerTimeout); }
+
+control::Outcome SimController::resume() { return submit({Kind::kResume}, kAnswerTimeout); }
+
+control::Outcome SimController::step(uint32_t steps) {
+  Request request{Kind::kStep};
+  request.steps = steps;
+  return submit(request, kAnswerTimeout + std::chrono::milliseconds(2 * static_cast<int64_t>(steps)));
+}
+
+control::Outcome SimController::reset() { return submit({Kind::kReset}, kAnswerTimeout); }
+
+control::Outcome SimController::place(std::size_t robot, double x_m, double y_m, double yaw_rad) {
+  return submit({Kind::kPlace, 0, robot, x_m, y_m, yaw_rad}, kAnswerTimeout);
+}
+
+control::Outcome SimController::push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) {
+  return submit({Kind::kPush, 0, robot, fx_n, fy_n, fz_n, steps}, kAnswerTimeout);
+}
+
+control::Outcome SimController::ball(double x_m, double y_m) {
+  return submit({Kind::kBall, 0, 0, x_m, y_m}, kAnswerTimeout);
+}
+
+void SimController::finish(uint64_t sequence, int status) noexcept {
+  finished_status_.store(status, std::memory_order_release);
+  finished_.store(sequence, std::memory_order_release);
+}
+
+void SimController::apply(const Request& request) noexcept {
+  const std::optional<std::size_t> body =
+      request.robot < robots_.size() && world_ != nullptr ? robots_[request.robot].in_world : std::nullopt;
+  int status = 200;
+  switch (request.kind) {
+    case Kind::kPause:
+      paused_ = true;
+      break;
+    case Kind::kResume:
+      paused_ = false;
+      break;
+    case Kind::kStep:
+      if (!paused_) {
+        status = 409;
+        break;
+      }
+      steps_left_ = request.steps;
+      step_sequence_ = request.sequence;
+      return;  // finished when the steps ran (end_tick)
+    case Kind::kReset:
+      for (const Robot& robot : robots_) {
+        if (world_ != nullptr && robot.in_world) world_->reset_robot(*robot.in_world);
+        robot.runtime->power_on();
+      }
+      if (world_ != nullptr) world_->reset_ball();
+      break;
+    case Kind::kPlace:
+      if (body) world_->place_robot(*body, request.a, request.b, request.c);
+      break;
+    case Kind::kPush:
+      if (body) world_->push(*body, Eigen::Vector3d(request.a, request.b, request.c), request.steps);
+      break;
+    case Kind::kBall:
+      if (world_ != nullptr) {
+        world_->place_ball(Eigen::Vector3d(request.a, request.b, world_->options().ball.radius_m), Eigen::Vector3d::Zero());
+      }
+      break;
+  }
+  pending_sequence_ = request.sequence;
+  pending_status_ = status;
+}
+
+bool SimController::begin_tick() noexcept {
+  Request request;
+  while (requests_.try_pop(request)) apply(request);
+  advancing_ = steps_left_ > 0 || !paused_;
+  return advancing_;
+}
+
+void SimController::end_tick(int64_t sim_time_ns) noexcept {
+  bool step_done = false;
+  if (advancing_ && steps_left_ > 0) {
+    step_done = --steps_left_ == 0;
+  }
+  const bool answer_due = pending_sequence_ != 0 || step_done;
+  if (++ticks_ >= kPublishEveryTicks || answer_due) {
+    ticks_ = 0;
+    Sample& sample = samples_.back();
+    sample.sim_time_ns = sim_time_ns;
+    sample.paused = paused_;
+    sample.steps_left = steps_left_;
+    for (std::size_t r = 0; r < robots_.size(); ++r) {
+      if (world_ == nullptr || !robots_[r].in_world) continue;
+      const std::size_t w = *robots_[r].in_world;
+      RobotSample& s = sample.robots[r];
+      const Eigen::Isometry3d X_WR = world_->robot_pose(w);
+      s.x = X_WR.translation().x();
+      s.y = X_WR.translation().y();
+      s.z = X_WR.translation().z();
+      s.yaw = std::atan2(X_WR.linear()(1, 0), X_WR.linear()(0, 0));
+      s.tilt = world_->tilt_rad(w);
+      s.held = world_->held(w);
+      for (std::size_t j = 0; j < joint_names_[r].size(); ++j) s.joints[j] = world_->link_position(w, j);
+    }
+    if (world_ != nullptr) {
+      const Eigen::Vector3d ball = world_->ball_position();
+      sample.ball = {ball.x(), ball.y(), ball.z()};
+    }
+    samples_.publish();
+  }
+  if (pending_sequence_ != 0) {
+    finish(pending_sequence_, pending_status_);
+    pending_sequence_ = 0;
+  }
+  if (step_done) finish(step_sequence_, 200);
+}
+
+}  // namespace doppel::gateway

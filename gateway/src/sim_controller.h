@@ -1,0 +1,117 @@
+#pragma once
+// Simulation control inside doppel (control::SimControl): requests from the HTTP API's threads
+// cross to the simulation thread through a lock-free queue and are applied there between two
+// steps; the simulation thread publishes the state every 10 ms through a snapshot. The request side
+// takes a mutex (HTTP threads only: one request in flight, the next waits); the simulation thread
+// never waits for anyone.
+
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "concurrency/snapshot.h"
+#include "concurrency/spsc_queue.h"
+#include "control/sim_control.h"
+#include "physics/world.h"
+
+namespace doppel::gateway {
+
+class RobotRuntime;
+
+inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
+inline constexpr std::size_t kSimMaxJoints = 64;
+
+// A request on its way to the simulation thread, and the state it publishes (SimController).
+enum class SimRequestKind : uint8_t { kPause, kResume, kStep, kReset, kPlace, kPush, kBall };
+struct SimRequest {
+  SimRequestKind kind = SimRequestKind::kPause;
+  uint64_t sequence = 0;
+  std::size_t robot = 0;
+  double a = 0.0, b = 0.0, c = 0.0;
+  uint32_t steps = 0;
+};
+struct SimRobotSample {
+  double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0, tilt = 0.0;
+  bool held = false;
+  std::array<double, kSimMaxJoints> joints{};
+};
+struct SimSample {
+  int64_t sim_time_ns = 0;
+  bool paused = false;
+  uint64_t steps_left = 0;
+  std::array<SimRobotSample, kSimMaxRobots> robots{};
+  std::array<double, 3> ball{};
+};
+
+class SimController final : public control::SimControl {
+ public:
+  static constexpr std::size_t kMaxRobots = kSimMaxRobots;
+  static constexpr std::size_t kMaxJoints = kSimMaxJoints;
+  static constexpr int kPublishEveryTicks = 10;  // 100 Hz state
+
+  // One robot: its runtime, its index in `world` (none without a body) and its name.
+  struct Robot {
+    RobotRuntime* runtime = nullptr;
+    std::optional<std::size_t> in_world;
+    std::string name;
+  };
+  // `world` may be null (no robot has a body); it and the runtimes outlive the controller. Setup.
+  SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m, double carpet_half_width_m);
+
+  // control::SimControl, from any thread but the simulation thread.
+  control::SimState state() override;
+  control::Outcome pause() override;
+  control::Outcome resume() override;
+  control::Outcome step(uint32_t steps) override;
+  control::Outcome reset() override;
+  control::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
+  control::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
+  control::Outcome ball(double x_m, double y_m) override;
+
+  // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
+  // world advances in this tick (not paused, or a step is running). rt-safe.
+  bool begin_tick() noexcept;
+  // Simulation thread, at the end of every tick: publishes the state every kPublishEveryTicks. rt-safe.
+  void end_tick(int64_t sim_time_ns) noexcept;
+
+ private:
+  // Queues `request` and waits until the simulation thread has carried it out (or `timeout`).
+  using Kind = SimRequestKind;
+  using Request = SimRequest;
+  using RobotSample = SimRobotSample;
+  using Sample = SimSample;
+
+  control::Outcome submit(Request request, std::chrono::milliseconds timeout);
+  void apply(const Request& request) noexcept;
+  void finish(uint64_t sequence, int status) noexcept;
+
+  physics::World* world_;
+  std::vector<Robot> robots_;
+  std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)
+  double carpet_half_length_m_, carpet_half_width_m_;
+
+  std::mutex submit_mutex_;  // request side only
+  uint64_t next_sequence_ = 0;
+  concurrency::SpscQueue<Request, 4> requests_;
+  std::atomic<uint64_t> finished_{0};  // sequence of the last request carried out
+  std::atomic<int> finished_status_{200};
+
+  std::mutex read_mutex_;  // request side only: the snapshot has one reader
+  concurrency::Snapshot<Sample> samples_;
+
+  // Simulation thread.
+  bool paused_ = false;
+  uint64_t steps_left_ = 0;
+  uint64_t step_sequence_ = 0;  // the step request to finish when steps_left_ reaches 0
+  uint64_t pending_sequence_ = 0;  // a request applied in this tick, answered once its state is out
+  int pending_status_ = 200;
+  bool advancing_ = true;       // the world advances in this tick
+  int ticks_ = 0;
+};
+
+}  // namespace doppel::gateway
