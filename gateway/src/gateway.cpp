@@ -77,6 +77,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
+    world_options.solver_iterations = options.solver_iterations;
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
   }
