@@ -279,7 +279,7 @@ std::string Gateway::describe() const {
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
-      << (world_ != nullptr && options_.hold ? ", robots held until their first Torque Enable" : "") << "\n";
+      << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";
   out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
       << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")
       << "; running until SIGINT/SIGTERM\n";

@@ -50,7 +50,8 @@ Options:
                          whose light links carry a heavy trunk need more: op3 stands with 100.
   --no-hold              Release every robot at start. By default a robot is held in its initial
                          pose, as a handler holds a real robot while it powers up, until its
-                         driver first enables torque on one of its servos.
+                         driver has enabled torque on all of its servos (each joint follows its
+                         servo from its Torque Enable on), or 1 s after the first.
   --session FILE         Session file (protobuf text, proto/session.proto): cameras fixed in the
                          field, such as sessions/sideline-camera.textproto (a TV view from the touch
                          line). They stream like the robots' cameras, also with --physics none.
