@@ -73,6 +73,7 @@ void Protocol2Servo::power_on() noexcept {
   apply(at_rest);
   set_register(x430::kGoalPosition, register_value(x430::kPresentPosition));
   set_register(x430::kPositionTrajectory, register_value(x430::kPresentPosition));
+  goal_from_feedback_ = true;
   last_communication_ns_ = now_ns_;
   if ((register_value(x430::kStartupConfiguration) & kStartupTorqueOn) != 0) {
     set_register(x430::kTorqueEnable, 1);
@@ -145,6 +146,9 @@ void Protocol2Servo::after_write(const Table& before, const ItemSet& touched) no
   }
   const bool goal_written = touches(touched, x430::kGoalPosition) || touches(touched, x430::kGoalVelocity) ||
                             touches(touched, x430::kGoalPwm) || touches(touched, x430::kGoalCurrent);
+  if (goal_written) {
+    goal_from_feedback_ = false;
+  }
   if (goal_written && (raw_table()[x430::kDriveMode] & kDriveTorqueOnByGoal) != 0 && hardware_error() == 0) {
     set_register(x430::kTorqueEnable, 1);
   }
@@ -258,6 +262,11 @@ void Protocol2Servo::apply(const ServoFeedback& feedback) noexcept {
   const double dir = direction();
   const int64_t present = std::clamp<int64_t>(present_raw_from_rad(last_position_rad_), INT32_MIN, INT32_MAX);
   set_register(x430::kPresentPosition, present);
+  if (goal_from_feedback_ && std::isfinite(feedback.position_rad)) {
+    set_register(x430::kGoalPosition, present);
+    set_register(x430::kPositionTrajectory, present);
+    goal_from_feedback_ = false;
+  }
   const double velocity = std::isfinite(feedback.velocity_rad_s) ? feedback.velocity_rad_s : 0.0;
   const int64_t velocity_raw = clamp_round(dir * velocity / kVelocityUnitRadS, INT32_MIN, INT32_MAX);
   set_register(x430::kPresentVelocity, velocity_raw);

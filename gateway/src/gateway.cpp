@@ -79,6 +79,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
+    world_options.solver_iterations = options.solver_iterations;
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
   }
@@ -315,7 +316,7 @@ std::string Gateway::describe() const {
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
-      << (world_ != nullptr && options_.hold ? ", robots held until their first Torque Enable" : "") << "\n";
+      << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";
   out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
       << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")
       << "; running until SIGINT/SIGTERM\n";

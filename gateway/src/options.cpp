@@ -46,9 +46,12 @@ Options:
                          no body, and every robot with 'none', move kinematically: joints turn toward
                          their goals at the commanded speed, the IMU lies level, the feet carry the
                          weight evenly.
+  --solver-iterations N  Constraint solver sweeps per physics step (1..1000, default 10). Robots
+                         whose light links carry a heavy trunk need more: op3 stands with 100.
   --no-hold              Release every robot at start. By default a robot is held in its initial
                          pose, as a handler holds a real robot while it powers up, until its
-                         driver first enables torque on one of its servos.
+                         driver has enabled torque on all of its servos (each joint follows its
+                         servo from its Torque Enable on), or 1 s after the first.
   --session FILE         Session file (protobuf text, proto/session.proto): cameras fixed in the
                          field, such as sessions/sideline-camera.textproto (a TV view from the touch
                          line). They stream like the robots' cameras, also with --physics none.
@@ -111,6 +114,7 @@ Options parse_options(int argc, const char* const* argv) {
            options.physics = engine == "none" ? std::nullopt : std::optional(physics::engine_from_name(engine));
          })
       ->check(CLI::IsMember({"ode", "bullet", "none"}));
+  app.add_option("--solver-iterations", options.solver_iterations)->transform(number_in<int>(1, 1000));
   app.add_flag("--no-camera{false}", options.camera);
   app.add_flag("--external-roudi", options.external_roudi);
   app.add_flag("--verbose", options.verbose);

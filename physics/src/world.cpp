@@ -64,6 +64,7 @@ struct World::RobotSlot {
   int first_joint = 0;                // backend index of model link 0
   bool held = false;
   bool release_pending = false;
+  int64_t hand_over_end_step = -1;    // handing over (kUntilTorque) until this step; -1 = not
   std::vector<double> hold_position;  // per link, rad or m
   std::vector<int> link_motor;        // per link: motor slot or -1
   std::vector<double> initial_position;    // per link: the file's initial joint positions
@@ -133,6 +134,9 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
   }
   if (options_.solver_iterations < 1) {
     throw std::invalid_argument("World: solver iterations must be >= 1");
+  }
+  if (!(options_.hold_hand_over_s >= 0.0 && options_.hold_hand_over_s <= 60.0)) {
+    throw std::invalid_argument("World: hold hand-over must be within [0, 60] s");
   }
   step_ns_ = std::llround(options_.step_s * 1e9);
   backend_->init(BackendOptions{options_.gravity_m_s2, options_.solver_iterations, options_.step_s});
@@ -331,9 +335,15 @@ void World::set_motor(MotorHandle motor, const MotorCommand& command) noexcept {
   MotorSlot& slot = motors_[motor.index];
   slot.command = command;
   RobotSlot& robot = robots_[slot.robot];
-  if (command.enabled && robot.held && options_.hold == HoldMode::kUntilTorque) {
-    robot.release_pending = true;
+  if (command.enabled && robot.held && options_.hold == HoldMode::kUntilTorque && robot.hand_over_end_step < 0) {
+    robot.hand_over_end_step = static_cast<int64_t>(steps_) +
+                               static_cast<int64_t>(std::llround(options_.hold_hand_over_s / options_.step_s));
   }
+}
+
+bool World::handed_over(const RobotSlot& robot, size_t link) const noexcept {
+  const int m = robot.link_motor[link];
+  return robot.hand_over_end_step >= 0 && m >= 0 && motors_[static_cast<size_t>(m)].command.enabled;
 }
 
 DriveLaw World::hold_law(double target, double position) const noexcept {
@@ -350,6 +360,7 @@ void World::hold(size_t robot) noexcept {
   }
   slot.held = true;
   slot.release_pending = false;
+  slot.hand_over_end_step = -1;
   backend_->set_pinned(slot.first_body + slot.model.root, true);
 }
 
@@ -360,6 +371,7 @@ void World::release(size_t robot) noexcept {
   RobotSlot& slot = robots_[robot];
   slot.held = false;
   slot.release_pending = false;
+  slot.hand_over_end_step = -1;
   backend_->set_pinned(slot.first_body + slot.model.root, false);
   for (size_t l = 0; l < slot.model.links.size(); ++l) {
     backend_->set_drive(slot.first_joint + static_cast<int>(l), DriveLaw{});
@@ -476,6 +488,13 @@ void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexc
 void World::step() noexcept {
   for (size_t r = 0; r < robots_.size(); ++r) {
     RobotSlot& robot = robots_[r];
+    if (robot.held && robot.hand_over_end_step >= 0) {
+      bool all_on = true;
+      for (const int m : robot.link_motor) {
+        all_on = all_on && (m < 0 || motors_[static_cast<size_t>(m)].command.enabled);
+      }
+      robot.release_pending = all_on || static_cast<int64_t>(steps_) >= robot.hand_over_end_step;
+    }
     if (robot.release_pending) {
       release(r);
     }
@@ -484,6 +503,9 @@ void World::step() noexcept {
     }
     for (size_t l = 0; l < robot.model.links.size(); ++l) {
       const JointType type = robot.model.links[l].type;
+      if (handed_over(robot, l)) {
+        continue;  // its servo drives it
+      }
       if (type == JointType::kRevolute || type == JointType::kPrismatic) {
         const int joint = robot.first_joint + static_cast<int>(l);
         backend_->set_drive(joint, hold_law(robot.hold_position[l], backend_->joint(joint).position));
@@ -491,7 +513,7 @@ void World::step() noexcept {
     }
   }
   for (MotorSlot& m : motors_) {
-    if (robots_[m.robot].held) {
+    if (robots_[m.robot].held && !handed_over(robots_[m.robot], static_cast<size_t>(m.link))) {
       m.law = DriveLaw{};
       continue;
     }

@@ -26,32 +26,48 @@ using testing::p2::write_params;
 TEST(OpenCr, TableIsOpenCrDevice) {
   const P2ModelSpec& spec = p2_model_spec("OPEN-CR");
   struct Row {
+    const char* name;
     uint16_t address;
     uint8_t size;
     Access access;
+    Area area;
     int32_t min, max;
+    bool is_signed;
   };
   constexpr Access R = Access::kRead;
   constexpr Access RW = Access::kReadWrite;
-  // OPEN-CR.device, row by row; 18/20/22 are the firmware's offsets (not in the .device file).
-  const Row rows[] = {{0, 2, R, 0, 65535},       {2, 1, R, 0, 254},          {3, 1, RW, 0, 252},
-                      {4, 1, RW, 0, 252},        {5, 1, RW, 0, 254},         {16, 1, RW, 0, 2},
-                      {18, 2, RW, -32768, 32767}, {20, 2, RW, -32768, 32767}, {22, 2, RW, -32768, 32767},
-                      {24, 1, RW, 0, 1},         {25, 1, RW, 0, 7},          {26, 2, RW, 0, 32767},
-                      {28, 2, RW, 0, 65535},     {30, 1, R, 0, 15},          {31, 1, R, 50, 250},
-                      {32, 2, R, -32800, 32800}, {34, 2, R, -32800, 32800},  {36, 2, R, -32800, 32800},
-                      {38, 2, R, -32768, 32768}, {40, 2, R, -32768, 32768},  {42, 2, R, -32768, 32768},
-                      {44, 2, R, 0, 4096},       {46, 2, R, 0, 4096},        {48, 2, R, 0, 4096},
-                      {50, 1, RW, 0, 255}};
+  constexpr Area E = Area::kEeprom;
+  constexpr Area M = Area::kRam;
+  // ROBOTIS-GIT/ROBOTIS-Framework commit 288e048, robotis_device/devices/sensor/OPEN-CR.device,
+  // row by row: addr | item name | length | access | memory | min | max | signed. 18/20/22 are the
+  // firmware's offsets (ROBOTIS-GIT/OpenCR dxl_node_op3.h, EEPROM), not in the .device file.
+  const Row rows[] = {
+      {"model_number", 0, 2, R, E, 0, 65535, false},         {"version_of_firmware", 2, 1, R, E, 0, 254, false},
+      {"ID", 3, 1, RW, E, 0, 252, false},                    {"baudrate", 4, 1, RW, E, 0, 252, false},
+      {"return_delay_time", 5, 1, RW, E, 0, 254, false},     {"status_return_level", 16, 1, RW, E, 0, 2, false},
+      {"roll_offset", 18, 2, RW, E, -32768, 32767, true},    {"pitch_offset", 20, 2, RW, E, -32768, 32767, true},
+      {"yaw_offset", 22, 2, RW, E, -32768, 32767, true},     {"dynamixel_power", 24, 1, RW, M, 0, 1, false},
+      {"LED", 25, 1, RW, M, 0, 7, false},                    {"LED_RGB", 26, 2, RW, M, 0, 32767, false},
+      {"buzzer", 28, 2, RW, M, 0, 65535, false},             {"button", 30, 1, R, M, 0, 15, false},
+      {"present_voltage", 31, 1, R, M, 50, 250, false},      {"gyro_x", 32, 2, R, M, -32800, 32800, true},
+      {"gyro_y", 34, 2, R, M, -32800, 32800, true},          {"gyro_z", 36, 2, R, M, -32800, 32800, true},
+      {"acc_x", 38, 2, R, M, -32768, 32768, true},           {"acc_y", 40, 2, R, M, -32768, 32768, true},
+      {"acc_z", 42, 2, R, M, -32768, 32768, true},           {"roll", 44, 2, R, M, 0, 4096, false},
+      {"pitch", 46, 2, R, M, 0, 4096, false},                {"yaw", 48, 2, R, M, 0, 4096, false},
+      {"imu_control", 50, 1, RW, M, 0, 255, false}};
   ASSERT_EQ(spec.registers.size(), std::size(rows));
   for (std::size_t i = 0; i < std::size(rows); ++i) {
     const P2RegisterSpec& r = spec.registers[i];
+    EXPECT_EQ(r.name, rows[i].name) << "row " << i;
     EXPECT_EQ(r.address, rows[i].address) << r.name;
     EXPECT_EQ(r.size, rows[i].size) << r.name;
     EXPECT_EQ(r.access, rows[i].access) << r.name;
+    EXPECT_EQ(r.area, rows[i].area) << r.name;
     EXPECT_EQ(r.min_raw, rows[i].min) << r.name;
     EXPECT_EQ(r.max_raw, rows[i].max) << r.name;
+    EXPECT_EQ(r.is_signed, rows[i].is_signed) << r.name;
   }
+  EXPECT_EQ(spec.table_bytes, 51u);  // the last item, imu_control, is the byte at 50
   EXPECT_EQ(spec.model_number, 0x7400);  // DXL_NODE_OP3_MODLE_NUMBER
   EXPECT_EQ(spec.default_id, 200);
   EXPECT_EQ(p2_baud_bps(spec.default_baud_raw), 2'000'000u);  // OP3.robot: 2 000 000 baud

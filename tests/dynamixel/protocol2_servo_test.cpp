@@ -155,6 +155,34 @@ TEST_F(XmServo, ReservedBytesInsideTheTableReadZero) {
   EXPECT_EQ(read(13, 8), status(1, 0, {2, 0, 0, 0, 0, 0, 0, 0}));  // Protocol Type, 14..19 reserved, Homing 20
 }
 
+// The firmware reads its encoder at boot: Goal Position starts at the present position, so
+// enabling the torque holds a joint where it stands. In Doppel the body's initial pose arrives
+// with the first measurement after power-on (a robot file's initial_deg).
+TEST_F(XmServo, GoalStartsAtTheFirstMeasuredPosition) {
+  ServoFeedback standing;
+  standing.position_rad = -64.3 * 3.14159265358979 / 180.0;  // -731.6 units from 2048
+  standing.voltage_v = 12.0;
+  sut.apply(standing);
+  EXPECT_EQ(sut.register_value(x430::kPresentPosition), 1316);
+  EXPECT_EQ(sut.register_value(x430::kGoalPosition), 1316);
+  ASSERT_EQ(write(x430::kTorqueEnable, 1, 1), status(1, 0));
+  EXPECT_NEAR(sut.command().goal_position_rad, standing.position_rad, 0.002);
+  // Only the first measurement: later ones leave the goal alone.
+  standing.position_rad = 0.0;
+  sut.apply(standing);
+  EXPECT_EQ(sut.register_value(x430::kGoalPosition), 1316);
+}
+
+TEST(XSeriesModels, AGoalWrittenBeforeTheFirstMeasurementWins) {
+  Protocol2Servo xm(p2_model_spec("XM430-W350"), 1, 3, 0);
+  ASSERT_EQ(transact(xm, instruction(1, instruction::kWrite, write_params(x430::kGoalPosition, 3000, 4))), status(1, 0));
+  ServoFeedback at;
+  at.position_rad = 0.5;
+  at.voltage_v = 12.0;
+  xm.apply(at);
+  EXPECT_EQ(xm.register_value(x430::kGoalPosition), 3000);
+}
+
 TEST_F(XmServo, AlertBitWhileAHardwareErrorIsLatched) {
   ServoFeedback hot;
   hot.position_rad = 0.0;

@@ -115,11 +115,20 @@ TEST(Options, SessionFileIsTakenAndMustBeNamed) {
   EXPECT_THROW(parse({"--session", ""}), std::invalid_argument);
 }
 
+TEST(Options, SolverIterationsAreANumberFrom1To1000) {
+  EXPECT_EQ(parse({}).solver_iterations, 10);  // physics::WorldOptions' default (docs/physics.md)
+  EXPECT_EQ(parse({"--solver-iterations", "100"}).solver_iterations, 100);
+  EXPECT_THROW(parse({"--solver-iterations", "0"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--solver-iterations", "1001"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--solver-iterations", "many"}), std::invalid_argument);
+}
+
 TEST(Options, HelpDocumentsEveryOption) {
   std::string text = usage();
   for (const char* option : {"--robot", "--link-dir", "--timing", "--processing-us", "--latency-timer",
                              "--robots-dir", "--rt-priority", "--list-robots", "--help", "ttyDXL0", "robot<r>/ttyDXL<b>",
-                             "--session", "--no-camera", "--external-roudi", "--allow-shared-link-dir", "--verbose"}) {
+                             "--session", "--no-camera", "--external-roudi", "--allow-shared-link-dir", "--verbose",
+                             "--solver-iterations"}) {
     EXPECT_NE(text.find(option), std::string::npos) << option;
   }
 }

@@ -69,6 +69,45 @@ TEST_P(HumanoidTest, IsHeldUprightUntilItsDriverEnablesTorque) {
   }
 }
 
+// A driver that switches its servos on one at a time (ROBOTIS' robotis_controller: 20 ms apart
+// here): the handler hands the robot over joint by joint and lets go when the last has torque.
+TEST_P(HumanoidTest, IsHandedOverJointByJointWhileItsDriverEnablesTheServosOneByOne) {
+  auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
+  DrivenRobot driven(*world, 0);
+  const double start_height = world->center_of_mass(0).z();
+  for (size_t i = 0; i < driven.size(); ++i) {
+    driven.command(i).torque_enabled = true;
+    driven.run(0.02);
+    EXPECT_EQ(world->held(0), i + 1 < driven.size()) << i;
+  }
+  driven.run(1.0);
+  EXPECT_FALSE(world->held(0));
+  EXPECT_GT(world->center_of_mass(0).z(), start_height - 0.01);  // standing, not sagged
+  for (size_t i = 0; i < driven.size(); ++i) {
+    EXPECT_NEAR(world->link_position(0, static_cast<size_t>(driven.link(i))),
+                world->robot(0).links[static_cast<size_t>(driven.link(i))].initial, 3.0 * kDeg)
+        << world->robot(0).links[static_cast<size_t>(driven.link(i))].name;
+  }
+}
+
+// One servo on and no more: its joint follows it at once; the handler lets go 1 s later
+// (WorldOptions::hold_hand_over_s) and the limp rest of the robot collapses.
+TEST_P(HumanoidTest, LetsGoTheHandOverTimeAfterTheFirstServoWhenTheOthersStayOff) {
+  auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
+  DrivenRobot driven(*world, 0);
+  const double start_height = world->center_of_mass(0).z();
+  const int link = driven.link(0);
+  const double initial = world->robot(0).links[static_cast<size_t>(link)].initial;
+  driven.command(0).torque_enabled = true;
+  driven.command(0).goal_position_rad = world->motor(driven.handle(0)).position_rad + 0.3;
+  driven.run(0.9);
+  EXPECT_TRUE(world->held(0));
+  EXPECT_GT(std::abs(world->link_position(0, static_cast<size_t>(link)) - initial), 0.2);
+  driven.run(2.2);
+  EXPECT_FALSE(world->held(0));
+  EXPECT_LT(world->center_of_mass(0).z(), 0.7 * start_height);
+}
+
 TEST_P(HumanoidTest, LoadCellsCarryTheWeightWhenStandingStill) {
   auto world = make_world(GetParam(), {shipped_robot("fumanoid-2011")});
   DrivenRobot driven(*world, 0);

@@ -274,7 +274,7 @@ INSTANTIATE_TEST_SUITE_P(
     [](const ::testing::TestParamInfo<BadFile>& param) { return std::string(param.param.what); });
 
 TEST(RobotModelTest, ShippedRobotsPassValidation) {
-  for (const char* name : {"fumanoid-2011", "fumanoid-pitch"}) {
+  for (const char* name : {"fumanoid-2011", "fumanoid-pitch", "op3"}) {
     EXPECT_NO_THROW(validate_body(proto::RobotFile::load(robot_path(name)), doppel::body::motor_catalog())) << name;
   }
 }

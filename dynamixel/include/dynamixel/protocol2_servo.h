@@ -67,6 +67,10 @@ class Protocol2Servo final : public Protocol2Device, public SimulatedServo {
   int64_t last_communication_ns_ = 0;     // last packet that concerned this servo (Bus Watchdog)
   double watchdog_hold_rad_ = 0.0;        // where the servo stopped when the watchdog tripped
   double time_based_speed_rad_s_ = 0.0;   // Drive Mode bit 2: speed that reaches the goal in Profile Velocity ms
+  // Set at power-on: the first measured position (the body's initial pose) also becomes Goal
+  // Position and Position Trajectory, as the firmware reads its encoder at boot; a goal written
+  // before that measurement arrives wins.
+  bool goal_from_feedback_ = false;
 };
 
 }  // namespace doppel::dynamixel

@@ -34,7 +34,7 @@
 namespace doppel::physics {
 
 enum class HoldMode : uint8_t {
-  kUntilTorque,  // held until the robot's first servo gets Torque Enable (default)
+  kUntilTorque,  // held until its driver has switched its servos on (default; WorldOptions::hold_hand_over_s)
   kReleased,     // free from the first step (a limp robot falls)
 };
 
@@ -62,6 +62,12 @@ struct WorldOptions {
   double ambient_c = 25.0;         // start and ambient temperature of the motors
   HoldMode hold = HoldMode::kUntilTorque;
   double hold_torque_nm = 50.0;    // how hard the handler holds each joint
+  // kUntilTorque: from the first Torque Enable the handler hands the robot over joint by joint
+  // (a joint whose servo has torque follows its servo, the others stay held, the trunk stays
+  // pinned) and lets go when every servo of the robot has torque or this long after the first,
+  // as a driver that enables its servos one at a time (ROBOTIS' robotis_controller) needs.
+  // 0 = let go at the first Torque Enable.
+  double hold_hand_over_s = 1.0;
   double imu_accel_filter_s = 0.005;  // accelerometer low-pass time constant (a MEMS part's
                                       // anti-alias filter, about 30 Hz); 0 = raw finite difference
   int solver_iterations = 10;      // constraint solver sweeps per step (docs/physics.md: why 10)
@@ -205,6 +211,8 @@ class World {
   void set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noexcept;
   void update_sensors() noexcept;
   DriveLaw hold_law(double target, double position) const noexcept;
+  // While a held robot is handed over: link `link` follows its servo, which has torque.
+  bool handed_over(const RobotSlot& robot, size_t link) const noexcept;
 
   std::unique_ptr<Backend> backend_;
   WorldOptions options_;
