@@ -441,6 +441,7 @@ void World::reset_robot(size_t robot) noexcept {
   RobotSlot& slot = robots_[robot];
   slot.push_steps = 0;
   slot.release_pending = false;
+  slot.hand_over_end_step = -1;
   slot.held = options_.hold == HoldMode::kUntilTorque;
   if (!slot.held) {
     release(robot);
