@@ -73,7 +73,9 @@ TEST(DarwinOp, IsListed) {
 // every joint, then every 8 ms one SYNC WRITE of the walk-ready goals at Walking's gains (the head
 // panning +-20 deg, as Head's tracking moves it) and one BULK READ. The body stands throughout.
 TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
-  DoppelProcess doppel({"--robot", "darwin-op", "--timing", "wire"});
+  // Bullet: on ODE this body, standing on P-only servos, starts to rock sideways after about 30 s
+  // and falls at 40-50 s (docs/devices.md, DARwIn-OP body); on Bullet it stands the whole minute.
+  DoppelProcess doppel({"--robot", "darwin-op", "--timing", "wire", "--physics", "bullet"});
   SerialClient client(doppel.link(), kBaud);
 
   // Power-on: Dynamixel Power is 0, so the MX-28s and the FSR boards have no supply.
@@ -91,34 +93,34 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   ASSERT_EQ(client.transact(p1_instruction(kRightFsr, kPing), 6), status(kRightFsr, 0));
 
   // MotionManager::Initialize() reads every joint's Present Position: the held robot stands in the
-  // file's initial pose, the walk-ready pose.
+  // file's initial pose, the walk-ready pose, the arms up to 3 deg lower under the handler's finite
+  // grip (darwin_op_physics_test.cpp, HeldUntilTheDriverPowersAndEnablesIt).
   for (uint8_t id = 1; id <= kServoCount; ++id) {
-    const uint16_t v = kWalkReady[id];
-    EXPECT_EQ(client.transact(p1_instruction(id, kRead, {kPresentPosition, 2}), 8),
-              status(id, 0, {static_cast<uint8_t>(v & 0xFF), static_cast<uint8_t>(v >> 8)}))
-        << int(id);
+    const Bytes reply = client.transact(p1_instruction(id, kRead, {kPresentPosition, 2}), 8);
+    ASSERT_EQ(reply.size(), 8u) << int(id);
+    EXPECT_EQ(reply, status(id, 0, {reply[5], reply[6]})) << int(id);
+    EXPECT_NEAR(word_at(reply, 5), kWalkReady[id], id <= 6 ? 34 : 7) << int(id);
   }
 
   // One BULK READ of the held robot: its trunk is pinned in the walk-ready lean, so the CM-730
-  // reads zero rate and gravity alone, byte for byte: ACC Y = 512 - 128 sin(12.92 deg) = 483,
-  // ACC Z = 512 + 128 cos(12.92 deg) = 637.
+  // reads zero rate and gravity alone: Gyro 512, ACC X 512, ACC Y = 512 - 128 sin(12.92 deg) = 483,
+  // ACC Z = 512 + 128 cos(12.92 deg) = 637, each within a count (the pinned trunk trembles with the
+  // feet's contacts); every other byte exactly.
   const Bytes bulk_read = framework_bulk_read();
   {
-    const Bytes reply = client.transact(bulk_read, kBulkReplyBytes, 100);
+    const Bytes reply = client.transact(bulk_read, kBulkReplyBytes, 1000);
     const auto statuses = parse_p1_statuses(reply);
     ASSERT_TRUE(statuses && statuses->size() == 3u) << reply.size() << " bytes";
     const double lean = kLeanDeg * M_PI / 180.0;
-    Bytes cm(30, 0);
-    cm[0] = 1;
-    for (std::size_t address : {38u, 40u, 42u, 44u}) cm[address - 24 + 1] = 0x02;  // gyro Z, Y, X, ACC X: 512
-    const uint16_t acc_y = accel_counts(-std::sin(lean)), acc_z = accel_counts(std::cos(lean));
-    EXPECT_EQ(acc_y, 483);
-    EXPECT_EQ(acc_z, 637);
-    cm[46 - 24] = static_cast<uint8_t>(acc_y & 0xFF), cm[47 - 24] = static_cast<uint8_t>(acc_y >> 8);
-    cm[48 - 24] = static_cast<uint8_t>(acc_z & 0xFF), cm[49 - 24] = static_cast<uint8_t>(acc_z >> 8);
-    cm[50 - 24] = 120;
+    EXPECT_EQ(accel_counts(-std::sin(lean)), 483);
+    EXPECT_EQ(accel_counts(std::cos(lean)), 637);
     EXPECT_EQ((*statuses)[0].id, kCm730);
-    EXPECT_EQ((*statuses)[0].params, cm);
+    const Bytes& cm = (*statuses)[0].params;
+    EXPECT_TRUE(cm730_block_ok(cm));
+    const int at_rest[6] = {512, 512, 512, 512, accel_counts(-std::sin(lean)), accel_counts(std::cos(lean))};
+    for (std::size_t k = 0; k < 6 && cm.size() == 30u; ++k) {
+      EXPECT_NEAR(word_at(cm, kGyroZ - 24 + 2 * k), at_rest[k], 1) << "address " << kGyroZ + 2 * k;
+    }
     double load_n = 0.0;
     EXPECT_EQ((*statuses)[1].id, kLeftFsr);
     EXPECT_TRUE(fsr_block_ok((*statuses)[1].params, load_n));
@@ -133,6 +135,7 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   int overruns = 0;      // cycles whose SYNC WRITE + BULK READ took longer than 8 ms
   int late_starts = 0;   // cycles that started late because the one before ran past its slot
   double last_feet_n = 0.0;
+  int first_low_cycle = -1;  // the first cycle whose feet carry less than half the weight
   std::vector<double> cycle_ms;
   cycle_ms.reserve(kCycles);
   std::array<uint16_t, kServoCount + 1> goal = kWalkReady;
@@ -142,7 +145,9 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
     goal[19] = static_cast<uint16_t>(2048 + std::lround(227.6 * std::sin(2.0 * M_PI * cycle * 0.008 / 4.0)));
     const auto start = std::chrono::steady_clock::now();
     client.send(framework_sync_write(goal));
-    const Bytes reply = client.transact(bulk_read, kBulkReplyBytes, 100);
+    // A reply later than 8 ms is an overrun, counted below, not an error: the machine may stall the
+    // test for a while (load 5-8), so only a reply missing after 1 s counts as lost.
+    const Bytes reply = client.transact(bulk_read, kBulkReplyBytes, 1000);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     cycle_ms.push_back(ms);
     if (ms > kPeriodMs) ++overruns;
@@ -161,6 +166,10 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
       ADD_FAILURE() << "cycle " << cycle << ": " << reply.size() << " bytes, not a valid answer to the BULK READ";
     } else {
       last_feet_n = left_n + right_n;
+      // From 2 s on (the first cycles still see the held robot, its trunk pinned).
+      if (cycle >= 250 && first_low_cycle < 0 && last_feet_n < 0.5 * kRobotMassKg * kStandardGravity) {
+        first_low_cycle = cycle;
+      }
     }
     next += kPeriod;
     const auto now = std::chrono::steady_clock::now();
@@ -175,7 +184,8 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   EXPECT_EQ(errors, 0);
   // After 60 s of the cycle the robot still stands on its feet.
   const double weight_n = kRobotMassKg * kStandardGravity;
-  EXPECT_NEAR(last_feet_n, weight_n, 0.05 * weight_n);
+  EXPECT_NEAR(last_feet_n, weight_n, 0.1 * weight_n);
+  EXPECT_EQ(first_low_cycle, -1) << "the feet lost their load";
 
   std::vector<double> sorted = cycle_ms;
   std::sort(sorted.begin(), sorted.end());
