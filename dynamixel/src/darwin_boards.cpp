@@ -40,8 +40,9 @@ Cm730::Cm730(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw)
 
 void Cm730::apply(const ImuFeedback& feedback) noexcept {
   const double g_per_ms2 = 1.0 / kStandardGravityMS2;
-  set_register(cm730::kGyroX, ten_bit(feedback.w_WS_S_rad_s[0] * kRadToDeg, kGyroDegSPerCount));
-  set_register(cm730::kGyroY, ten_bit(feedback.w_WS_S_rad_s[1] * kRadToDeg, kGyroDegSPerCount));
+  // The gyro's axes are the accelerometer's turned 90 deg about z: X = -y(S), Y = x(S), Z = z(S).
+  set_register(cm730::kGyroX, ten_bit(-feedback.w_WS_S_rad_s[1] * kRadToDeg, kGyroDegSPerCount));
+  set_register(cm730::kGyroY, ten_bit(feedback.w_WS_S_rad_s[0] * kRadToDeg, kGyroDegSPerCount));
   set_register(cm730::kGyroZ, ten_bit(feedback.w_WS_S_rad_s[2] * kRadToDeg, kGyroDegSPerCount));
   set_register(cm730::kAccelX, ten_bit(feedback.a_WS_S_m_s2[0] * g_per_ms2, kAccelGPerCount));
   set_register(cm730::kAccelY, ten_bit(feedback.a_WS_S_m_s2[1] * g_per_ms2, kAccelGPerCount));

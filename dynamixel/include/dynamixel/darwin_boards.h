@@ -26,8 +26,10 @@ class Cm730 final : public Protocol1Device, public SimulatedController {
 
   // Throws std::invalid_argument for out-of-range register values. Setup only.
   Cm730(uint8_t id, uint8_t baud_raw, uint8_t return_delay_raw);
-  // Gyro X/Y/Z = w_WS_S (x, y, z) and ACC X/Y/Z = a_WS_S in the board's frame S; saturate at 0 and
-  // 1023. rt-safe.
+  // S is the accelerometer's frame (on the robot: x right, y forward, z up): ACC X/Y/Z = a_WS_S
+  // (x, y, z). The gyro's axes are turned 90 deg about z (x back, y right, z up): Gyro X = -w_WS_S.y,
+  // Gyro Y = w_WS_S.x, Gyro Z = w_WS_S.z (docs/devices.md, CM-730 axes). Saturate at 0 and 1023.
+  // rt-safe.
   void apply(const ImuFeedback& feedback) noexcept override;
   // Present Voltage = supply_v in 0.1 V. rt-safe.
   void apply(const PowerFeedback& feedback) noexcept override;
