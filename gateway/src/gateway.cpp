@@ -79,7 +79,10 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
-    world_options.solver_iterations = options.solver_iterations;
+    int files_sweeps = 0;
+    for (const RobotConfig& config : configs) files_sweeps = std::max(files_sweeps, config.solver_iterations.value_or(0));
+    world_options.solver_iterations =
+        options.solver_iterations.value_or(files_sweeps > 0 ? files_sweeps : world_options.solver_iterations);
     world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
                                               std::move(placements), world_options);
   }

@@ -46,8 +46,9 @@ Options:
                          no body, and every robot with 'none', move kinematically: joints turn toward
                          their goals at the commanded speed, the IMU lies level, the feet carry the
                          weight evenly.
-  --solver-iterations N  Constraint solver sweeps per physics step (1..1000, default 10). Robots
-                         whose light links carry a heavy trunk need more: op3 stands with 100.
+  --solver-iterations N  Constraint solver sweeps per physics step (1..1000). Default: the largest
+                         a robot file asks for (op3: 100, its light links carry a heavy trunk),
+                         else 10.
   --no-hold              Release every robot at start. By default a robot is held in its initial
                          pose, as a handler holds a real robot while it powers up, until its
                          driver has enabled torque on all of its servos (each joint follows its

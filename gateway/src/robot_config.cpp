@@ -398,6 +398,14 @@ RobotConfig check_robot(const proto::RobotFile& file) {
   if (robot.has_figure()) {
     config.body = physics::compile_robot(file, body::motor_catalog());
     config.cameras = check_cameras(file, *config.body);
+    if (robot.figure().has_solver_iterations()) {
+      const uint32_t sweeps = robot.figure().solver_iterations();
+      if (sweeps < 1 || sweeps > kMaxSolverIterations) {
+        file.fail(robot.figure(), "solver_iterations", -1,
+                  "must be within 1.." + std::to_string(kMaxSolverIterations) + ", got " + std::to_string(sweeps));
+      }
+      config.solver_iterations = static_cast<int>(sweeps);
+    }
   }
   return config;
 }

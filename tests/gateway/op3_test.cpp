@@ -96,7 +96,7 @@ OpenCrBlock decode(const Bytes& b) {
   return o;
 }
 
-// Every run passes --solver-iterations 100: the OP3's light links need it to stand (tests/physics/op3_test.cpp).
+// The robot file asks for 100 solver sweeps: the OP3's light links need them to stand (tests/physics/op3_test.cpp).
 class Op3Bus {
  public:
   explicit Op3Bus(std::vector<std::string> args) : doppel_(std::move(args)), client_(doppel_.link(), kBaud) {}
@@ -202,7 +202,7 @@ TEST(Op3, CameraIsTheC920AsTheStackOpensIt) {
 // (b) Held in its initial pose until the stack enables torque: the servos read the ready pose in
 // the stack's units (2048 = 0 rad, + = the URDF axis), nothing moves, the OpenCR lies level.
 TEST(Op3, HeldInTheReadyPoseUntilTheStackEnablesTorque) {
-  Op3Bus bus({"--robot", "op3", "--solver-iterations", "100", "--timing", "fast"});
+  Op3Bus bus({"--robot", "op3", "--timing", "fast"});
   std::vector<int32_t> initial;
   for (const Joint& j : kJoints) {
     initial.push_back(bus.present_position(j.id));
@@ -236,7 +236,7 @@ TEST(Op3, HeldInTheReadyPoseUntilTheStackEnablesTorque) {
 class Op3Stands : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(Op3Stands, AtTheStackGainsAndTheOpenCrReadsItAtRest) {
-  Op3Bus bus({"--robot", "op3", "--physics", GetParam(), "--solver-iterations", "100", "--timing", "fast"});
+  Op3Bus bus({"--robot", "op3", "--physics", GetParam(), "--timing", "fast"});
   bus.start_like_the_stack();
   bus.wait_sim_time(3.0);
   for (const Joint& j : kJoints) {
@@ -280,7 +280,7 @@ double percentile(std::vector<double> v, double p) {
 // (c) The stack's cycle for 60 s in wire mode with physics (ODE): one BULK READ and one SYNC WRITE
 // every 8 ms. The head pans +-200 units (17.6 deg) in a 2 s sine; the other joints hold.
 TEST(Op3, StackCycleOfEightMillisecondsForSixtySecondsInWireMode) {
-  Op3Bus bus({"--robot", "op3", "--solver-iterations", "100", "--timing", "wire"});
+  Op3Bus bus({"--robot", "op3", "--timing", "wire"});
   bus.start_like_the_stack();
   std::array<int32_t, kJoints.size()> hold{};
   for (std::size_t i = 0; i < kJoints.size(); ++i) hold[i] = bus.present_position(kJoints[i].id);

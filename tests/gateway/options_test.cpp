@@ -116,7 +116,7 @@ TEST(Options, SessionFileIsTakenAndMustBeNamed) {
 }
 
 TEST(Options, SolverIterationsAreANumberFrom1To1000) {
-  EXPECT_EQ(parse({}).solver_iterations, 10);  // physics::WorldOptions' default (docs/physics.md)
+  EXPECT_FALSE(parse({}).solver_iterations.has_value());  // the robot files', else physics::WorldOptions' 10
   EXPECT_EQ(parse({"--solver-iterations", "100"}).solver_iterations, 100);
   EXPECT_THROW(parse({"--solver-iterations", "0"}), std::invalid_argument);
   EXPECT_THROW(parse({"--solver-iterations", "1001"}), std::invalid_argument);

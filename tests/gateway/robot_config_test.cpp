@@ -267,3 +267,21 @@ TEST(RobotCameras, BadSettingsNameFileLineAndField) {
 
 }  // namespace
 }  // namespace doppel::gateway
+
+namespace doppel::gateway {
+namespace {
+
+// A robot file may ask for more constraint-solver sweeps; the OP3's does (its light links).
+TEST(RobotConfig, AFigureMayAskForSolverSweepsWithinRange) {
+  EXPECT_EQ(load_robot("op3", DOPPEL_ROBOTS_DIR).solver_iterations, 100);
+  EXPECT_FALSE(load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR).solver_iterations.has_value());
+  const std::string figure =
+      "name: \"r\"\nbus { baud_bps: 1000000 protocol: PROTOCOL_1 }\nfigure {\n  solver_iterations: 0\n"
+      "  body { name: \"b\" shape { box { size_m { x: 0.1 y: 0.1 z: 0.1 } } } mass_kg: 1 }\n}\n";
+  const std::string error = error_of(figure);
+  EXPECT_NE(error.find("robots/bad.textproto:4:"), std::string::npos) << error;
+  EXPECT_NE(error.find("solver_iterations: must be within 1..1000, got 0"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace doppel::gateway

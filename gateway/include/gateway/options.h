@@ -25,7 +25,9 @@ struct Options {
   int rt_priority = 0;                   // SCHED_FIFO priority of the bus threads, 0 = normal scheduling
   // --physics ode|bullet|none: engine of the robots' bodies; nullopt (none) = every robot kinematic
   std::optional<physics::Engine> physics = physics::Engine::kOde;
-  int solver_iterations = 10;            // --solver-iterations: constraint solver sweeps per physics step
+  // --solver-iterations: constraint solver sweeps per physics step; unset = the largest a robot file
+  // asks for (figure.solver_iterations), else physics::WorldOptions' default (10)
+  std::optional<int> solver_iterations;
   bool hold = true;                      // a handler holds each robot until its first Torque Enable
   bool camera = true;                    // --no-camera: stream no camera
   bool verbose = false;                  // --verbose: also print iceoryx's own log lines

@@ -52,6 +52,8 @@ struct CameraSetup {
   std::size_t body = 0;         // index of the body in RobotModel::bodies
 };
 
+inline constexpr uint32_t kMaxSolverIterations = 1000;
+
 struct RobotConfig {
   std::string name;                              // robot name from the file
   std::string description;                       // its one line for humans (may be empty)
@@ -59,6 +61,7 @@ struct RobotConfig {
   std::vector<BusConfig> buses;                  // in port order
   std::optional<physics::RobotModel> body;       // the figure, when the file describes one
   std::vector<CameraSetup> cameras;              // its cameras (figure camera mounts), in file order
+  std::optional<int> solver_iterations;          // figure.solver_iterations, when the file sets it
 };
 
 // A camera fixed in the field, from a session file.
