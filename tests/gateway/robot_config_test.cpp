@@ -276,7 +276,7 @@ TEST(RobotConfig, AFigureMayAskForSolverSweepsWithinRange) {
   EXPECT_EQ(load_robot("op3", DOPPEL_ROBOTS_DIR).solver_iterations, 100);
   EXPECT_FALSE(load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR).solver_iterations.has_value());
   const std::string figure =
-      "name: \"r\"\nbus { baud_bps: 1000000 protocol: PROTOCOL_1 }\nfigure {\n  solver_iterations: 0\n"
+      "name: \"r\"\nbus { baud_bps: 1000000 protocol: PROTOCOL_1 device { id: 1 model: \"RX-28\" } }\nfigure {\n  solver_iterations: 0\n"
       "  body { name: \"b\" shape { box { size_m { x: 0.1 y: 0.1 z: 0.1 } } } mass_kg: 1 }\n}\n";
   const std::string error = error_of(figure);
   EXPECT_NE(error.find("robots/bad.textproto:4:"), std::string::npos) << error;
