@@ -327,6 +327,16 @@ class OdeBackend final : public Backend {
       case ShapeType::kSphere: return dCreateSphere(space_, s.size_m.x());
       case ShapeType::kCylinder: return dCreateCylinder(space_, s.size_m.x(), s.size_m.y());
       case ShapeType::kCapsule: return dCreateCapsule(space_, s.size_m.x(), s.size_m.y());
+      case ShapeType::kConvex: {
+        // ODE keeps pointers into the arrays: the hull stays alive with the backend.
+        static_assert(sizeof(dReal) == sizeof(double) && sizeof(Eigen::Vector3d) == 3 * sizeof(double) &&
+                          sizeof(Eigen::Vector4d) == 4 * sizeof(double),
+                      "ConvexHull's arrays are passed to dCreateConvex as they are");
+        hulls_.push_back(s.hull);
+        const ConvexHull& h = *s.hull;
+        return dCreateConvex(space_, h.planes.front().data(), static_cast<unsigned>(h.face_count),
+                             h.vertices.front().data(), static_cast<unsigned>(h.vertices.size()), h.polygons.data());
+      }
       case ShapeType::kRing: return nullptr;
     }
     return nullptr;
@@ -389,6 +399,7 @@ class OdeBackend final : public Backend {
   double step_s_ = 0.001;
   unsigned long seed_ = 0;
   std::vector<dBodyID> bodies_;
+  std::vector<std::shared_ptr<const ConvexHull>> hulls_;  // arrays that dCreateConvex geoms point into
   std::vector<dJointID> pins_;
   std::vector<Joint> joints_;
   std::vector<std::unique_ptr<GeomInfo>> infos_;
