@@ -2,6 +2,9 @@
 
 #include <LinearMath/btConvexHullComputer.h>
 
+#include <Eigen/Geometry>
+#include <algorithm>
+
 #include <stdexcept>
 #include <string>
 
@@ -22,10 +25,21 @@ std::shared_ptr<const ConvexHull> convex_hull(const std::vector<Eigen::Vector3d>
   btConvexHullComputer computer;
   computer.compute(coords.data(), 3 * static_cast<int>(sizeof(double)), static_cast<int>(points.size()), 0.0, 0.0);
   auto hull = std::make_shared<ConvexHull>();
+  // The computer works on integer coordinates and hands back vertices off by up to 1e-4 of the
+  // extent; every hull vertex is an input point, so each is replaced by the input point nearest it.
   for (int i = 0; i < computer.vertices.size(); ++i) {
-    const btVector3& v = computer.vertices[i];
-    hull->vertices.emplace_back(v.x(), v.y(), v.z());
-    hull->half_extents = hull->half_extents.cwiseMax(hull->vertices.back().cwiseAbs());
+    const Eigen::Vector3d v(computer.vertices[i].x(), computer.vertices[i].y(), computer.vertices[i].z());
+    const Eigen::Vector3d* nearest = &points.front();
+    double best = (v - *nearest).squaredNorm();
+    for (const Eigen::Vector3d& p : points) {
+      const double d = (v - p).squaredNorm();
+      if (d < best) {
+        best = d;
+        nearest = &p;
+      }
+    }
+    hull->vertices.push_back(*nearest);
+    hull->half_extents = hull->half_extents.cwiseMax(nearest->cwiseAbs());
   }
   const double scale = std::max(box.sizes().maxCoeff(), 1e-12);
   if (computer.faces.size() < 4) {

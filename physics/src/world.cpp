@@ -144,7 +144,7 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
   }
   if (options_.ball.present) {
     const BallOptions& ball = options_.ball;
-    const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}};
+    const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}, nullptr};
     BodyDesc desc;
     desc.shapes = &sphere;
     desc.shape_count = 1;

@@ -7,6 +7,7 @@
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <assimp/Importer.hpp>
@@ -38,7 +39,9 @@ class Messages : public console_bridge::OutputHandler {
   Messages(const Messages&) = delete;
   Messages& operator=(const Messages&) = delete;
   void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_WARN) text_ += (text_.empty() ? "" : "; ") + text;
+    // urdfdom logs some errors and goes on without the element (an unknown geometry drops its
+    // <collision>): any error refuses the file.
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) text_ += (text_.empty() ? "" : "; ") + text;
   }
   const std::string& text() const { return text_; }
 
@@ -166,7 +169,7 @@ class Importer {
     }
     Messages messages;
     model_ = ::urdf::parseURDF(xml_);
-    if (!model_) {
+    if (!model_ || !messages.text().empty()) {
       fail("file", "not a valid URDF: " + (messages.text().empty() ? std::string("urdfdom gives no reason") : messages.text()));
     }
     if (!model_->getRoot()) {
