@@ -256,9 +256,9 @@ inline Eigen::Vector3f normal_C(const Prim& p, const Eigen::Vector3f& d, float t
       float best = -kInf;
       for (const Eigen::Vector4d& plane : p.hull->planes) {
         const Eigen::Vector3f np = plane.head<3>().cast<float>();
-        const float d = np.dot(q) - static_cast<float>(plane.w());
-        if (d > best) {
-          best = d;
+        const float outside = np.dot(q) - static_cast<float>(plane.w());
+        if (outside > best) {
+          best = outside;
           n = np;
         }
       }
