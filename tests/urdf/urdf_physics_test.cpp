@@ -48,6 +48,7 @@ TEST_P(UrdfPhysicsTest, BipedStandsOnItsHullFeet) {
     sum += foot_sum(*world);
   }
   const double weight = 2.8 * kGravity;
+  RecordProperty("feet_mN", std::to_string(std::lround(sum / 100.0 * 1000.0)));
   ASSERT_NEAR(world->robot(0).mass_kg, 2.8, 1e-9);
   EXPECT_NEAR(sum / 100.0, weight, 0.05 * weight);
 
@@ -82,6 +83,7 @@ TEST_P(UrdfPhysicsTest, PendulumPeriodFollowsItsUrdfInertia) {
   }
   ASSERT_GE(crossings.size(), 5U);
   const double period = (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  RecordProperty("period_us", std::to_string(std::lround(period * 1e6)));
   // pendulum.urdf: T = 2 pi sqrt((Iyy + m d^2) / (m g d)), Iyy = 0.005 (the inertial frame's z
   // moment, rolled onto y), m = 0.5, d = 0.2; the 5 deg amplitude lengthens it by 0.05 %.
   const double expected = 2.0 * std::numbers::pi * std::sqrt((0.005 + 0.5 * 0.04) / (0.5 * kGravity * 0.2));
