@@ -1,14 +1,60 @@
 #include "physics/convex_hull.h"
 
-#include <LinearMath/btConvexHullComputer.h>
+#include <libqhull_r/qhull_ra.h>
 
 #include <Eigen/Geometry>
 #include <algorithm>
-
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace doppel::physics {
+namespace {
+
+// One qhull run; frees qhull's memory on every path out.
+class Qhull {
+ public:
+  Qhull() {
+    errors_ = open_memstream(&text_, &size_);
+    qh_zero(&qh_, errors_);
+  }
+  ~Qhull() {
+    qh_freeqhull(&qh_, !qh_ALL);
+    int curlong = 0, totlong = 0;
+    qh_memfreeshort(&qh_, &curlong, &totlong);
+    if (errors_ != nullptr) std::fclose(errors_);
+    std::free(text_);
+  }
+  Qhull(const Qhull&) = delete;
+  Qhull& operator=(const Qhull&) = delete;
+
+  // Runs qhull on `coords` (x, y, z per point); throws with qhull's first error line.
+  void run(std::vector<double>& coords) {
+    char options[] = "qhull";  // 3-d default: coplanar facets merged (C-0), exact input points
+    const int code = qh_new_qhull(&qh_, 3, static_cast<int>(coords.size() / 3), coords.data(), False, options,
+                                  nullptr, errors_);
+    if (code != 0) {
+      std::fflush(errors_);
+      std::string reason = text_ != nullptr ? std::string(text_, size_) : std::string();
+      reason = reason.substr(0, reason.find('\n'));
+      throw std::invalid_argument(reason.find("flat") != std::string::npos || reason.find("singular") != std::string::npos
+                                      ? "the points are coplanar or collinear: no volume"
+                                      : "qhull failed: " + reason);
+    }
+  }
+  qhT* qh() { return &qh_; }
+
+ private:
+  qhT qh_;
+  FILE* errors_ = nullptr;
+  char* text_ = nullptr;
+  size_t size_ = 0;
+};
+
+}  // namespace
 
 std::shared_ptr<const ConvexHull> convex_hull(const std::vector<Eigen::Vector3d>& points) {
   if (points.size() < 4) {
@@ -16,77 +62,66 @@ std::shared_ptr<const ConvexHull> convex_hull(const std::vector<Eigen::Vector3d>
   }
   std::vector<double> coords;
   coords.reserve(3 * points.size());
-  Eigen::AlignedBox3d box;
   for (const Eigen::Vector3d& p : points) {
     if (!p.allFinite()) throw std::invalid_argument("a point is not finite");
     coords.insert(coords.end(), {p.x(), p.y(), p.z()});
-    box.extend(p);
   }
-  btConvexHullComputer computer;
-  computer.compute(coords.data(), 3 * static_cast<int>(sizeof(double)), static_cast<int>(points.size()), 0.0, 0.0);
+  Qhull run;
+  run.run(coords);
+  qhT* qh = run.qh();
+
+  // Vertices: the input points qhull kept, renumbered.
   auto hull = std::make_shared<ConvexHull>();
-  // The computer works on integer coordinates and hands back vertices off by up to 1e-4 of the
-  // extent; every hull vertex is an input point, so each is replaced by the input point nearest it.
-  for (int i = 0; i < computer.vertices.size(); ++i) {
-    const Eigen::Vector3d v(computer.vertices[i].x(), computer.vertices[i].y(), computer.vertices[i].z());
-    const Eigen::Vector3d* nearest = &points.front();
-    double best = (v - *nearest).squaredNorm();
-    for (const Eigen::Vector3d& p : points) {
-      const double d = (v - p).squaredNorm();
-      if (d < best) {
-        best = d;
-        nearest = &p;
-      }
-    }
-    hull->vertices.push_back(*nearest);
-    hull->half_extents = hull->half_extents.cwiseMax(nearest->cwiseAbs());
-  }
-  const double scale = std::max(box.sizes().maxCoeff(), 1e-12);
-  if (computer.faces.size() < 4) {
-    throw std::invalid_argument("the points are coplanar or collinear: no volume");
+  std::vector<int> index(points.size(), -1);
+  vertexT* vertex;
+  FORALLvertices {
+    const int id = qh_pointid(qh, vertex->point);
+    if (id < 0 || id >= static_cast<int>(points.size())) continue;
+    index[static_cast<size_t>(id)] = static_cast<int>(hull->vertices.size());
+    hull->vertices.push_back(points[static_cast<size_t>(id)]);
+    hull->half_extents = hull->half_extents.cwiseMax(points[static_cast<size_t>(id)].cwiseAbs());
   }
   Eigen::Vector3d inside = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& v : hull->vertices) inside += v;
   inside /= static_cast<double>(hull->vertices.size());
 
-  // Faces, oriented outwards; mass properties from tetrahedra (inside, a, b, c) of a fan per face.
+  // Faces: qhull's outward plane; the vertices of a merged facet come unordered, so they are
+  // sorted by angle about the face's centre (counter-clockwise seen from outside). Mass
+  // properties from tetrahedra (inside, a, b, c) of a fan per face.
   double volume = 0.0;
   Eigen::Vector3d first_moment = Eigen::Vector3d::Zero();
   Eigen::Matrix3d second_moment = Eigen::Matrix3d::Zero();  // integral of x x^T over the volume
-  std::vector<unsigned> face;
-  for (int f = 0; f < computer.faces.size(); ++f) {
-    face.clear();
-    const btConvexHullComputer::Edge* first = &computer.edges[computer.faces[f]];
-    const btConvexHullComputer::Edge* edge = first;
-    do {
-      face.push_back(static_cast<unsigned>(edge->getSourceVertex()));
-      edge = edge->getNextEdgeOfFace();
-    } while (edge != first && face.size() <= hull->vertices.size());
-    if (face.size() < 3) continue;
-    // Newell's normal, robust for polygons.
-    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  std::vector<std::pair<double, unsigned>> around;
+  facetT* facet;
+  FORALLfacets {
+    if (facet->upperdelaunay || !facet->normal) continue;
+    const Eigen::Vector3d n(facet->normal[0], facet->normal[1], facet->normal[2]);
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (size_t i = 0; i < face.size(); ++i) {
-      const Eigen::Vector3d& a = hull->vertices[face[i]];
-      const Eigen::Vector3d& b = hull->vertices[face[(i + 1) % face.size()]];
-      n += a.cross(b);
-      centre += a;
+    around.clear();
+    vertexT** vertexp;
+    FOREACHvertex_(facet->vertices) {
+      const int id = qh_pointid(qh, vertex->point);
+      if (id < 0 || id >= static_cast<int>(points.size()) || index[static_cast<size_t>(id)] < 0) continue;
+      around.emplace_back(0.0, static_cast<unsigned>(index[static_cast<size_t>(id)]));
+      centre += hull->vertices[around.back().second];
     }
-    centre /= static_cast<double>(face.size());
-    if (!(n.norm() > 1e-15 * scale * scale)) continue;
-    n.normalize();
-    if (n.dot(centre - inside) < 0.0) {
-      n = -n;
-      std::reverse(face.begin(), face.end());
+    if (around.size() < 3) continue;
+    centre /= static_cast<double>(around.size());
+    const Eigen::Vector3d u = (hull->vertices[around[0].second] - centre).normalized();
+    const Eigen::Vector3d w = n.cross(u);
+    for (auto& [angle, i] : around) {
+      const Eigen::Vector3d d = hull->vertices[i] - centre;
+      angle = std::atan2(d.dot(w), d.dot(u));
     }
-    hull->planes.emplace_back(n.x(), n.y(), n.z(), n.dot(centre));
-    hull->polygons.push_back(static_cast<unsigned>(face.size()));
-    hull->polygons.insert(hull->polygons.end(), face.begin(), face.end());
+    std::sort(around.begin(), around.end());
+    hull->planes.emplace_back(n.x(), n.y(), n.z(), -facet->offset);
+    hull->polygons.push_back(static_cast<unsigned>(around.size()));
+    for (const auto& entry : around) hull->polygons.push_back(entry.second);
     const Eigen::Vector3d& p0 = inside;
-    const Eigen::Vector3d& p1 = hull->vertices[face[0]];
-    for (size_t i = 1; i + 1 < face.size(); ++i) {
-      const Eigen::Vector3d& p2 = hull->vertices[face[i]];
-      const Eigen::Vector3d& p3 = hull->vertices[face[i + 1]];
+    const Eigen::Vector3d& p1 = hull->vertices[around[0].second];
+    for (size_t i = 1; i + 1 < around.size(); ++i) {
+      const Eigen::Vector3d& p2 = hull->vertices[around[i].second];
+      const Eigen::Vector3d& p3 = hull->vertices[around[i + 1].second];
       const double v = (p1 - p0).dot((p2 - p0).cross(p3 - p0)) / 6.0;
       const Eigen::Vector3d s = p0 + p1 + p2 + p3;
       volume += v;
@@ -96,7 +131,8 @@ std::shared_ptr<const ConvexHull> convex_hull(const std::vector<Eigen::Vector3d>
     }
   }
   hull->face_count = hull->planes.size();
-  if (hull->face_count < 4 || !(volume > 1e-12 * scale * scale * scale)) {
+  const double extent = std::max(hull->half_extents.maxCoeff(), 1e-12);
+  if (hull->face_count < 4 || !(volume > 1e-15 * extent * extent * extent)) {
     throw std::invalid_argument("the points are coplanar or collinear: no volume");
   }
   hull->volume_m3 = volume;

@@ -194,6 +194,11 @@ TEST(UrdfImportErrors, MissingFile) {
   EXPECT_NE(e.find("nope.urdf: cannot read the URDF: no such file"), std::string::npos) << e;
 }
 
+TEST(UrdfImportErrors, NotARegularFile) {
+  const std::string e = error_of(biped_with("file: \"biped.urdf\"", "file: \"meshes\""));
+  EXPECT_NE(e.find("meshes: cannot read the URDF: not a regular file"), std::string::npos) << e;
+}
+
 TEST(UrdfImportErrors, MalformedXml) {
   const std::string e = error_of(single("malformed.urdf"));
   EXPECT_NE(e.find("robot.textproto:4:"), std::string::npos) << e;

@@ -29,7 +29,8 @@ namespace {
 
 namespace fs = std::filesystem;
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-constexpr std::size_t kMaxUrdfBytes = 16 * 1024 * 1024;  // as proto::TextFile::kMaxBytes
+constexpr std::size_t kMaxUrdfBytes = 16 * 1024 * 1024;   // as proto::TextFile::kMaxBytes
+constexpr std::uintmax_t kMaxMeshBytes = 256 * 1024 * 1024;  // far above any robot's collision mesh
 
 // Collects urdfdom's console_bridge messages while it parses (and keeps them off stderr).
 class Messages : public console_bridge::OutputHandler {
@@ -143,16 +144,28 @@ class Importer {
   }
 
   void parse() {
-    std::ifstream in(urdf_path_, std::ios::binary);
+    // Like proto::TextFile::read: only a regular file of at most 16 MiB (a FIFO would block,
+    // /dev/zero never end).
     std::error_code error;
-    if (!in || fs::is_directory(urdf_path_, error)) {
-      fail("file", std::string("cannot read the URDF: ") + (fs::exists(urdf_path_, error) ? "not a readable file" : "no such file"));
+    if (!fs::exists(urdf_path_, error)) {
+      fail("file", "cannot read the URDF: no such file");
     }
+    if (!fs::is_regular_file(urdf_path_, error)) {
+      fail("file", "cannot read the URDF: not a regular file");
+    }
+    const auto size = fs::file_size(urdf_path_, error);
+    if (error || size > kMaxUrdfBytes) {
+      fail("file", "cannot read the URDF: larger than 16 MiB");
+    }
+    std::ifstream in(urdf_path_, std::ios::binary);
     std::ostringstream text;
     text << in.rdbuf();
+    if (!in && !in.eof()) {
+      fail("file", "cannot read the URDF: not readable");
+    }
     xml_ = text.str();
     if (xml_.size() > kMaxUrdfBytes) {
-      fail("file", "the URDF is larger than 16 MiB");
+      fail("file", "cannot read the URDF: larger than 16 MiB");
     }
     // TinyXML first: it knows where an XML error is, and where every link and joint starts.
     TiXmlDocument document;
@@ -168,7 +181,11 @@ class Importer {
       }
     }
     Messages messages;
-    model_ = ::urdf::parseURDF(xml_);
+    try {
+      model_ = ::urdf::parseURDF(xml_);
+    } catch (const std::exception& e) {  // urdfdom's ParseError where it does not catch it itself
+      fail("file", std::string("not a valid URDF: ") + e.what());
+    }
     if (!model_ || !messages.text().empty()) {
       fail("file", "not a valid URDF: " + (messages.text().empty() ? std::string("urdfdom gives no reason") : messages.text()));
     }
@@ -421,6 +438,10 @@ class Importer {
 
   // Every vertex of every mesh in the file, through the node transforms (DAE units included).
   std::vector<Eigen::Vector3d> mesh_points(const fs::path& path, const std::string& what) const {
+    std::error_code error;
+    if (fs::file_size(path, error) > kMaxMeshBytes || error) {
+      fail("file", what + ": " + path.string() + ": cannot read mesh: larger than 256 MiB");
+    }
     Assimp::Importer importer;
     // URDF meshes are in the link frame as written; COLLADA's up axis is not applied (as rviz
     // does), its <unit> is.

@@ -1,9 +1,11 @@
 #pragma once
 // The convex hull of a point cloud, with what both engines and the renderer need of it: vertices,
 // outward face planes, face polygons in ODE's dCreateConvex layout, and its mass properties per
-// unit density. Collision meshes (URDF <mesh>, Shape.convex) become hulls. Computed with Bullet's
-// btConvexHullComputer (LinearMath, exact integer arithmetic, already a Doppel dependency; qhull
-// would be one more Debian package for the same result); only convex_hull.cpp includes it.
+// unit density. Collision meshes (URDF <mesh>, Shape.convex) become hulls. Computed with qhull
+// (Debian libqhull-dev, reentrant libqhull_r): double precision, the hull's vertices are exactly
+// input points, coplanar facets merged into polygons. Bullet's btConvexHullComputer was tried and
+// dropped: it rounds the input to a grid of about 10^4 steps per axis, so its vertices are off by
+// 1e-4 of the extent and, snapped back, sliver faces of a fine mesh tilt by millimetres.
 // Setup code: allocates, may throw.
 
 #include <Eigen/Core>
@@ -13,7 +15,7 @@
 namespace doppel::physics {
 
 struct ConvexHull {
-  std::vector<Eigen::Vector3d> vertices;  // hull vertices (input points that are not on the hull dropped)
+  std::vector<Eigen::Vector3d> vertices;  // hull vertices: the input points on the hull, exactly
   std::vector<Eigen::Vector4d> planes;    // per face: outward unit normal n (x, y, z) and w = n . p on the face
   std::vector<unsigned> polygons;         // per face: vertex count, then vertex indices, counter-clockwise
                                           // seen from outside (ODE's dCreateConvex layout)
