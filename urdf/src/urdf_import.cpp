@@ -443,8 +443,8 @@ class Importer {
       fail("file", what + ": " + path.string() + ": cannot read mesh: larger than 256 MiB");
     }
     Assimp::Importer importer;
-    // URDF meshes are in the link frame as written; COLLADA's up axis is not applied (as rviz
-    // does), its <unit> is.
+    // URDF meshes are in the link frame as written: COLLADA's up axis is not applied, its <unit>
+    // is (as DART loads URDF meshes: dartsim/dart dart/dynamics/MeshShape.cpp, commit b6bd9fe4).
     importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
     const aiScene* scene = importer.ReadFile(path.string(), 0);
     if (scene == nullptr || scene->mRootNode == nullptr) {
