@@ -42,7 +42,9 @@ class Messages : public console_bridge::OutputHandler {
   void log(const std::string& text, console_bridge::LogLevel level, const char*, int) override {
     // urdfdom logs some errors and goes on without the element (an unknown geometry drops its
     // <collision>): any error refuses the file.
-    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR) text_ += (text_.empty() ? "" : "; ") + text;
+    if (level >= console_bridge::CONSOLE_BRIDGE_LOG_ERROR && text_.size() < 1024) {
+      text_ += (text_.empty() ? "" : "; ") + text.substr(0, 512);
+    }
   }
   const std::string& text() const { return text_; }
 
@@ -50,6 +52,11 @@ class Messages : public console_bridge::OutputHandler {
   console_bridge::OutputHandler* previous_;
   std::string text_;
 };
+
+// A name or path from the URDF as messages show it: at most `limit` characters.
+std::string shown(const std::string& name, size_t limit = 64) {
+  return name.size() <= limit ? name : name.substr(0, limit - 3) + "...";
+}
 
 Eigen::Isometry3d iso(const ::urdf::Pose& p) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
@@ -140,7 +147,7 @@ class Importer {
   std::string where(const std::string& element, const std::string& name) const {
     auto found = lines_.find(element + ":" + name);
     const std::string line = found == lines_.end() ? "" : " (line " + std::to_string(found->second) + ")";
-    return element + " '" + name + "'" + line;
+    return element + " '" + shown(name) + "'" + line;
   }
 
   void parse() {
@@ -207,7 +214,7 @@ class Importer {
       if (!joint) {
         std::string known;
         for (const auto& [name, j] : model_->joints_) {
-          if (movable(*j)) known += (known.empty() ? "" : ", ") + name;
+          if (movable(*j) && known.size() < 512) known += (known.empty() ? "" : ", ") + shown(name);
         }
         file_.fail(entry, "name", -1,
                    urdf_path_.string() + ": has no joint '" + entry.name() + "' (its movable joints: " + known + ")");
@@ -339,7 +346,7 @@ class Importer {
 
   void add_shape(const ::urdf::Link& link, size_t index, const ::urdf::Collision& collision, proto::Body* body) {
     const std::string element = where("link", link.name) + ": <collision> " + std::to_string(index + 1) +
-                                (collision.name.empty() ? "" : " '" + collision.name + "'");
+                                (collision.name.empty() ? "" : " '" + shown(collision.name) + "'");
     if (!collision.geometry) {
       fail("file", element + ": no geometry");
     }
@@ -375,7 +382,7 @@ class Importer {
         const auto& mesh = static_cast<const ::urdf::Mesh&>(*collision.geometry);
         const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
         positive(scale.minCoeff(), "<mesh scale>");
-        const std::string what = element + ": <mesh filename=\"" + mesh.filename + "\">";
+        const std::string what = element + ": <mesh filename=\"" + shown(mesh.filename) + "\">";
         const fs::path path = resolve(mesh.filename, what);
         std::vector<Eigen::Vector3d> points = mesh_points(path, what);
         for (Eigen::Vector3d& p : points) p = p.cwiseProduct(scale);
@@ -383,7 +390,7 @@ class Importer {
         try {
           hull = physics::convex_hull(points);
         } catch (const std::invalid_argument& e) {
-          fail("file", what + ": " + path.string() + ": no convex hull: " + e.what());
+          fail("file", what + ": " + shown(path.string(), 256) + ": no convex hull: " + e.what());
         }
         proto::Convex& convex = *shape.mutable_convex();
         for (const Eigen::Vector3d& v : hull->vertices) set(convex.add_point_m(), v);
@@ -422,16 +429,16 @@ class Importer {
              {root / package / inside, root.filename() == package ? root / inside : fs::path()}) {
           if (!candidate.empty() && fs::is_regular_file(candidate, error)) return candidate.lexically_normal();
         }
-        searched += (searched.empty() ? "" : ", ") + (root / package).string();
+        if (searched.size() < 512) searched += (searched.empty() ? "" : ", ") + shown((root / package).string(), 128);
       }
-      fail("file", what + ": package '" + package + "' has no file '" + inside + "' (searched " +
+      fail("file", what + ": package '" + shown(package) + "' has no file '" + shown(inside) + "' (searched " +
                        (searched.empty() ? std::string("nothing: set Urdf.package_path or ROS_PACKAGE_PATH") : searched) +
                        ")");
     }
     fs::path path = uri.rfind(kFile, 0) == 0 ? fs::path(uri.substr(kFile.size())) : fs::path(uri);
     if (path.is_relative()) path = urdf_path_.parent_path() / path;
     if (!fs::is_regular_file(path, error)) {
-      fail("file", what + ": mesh file " + path.lexically_normal().string() + " not found");
+      fail("file", what + ": mesh file " + shown(path.lexically_normal().string(), 256) + " not found");
     }
     return path.lexically_normal();
   }
@@ -440,7 +447,7 @@ class Importer {
   std::vector<Eigen::Vector3d> mesh_points(const fs::path& path, const std::string& what) const {
     std::error_code error;
     if (fs::file_size(path, error) > kMaxMeshBytes || error) {
-      fail("file", what + ": " + path.string() + ": cannot read mesh: larger than 256 MiB");
+      fail("file", what + ": " + shown(path.string(), 256) + ": cannot read mesh: larger than 256 MiB");
     }
     Assimp::Importer importer;
     // URDF meshes are in the link frame as written: COLLADA's up axis is not applied, its <unit>
@@ -448,7 +455,7 @@ class Importer {
     importer.SetPropertyBool(AI_CONFIG_IMPORT_COLLADA_IGNORE_UP_DIRECTION, true);
     const aiScene* scene = importer.ReadFile(path.string(), 0);
     if (scene == nullptr || scene->mRootNode == nullptr) {
-      fail("file", what + ": " + path.string() + ": cannot read mesh: " + importer.GetErrorString());
+      fail("file", what + ": " + shown(path.string(), 256) + ": cannot read mesh: " + shown(importer.GetErrorString(), 256));
     }
     std::vector<Eigen::Vector3d> points;
     std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene->mRootNode, scene->mRootNode->mTransformation}};
@@ -467,7 +474,7 @@ class Importer {
       }
     }
     if (points.empty()) {
-      fail("file", what + ": " + path.string() + ": the mesh has no vertices");
+      fail("file", what + ": " + shown(path.string(), 256) + ": the mesh has no vertices");
     }
     // A triangle soup repeats each vertex; the hull needs each once.
     std::sort(points.begin(), points.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
