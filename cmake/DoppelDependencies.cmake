@@ -4,6 +4,10 @@ find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(ODE REQUIRED IMPORTED_TARGET ode)
 pkg_check_modules(BULLET REQUIRED IMPORTED_TARGET bullet-float64)
+pkg_check_modules(QHULL REQUIRED IMPORTED_TARGET qhull_r)     # physics/: convex hulls of collision meshes
+pkg_check_modules(URDFDOM REQUIRED IMPORTED_TARGET urdfdom)   # urdf/: URDF parser (with console_bridge)
+pkg_check_modules(TINYXML REQUIRED IMPORTED_TARGET tinyxml)   # urdf/: XML error positions
+find_package(assimp CONFIG REQUIRED)                          # urdf/: collision meshes (STL, DAE, ...)
 find_package(iceoryx_posh CONFIG REQUIRED)
 find_package(iceoryx_hoofs CONFIG REQUIRED)
 find_package(Protobuf REQUIRED)

@@ -9,8 +9,8 @@ add_library(doppel_robot_file_fuzz STATIC ${PROJECT_SOURCE_DIR}/gateway/src/robo
 target_include_directories(doppel_robot_file_fuzz PUBLIC ${PROJECT_SOURCE_DIR}/gateway/include)
 target_compile_definitions(doppel_robot_file_fuzz PRIVATE DOPPEL_SOURCE_ROBOTS_DIR="${PROJECT_SOURCE_DIR}/robots")
 target_compile_options(doppel_robot_file_fuzz PRIVATE -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer)
-target_link_libraries(doppel_robot_file_fuzz PUBLIC doppel::proto doppel::dynamixel doppel::bus doppel::physics
-                      doppel::camera PRIVATE doppel::build_options)
+target_link_libraries(doppel_robot_file_fuzz PUBLIC doppel::proto doppel::urdf doppel::body doppel::dynamixel doppel::bus
+                      doppel::physics doppel::camera PRIVATE doppel::build_options)
 
 add_executable(robot_file_fuzz ${CMAKE_CURRENT_SOURCE_DIR}/robot_file_fuzz.cpp)
 target_link_libraries(robot_file_fuzz PRIVATE doppel_robot_file_fuzz doppel::build_options)

@@ -39,6 +39,7 @@ struct Prim {
   Eigen::Vector3f o_S;        // camera origin in the shape frame
   Eigen::Vector3f centre_C;   // shape origin in the camera frame
   Eigen::Vector3f half;       // box: half extents; cylinder/capsule: (r, half length); sphere: (r); ring: (ro, ri)
+  const physics::ConvexHull* hull = nullptr;  // convex: its face planes (owned by the scene's shape)
   float bound_r = 0.0f;       // bounding-sphere radius about centre_C
   float near_t = 0.0f;        // no hit can be nearer than this along any ray
   float colour[3] = {0, 0, 0};
@@ -81,6 +82,7 @@ Eigen::Vector3d half_extent_W(const VisualShape& s) {
     case ShapeType::kCylinder: local = {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y()}; break;
     case ShapeType::kCapsule: local = {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y() + s.size_m.x()}; break;
     case ShapeType::kRing: local = {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.z()}; break;
+    case ShapeType::kConvex: local = s.size_m; break;
   }
   return s.X_WS.linear().cwiseAbs() * local;
 }
@@ -192,6 +194,28 @@ bool is_flat_on_ground(const VisualShape& s) {
       const float rr = x * x + y * y;
       return (rr <= p.half.x() * p.half.x() && rr >= p.half.y() * p.half.y()) ? t : kInf;
     }
+    case ShapeType::kConvex: {
+      // The ray inside every face's half space: entering at the latest entry, leaving at the first exit.
+      float tmin = -kInf;
+      float tmax = kInf;
+      for (const Eigen::Vector4d& plane : p.hull->planes) {
+        const Eigen::Vector3f n = plane.head<3>().cast<float>();
+        const float denom = n.dot(dl);
+        const float gap = static_cast<float>(plane.w()) - n.dot(o);  // >= 0: the origin is inside this face
+        if (std::abs(denom) < 1e-12f) {
+          if (gap < 0.0f) return kInf;
+          continue;
+        }
+        const float t = gap / denom;
+        if (denom < 0.0f) {
+          tmin = std::max(tmin, t);
+        } else {
+          tmax = std::min(tmax, t);
+        }
+        if (tmin > tmax) return kInf;
+      }
+      return tmin > 1e-4f ? tmin : kInf;
+    }
     default: return kInf;
   }
 }
@@ -225,6 +249,19 @@ inline Eigen::Vector3f normal_C(const Prim& p, const Eigen::Vector3f& d, float t
     case ShapeType::kCapsule: {
       const float zc = std::clamp(q.z(), -p.half.y(), p.half.y());
       n = (q - Eigen::Vector3f(0.0f, 0.0f, zc)) / p.half.x();
+      break;
+    }
+    case ShapeType::kConvex: {
+      // The face the hit lies on: the plane the point is least inside of.
+      float best = -kInf;
+      for (const Eigen::Vector4d& plane : p.hull->planes) {
+        const Eigen::Vector3f np = plane.head<3>().cast<float>();
+        const float outside = np.dot(q) - static_cast<float>(plane.w());
+        if (outside > best) {
+          best = outside;
+          n = np;
+        }
+      }
       break;
     }
     default: n.z() = 1.0f; break;
@@ -507,6 +544,12 @@ struct Renderer::Impl {
         case ShapeType::kRing:
           p.half = Eigen::Vector3f(static_cast<float>(s.size_m.x()), static_cast<float>(s.size_m.y()), 0.0f);
           p.bound_r = p.half.x();
+          break;
+        case ShapeType::kConvex:
+          if (!s.hull) continue;
+          p.hull = s.hull.get();
+          p.half = s.size_m.cast<float>();
+          for (const Eigen::Vector3d& v : s.hull->vertices) p.bound_r = std::max(p.bound_r, static_cast<float>(v.norm()));
           break;
       }
       if (!(p.bound_r > 0.0f)) continue;

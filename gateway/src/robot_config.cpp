@@ -15,6 +15,7 @@
 #include "physics/robot_model.h"
 #include "proto/robot_file.h"
 #include "proto/session_file.h"
+#include "urdf/urdf_import.h"
 
 #ifndef DOPPEL_SOURCE_ROBOTS_DIR
 #define DOPPEL_SOURCE_ROBOTS_DIR "robots"
@@ -448,11 +449,11 @@ RobotConfig load_robot(const std::string& name_or_file, const std::string& robot
     }
     throw std::invalid_argument("unknown robot '" + name_or_file + "' (no " + path + "; shipped robots: " + known + ")");
   }
-  return check_robot(proto::RobotFile::load(path));
+  return check_robot(urdf::load_robot_file(path));
 }
 
 RobotConfig parse_robot(const std::string& text, const std::string& path) {
-  return check_robot(proto::RobotFile::parse(text, path));
+  return check_robot(urdf::parse_robot_file(text, path));
 }
 
 SessionConfig load_session(const std::string& path) { return check_session(proto::SessionFile::load(path)); }

@@ -25,7 +25,8 @@ Eigen::Isometry3d pose(const proto::Pose& p) {
 // Volume, and the inertia about the shape's own centre per unit mass, in the shape frame.
 struct UnitMass {
   double volume_m3 = 0.0;
-  Eigen::Matrix3d inertia_per_kg = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d inertia_per_kg = Eigen::Matrix3d::Zero();  // about `centre`
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();          // centre of volume in the shape frame
 };
 
 UnitMass unit_mass(const ShapeSpec& shape) {
@@ -59,6 +60,11 @@ UnitMass unit_mass(const ShapeSpec& shape) {
       u.inertia_per_kg.diagonal() << lateral, lateral, axial;
       break;
     }
+    case ShapeType::kConvex:
+      u.volume_m3 = shape.hull->volume_m3;
+      u.inertia_per_kg = shape.hull->inertia_per_kg;
+      u.centre = shape.hull->centroid;
+      break;
     case ShapeType::kRing:
       break;
   }
@@ -76,6 +82,8 @@ Eigen::Vector3d half_extents(const ShapeSpec& s) {
       return {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y()};
     case ShapeType::kCapsule:
       return {s.size_m.x(), s.size_m.x(), 0.5 * s.size_m.y() + s.size_m.x()};
+    case ShapeType::kConvex:
+      return s.size_m;
     case ShapeType::kRing:
       break;
   }
@@ -180,6 +188,36 @@ class Compiler {
     }
   }
 
+  // Explicit mass properties: mass, centre of mass in D, inertia about it in D's axes.
+  void read_inertial(const proto::Inertial& in, double* mass, Eigen::Vector3d* com, Eigen::Matrix3d* inertia) const {
+    if (!(in.mass_kg() > 0.0) || !std::isfinite(in.mass_kg())) {
+      fail(in, "mass_kg", -1, "mass must be > 0");
+    }
+    Eigen::Matrix3d I;
+    I << in.ixx_kg_m2(), in.ixy_kg_m2(), in.ixz_kg_m2(), in.ixy_kg_m2(), in.iyy_kg_m2(), in.iyz_kg_m2(),
+        in.ixz_kg_m2(), in.iyz_kg_m2(), in.izz_kg_m2();
+    if (!I.allFinite()) {
+      fail(in, "ixx_kg_m2", -1, "inertia must be finite");
+    }
+    const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(I).eigenvalues();
+    if (!(moments.minCoeff() > 0.0)) {
+      fail(in, "ixx_kg_m2", -1, "inertia tensor must be positive definite (principal moments " +
+                                    std::to_string(moments.x()) + ", " + std::to_string(moments.y()) + ", " +
+                                    std::to_string(moments.z()) + " kg m^2)");
+    }
+    // A physical body: each principal moment is at most the sum of the other two (1e-6 tolerance
+    // for rounded figures).
+    if (moments.z() > (moments.x() + moments.y()) * (1.0 + 1e-6)) {
+      fail(in, "ixx_kg_m2", -1, "inertia violates the triangle inequality (principal moments " +
+                                    std::to_string(moments.x()) + ", " + std::to_string(moments.y()) + ", " +
+                                    std::to_string(moments.z()) + " kg m^2): no rigid body has it");
+    }
+    const Eigen::Isometry3d X_DI = pose(in.origin());
+    *mass = in.mass_kg();
+    *com = X_DI.translation();
+    *inertia = X_DI.linear() * I * X_DI.linear().transpose();
+  }
+
   ShapeSpec read_shape(const proto::Shape& s) {
     ShapeSpec shape;
     shape.X_BS = pose(s.pose());
@@ -211,8 +249,21 @@ class Compiler {
         positive(s.capsule(), "length_m", s.capsule().length_m());
         shape.size_m = {s.capsule().radius_m(), s.capsule().length_m(), 0.0};
         break;
+      case proto::Shape::kConvex: {
+        shape.type = ShapeType::kConvex;
+        std::vector<Eigen::Vector3d> points;
+        points.reserve(static_cast<size_t>(s.convex().point_m_size()));
+        for (const proto::Vector3& p : s.convex().point_m()) points.push_back(vec(p));
+        try {
+          shape.hull = convex_hull(points);
+        } catch (const std::invalid_argument& e) {
+          fail(s.convex(), "point_m", -1, std::string("no convex hull: ") + e.what());
+        }
+        shape.size_m = shape.hull->half_extents;
+        break;
+      }
       case proto::Shape::GEOMETRY_NOT_SET:
-        fail(s, "box", -1, "a shape needs a geometry: box, sphere, cylinder or capsule");
+        fail(s, "box", -1, "a shape needs a geometry: box, sphere, cylinder, capsule or convex");
     }
     return shape;
   }
@@ -226,13 +277,16 @@ class Compiler {
       if (!body_index_.emplace(b.name(), i).second) {
         fail(b, "name", -1, "body '" + b.name() + "' is defined twice");
       }
-      if (b.shape_size() == 0) {
-        fail(b, "name", -1, "body '" + b.name() + "' has no shape");
+      if (b.shape_size() == 0 && !b.has_inertial()) {
+        fail(b, "name", -1, "body '" + b.name() + "' has no shape (only a body with an inertial may have none)");
       }
-      if (b.has_mass_kg() == b.has_density_kg_m3()) {
+      if (b.has_inertial() && (b.has_mass_kg() || b.has_density_kg_m3())) {
+        fail(b, "inertial", -1, "give inertial, mass_kg or density_kg_m3, only one of them");
+      }
+      if (!b.has_inertial() && b.has_mass_kg() == b.has_density_kg_m3()) {
         fail(b, b.has_mass_kg() ? "density_kg_m3" : "mass_kg", -1,
              b.has_mass_kg() ? "give mass_kg or density_kg_m3, not both"
-                             : "missing mass: body '" + b.name() + "' needs mass_kg or density_kg_m3");
+                             : "missing mass: body '" + b.name() + "' needs mass_kg, density_kg_m3 or inertial");
       }
       if (b.has_mass_kg() && !(b.mass_kg() > 0.0)) {
         fail(b, "mass_kg", -1, "mass must be > 0");
@@ -260,23 +314,26 @@ class Compiler {
         shapes_D.push_back(read_shape(b.shape(s)));
         volume += unit_mass(shapes_D.back()).volume_m3;
       }
-      body.mass_kg = b.has_mass_kg() ? b.mass_kg() : b.density_kg_m3() * volume;
-      const double density = body.mass_kg / volume;
-
       // Centre of mass and inertia in D, then the principal frame B.
       Eigen::Vector3d com = Eigen::Vector3d::Zero();
-      for (const ShapeSpec& s : shapes_D) {
-        com += density * unit_mass(s).volume_m3 * s.X_BS.translation();
-      }
-      com /= body.mass_kg;
       Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero();
-      for (const ShapeSpec& s : shapes_D) {
-        const UnitMass u = unit_mass(s);
-        const double m = density * u.volume_m3;
-        const Eigen::Matrix3d R = s.X_BS.linear();
-        const Eigen::Vector3d d = s.X_BS.translation() - com;
-        inertia += m * (R * u.inertia_per_kg * R.transpose());
-        inertia += m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+      if (b.has_inertial()) {
+        read_inertial(b.inertial(), &body.mass_kg, &com, &inertia);
+      } else {
+        body.mass_kg = b.has_mass_kg() ? b.mass_kg() : b.density_kg_m3() * volume;
+        const double density = body.mass_kg / volume;
+        for (const ShapeSpec& s : shapes_D) {
+          com += density * unit_mass(s).volume_m3 * (s.X_BS * unit_mass(s).centre);
+        }
+        com /= body.mass_kg;
+        for (const ShapeSpec& s : shapes_D) {
+          const UnitMass u = unit_mass(s);
+          const double m = density * u.volume_m3;
+          const Eigen::Matrix3d R = s.X_BS.linear();
+          const Eigen::Vector3d d = s.X_BS * u.centre - com;
+          inertia += m * (R * u.inertia_per_kg * R.transpose());
+          inertia += m * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+        }
       }
       Eigen::Matrix3d R_DB = Eigen::Matrix3d::Identity();
       const double off_diagonal = std::abs(inertia(0, 1)) + std::abs(inertia(0, 2)) + std::abs(inertia(1, 2));

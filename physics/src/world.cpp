@@ -43,6 +43,11 @@ double lowest_point(const ShapeSpec& s, const Eigen::Isometry3d& X_WS) {
       const double rim = s.type == ShapeType::kCapsule ? s.size_m.x() : s.size_m.x() * std::sqrt(std::max(0.0, 1.0 - axis_z * axis_z));
       return X_WS.translation().z() - half_axis - rim;
     }
+    case ShapeType::kConvex: {
+      double lowest = std::numeric_limits<double>::infinity();
+      for (const Eigen::Vector3d& v : s.hull->vertices) lowest = std::min(lowest, (X_WS * v).z());
+      return lowest;
+    }
     case ShapeType::kRing:
       break;
   }
@@ -145,11 +150,11 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
     if (shape.kind == ObjectKind::kCarpet || shape.kind == ObjectKind::kFieldLine || shape.type == ShapeType::kRing) {
       continue;
     }
-    backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m}, MaterialSpec{0.5, 0.5});
+    backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m, shape.hull}, MaterialSpec{0.5, 0.5});
   }
   if (options_.ball.present) {
     const BallOptions& ball = options_.ball;
-    const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}};
+    const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}, nullptr};
     BodyDesc desc;
     desc.shapes = &sphere;
     desc.shape_count = 1;
@@ -212,7 +217,9 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
   const BodyModel& marker_body = model.bodies[static_cast<size_t>(robot.marker_body)];
   double half_height = 0.0;
   for (const ShapeSpec& s : marker_body.shapes) {
-    half_height = std::max(half_height, s.type == ShapeType::kBox ? 0.5 * s.size_m.z() : s.size_m.x());
+    half_height = std::max(half_height, s.type == ShapeType::kBox      ? 0.5 * s.size_m.z()
+                                        : s.type == ShapeType::kConvex ? s.size_m.z()
+                                                                       : s.size_m.x());
   }
   Eigen::Isometry3d X_RM = Eigen::Isometry3d::Identity();
   X_RM.translation() = marker_body.X_RB.translation() + Eigen::Vector3d(0.0, 0.0, half_height + 0.004);
@@ -665,17 +672,17 @@ void World::fill_scene(SceneView& view) const {
       const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + static_cast<int>(b)).X_WB;
       for (const ShapeSpec& s : body.shapes) {
         view.shapes[i++] = VisualShape{s.type, ObjectKind::kRobotBody, X_WB * s.X_BS, s.size_m, body.colour,
-                                       static_cast<uint16_t>(kFirstRobotObjectId + r)};
+                                       static_cast<uint16_t>(kFirstRobotObjectId + r), s.hull};
       }
     }
     const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + robot.marker_body).X_WB;
     view.shapes[i++] = VisualShape{ShapeType::kBox, ObjectKind::kTeamMarker, X_WB * robot.marker_X_BM,
                                    Eigen::Vector3d(0.05, 0.05, 0.008), kTeamColours[robot.team & 1U],
-                                   static_cast<uint16_t>(kFirstRobotObjectId + r)};
+                                   static_cast<uint16_t>(kFirstRobotObjectId + r), nullptr};
   }
   if (ball_body_ >= 0) {
     view.shapes[i++] = VisualShape{ShapeType::kSphere, ObjectKind::kBall, backend_->body(ball_body_).X_WB,
-                                   Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), kBallOrange, kBallObjectId};
+                                   Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), kBallOrange, kBallObjectId, nullptr};
   }
   for (const VisualShape& shape : options_.field) {
     view.shapes[i++] = shape;

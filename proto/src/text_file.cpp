@@ -123,7 +123,9 @@ void TextFile::check_string_lengths(const Message& message) const {
         check_string_lengths(repeated ? reflection->GetRepeatedMessage(message, field, i)
                                       : reflection->GetMessage(message, field));
       } else if (field->cpp_type() == FieldDescriptor::CPPTYPE_STRING) {
-        const std::size_t limit = field->name() == "description" ? kMaxDescriptionChars : kMaxNameChars;
+        const bool is_path = field->name() == "file" || field->name() == "package_path";
+        const std::size_t limit =
+            field->name() == "description" ? kMaxDescriptionChars : (is_path ? kMaxPathChars : kMaxNameChars);
         std::string scratch;
         const std::size_t length = (repeated ? reflection->GetRepeatedStringReference(message, field, i, &scratch)
                                              : reflection->GetStringReference(message, field, &scratch))
@@ -138,7 +140,7 @@ void TextFile::check_string_lengths(const Message& message) const {
 }
 
 void TextFile::index_locations(const Message& message, const TextFormat::ParseInfoTree* tree, std::string position) {
-  nodes_[&message] = Node{tree, std::move(position)};
+  nodes_[&message] = Node{tree, std::move(position), nullptr};
   const Descriptor* descriptor = message.GetDescriptor();
   const Reflection* reflection = message.GetReflection();
   for (int f = 0; f < descriptor->field_count(); ++f) {
@@ -158,15 +160,29 @@ void TextFile::index_locations(const Message& message, const TextFormat::ParseIn
   }
 }
 
+void TextFile::alias(const Message& generated, const Message& source) {
+  auto node = nodes_.find(&source);
+  if (node == nodes_.end()) {
+    return;
+  }
+  Node copy = node->second;
+  if (copy.source == nullptr) {
+    copy.source = &source;
+  }
+  nodes_[&generated] = copy;
+}
+
 std::string TextFile::location(const Message& message, std::string_view field, int index) const {
   auto node = nodes_.find(&message);
   if (node == nodes_.end()) {
     return path_;
   }
-  const FieldDescriptor* descriptor = message.GetDescriptor()->FindFieldByName(std::string(field));
+  // An alias reports the field of the same name in the message it stands for.
+  const Message& written = node->second.source != nullptr ? *node->second.source : message;
+  const FieldDescriptor* descriptor = written.GetDescriptor()->FindFieldByName(std::string(field));
   bool present = descriptor != nullptr &&
                  (descriptor->is_repeated()
-                      ? index >= 0 && index < message.GetReflection()->FieldSize(message, descriptor)
+                      ? index >= 0 && index < written.GetReflection()->FieldSize(written, descriptor)
                       : index < 0);
   if (present && node->second.tree != nullptr) {
     TextFormat::ParseLocation where = node->second.tree->GetLocation(descriptor, index);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "camera/camera_config.h"
+#include "physics/convex_hull.h"
 #include "demo_scene.h"
 
 namespace doppel::camera {
@@ -259,6 +260,36 @@ TEST(RendererTest, NoiseChangesPixelsReproduciblyAndOffRestoresTheCleanFrame) {
   EXPECT_NE(clean, noisy1);
   EXPECT_EQ(noisy1, noisy2);
   EXPECT_EQ(clean, again);
+}
+
+TEST(RendererTest, AConvexHullIsDrawnByItsFacesNotItsBounds) {
+  // An octahedron (vertices 0.5 m out on each axis) 1 m above the floor, seen from 5 m above: its
+  // outline is the diamond |x| + |y| <= 0.5. (0.2, 0.2) lies inside it, (0.3, 0.3) inside its
+  // bounding box and sphere but outside the diamond.
+  std::vector<Eigen::Vector3d> points;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (double sign : {-0.5, 0.5}) points.push_back(sign * Eigen::Vector3d::Unit(axis));
+  }
+  physics::SceneView scene;
+  physics::VisualShape hull;
+  hull.type = physics::ShapeType::kConvex;
+  hull.kind = physics::ObjectKind::kRobotBody;
+  hull.hull = physics::convex_hull(points);
+  hull.size_m = hull.hull->half_extents;
+  hull.X_WS.translation() = Eigen::Vector3d(0.0, 0.0, 1.0);
+  hull.colour = physics::Rgb{220, 20, 20};
+  scene.shapes.push_back(hull);
+  const LensConfig lens = pinhole_from_hfov(320, 240, 60.0);
+  Renderer sut(lens, 320, 240, PixelFormat::kRgb24);
+  const Eigen::Isometry3d X_WC = overhead(5.0);
+  std::vector<uint8_t> img(frame_bytes(PixelFormat::kRgb24, 320, 240));
+
+  sut.render(scene, X_WC, 0, img.data(), nullptr);
+
+  const uint8_t* inside = rgb_at(img, 320, project_world(sut.lens(), X_WC, {0.2, 0.2, 1.2}));
+  const uint8_t* outside = rgb_at(img, 320, project_world(sut.lens(), X_WC, {0.3, 0.3, 1.0}));
+  EXPECT_GT(inside[0], inside[1] + 60);  // the hull's red, shaded
+  EXPECT_LT(std::abs(outside[0] - outside[1]), 20);  // grey floor or background, not red
 }
 
 }  // namespace

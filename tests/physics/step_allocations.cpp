@@ -10,6 +10,7 @@
 #include <cstddef>
 
 #include "rigs.h"
+#include "urdf/urdf_import.h"
 
 namespace {
 std::atomic<bool> g_counting{false};
@@ -61,6 +62,30 @@ TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
   world->fill_scene(view);
   driven.enable_all();
   driven.run(0.5);  // warm-up: contact pools and solver buffers reach their working size
+
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 1000; ++i) {
+    driven.step();
+    if (i % 40 == 0) world->fill_scene(view);
+  }
+  g_counting = false;
+
+  EXPECT_EQ(g_allocations.load(), 0);
+}
+
+// The same for a body from a URDF (tests/urdf/data/test-biped.textproto): convex-hull feet on
+// both engines (ODE's dCreateConvex, Bullet's btConvexHullShape), hulls in the scene view.
+TEST_P(AllocationTest, StepWithConvexHullsDoesNotAllocateAfterWarmUp) {
+  if (!kCountingMalloc) GTEST_SKIP() << "the sanitizer owns malloc";
+  auto world = test::make_world(
+      GetParam(), {compile_robot(urdf::load_robot_file(std::string(DOPPEL_URDF_TEST_DATA) + "/test-biped.textproto"),
+                                 doppel::body::motor_catalog())});
+  test::DrivenRobot driven(*world, 0);
+  SceneView view;
+  world->fill_scene(view);
+  driven.enable_all();
+  driven.run(0.5);
 
   g_allocations = 0;
   g_counting = true;

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "physics/convex_hull.h"
 #include "physics/dc_motor.h"
 #include "physics/scene_view.h"
 #include "proto/robot_file.h"
@@ -28,9 +29,10 @@ struct MaterialSpec {
 
 // One primitive of a body, in the body's inertial frame B.
 struct ShapeSpec {
-  ShapeType type = ShapeType::kBox;                        // kBox, kSphere, kCylinder or kCapsule
+  ShapeType type = ShapeType::kBox;                        // kBox, kSphere, kCylinder, kCapsule or kConvex
   Eigen::Isometry3d X_BS = Eigen::Isometry3d::Identity();  // shape frame S in B
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();        // as VisualShape::size_m
+  std::shared_ptr<const ConvexHull> hull;                  // kConvex: the hull in S
 };
 
 struct BodyModel {
@@ -44,6 +46,8 @@ struct BodyModel {
   MaterialSpec material;                                   // surface
   Rgb colour;                                              // for renderers
 };
+// A body may have no shape when its file gives explicit mass properties (Body.inertial): it then
+// never collides (engines give it an empty collision shape).
 
 enum class JointType : uint8_t { kRevolute, kPrismatic, kSpherical, kFixed };
 

@@ -5,7 +5,10 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <vector>
+
+#include "physics/convex_hull.h"
 
 namespace doppel::physics {
 
@@ -15,6 +18,7 @@ enum class ShapeType : uint8_t {
   kCylinder,  // size_m.x() = radius, size_m.y() = length along the shape's z axis
   kCapsule,   // size_m.x() = radius, size_m.y() = length of the cylindrical part along z
   kRing,      // flat annulus in the shape's xy plane: size_m = (outer radius, inner radius, thickness)
+  kConvex,    // convex hull (the shape's `hull`); size_m = its half extents about the shape origin
 };
 
 enum class ObjectKind : uint8_t {
@@ -43,6 +47,7 @@ struct VisualShape {
   Eigen::Vector3d size_m = Eigen::Vector3d::Zero();        // dimensions, m (meaning per type)
   Rgb colour;                                    // diffuse colour
   uint16_t object_id = 0;                        // which robot / goal / pole it belongs to
+  std::shared_ptr<const ConvexHull> hull;        // kConvex only: the hull, in S (shared, immutable)
 };
 
 // World frame: origin at the centre of the field on the carpet, x towards the yellow goal, z up.

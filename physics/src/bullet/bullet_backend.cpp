@@ -5,6 +5,9 @@
 // extra constraint row per driven joint (DriveRow) whose constraint force mixing makes the solver
 // return exactly that law at the new velocity (implicit, stable at 1 ms).
 
+#include <BulletCollision/CollisionShapes/btConvexHullShape.h>
+#include <BulletCollision/CollisionShapes/btEmptyShape.h>
+#include <LinearMath/btConvexHullComputer.h>
 #include <btBulletDynamicsCommon.h>
 
 #include <algorithm>
@@ -534,6 +537,27 @@ class BulletBackend final : public Backend {
       case ShapeType::kCapsule:
         shape = std::make_unique<btCapsuleShapeZ>(s.size_m.x(), s.size_m.y());
         break;
+      case ShapeType::kConvex: {
+        // Bullet rounds a hull outwards by its margin; the hull shrunk by the margin first keeps
+        // the collision surface where the mesh is (as btBoxShape does for boxes).
+        std::vector<double> coords;
+        coords.reserve(3 * s.hull->vertices.size());
+        for (const Eigen::Vector3d& v : s.hull->vertices) coords.insert(coords.end(), {v.x(), v.y(), v.z()});
+        btConvexHullComputer shrunk;
+        const btScalar applied = shrunk.compute(coords.data(), 3 * static_cast<int>(sizeof(double)),
+                                                static_cast<int>(s.hull->vertices.size()), kMargin, 0.25);
+        auto hull = std::make_unique<btConvexHullShape>();
+        if (applied > 0.0 && shrunk.vertices.size() >= 4) {
+          for (int i = 0; i < shrunk.vertices.size(); ++i) hull->addPoint(shrunk.vertices[i], false);
+          hull->setMargin(applied);
+        } else {
+          for (const Eigen::Vector3d& v : s.hull->vertices) hull->addPoint(bt(v), false);
+          hull->setMargin(0.0);
+        }
+        hull->recalcLocalAabb();
+        shapes_.push_back(std::move(hull));
+        return shapes_.back().get();
+      }
       case ShapeType::kRing:
         return nullptr;
     }
@@ -545,6 +569,10 @@ class BulletBackend final : public Backend {
   }
 
   btCollisionShape* make_body_shape(const ShapeSpec* shapes, size_t count) {
+    if (count == 0) {  // a body with explicit mass properties and no collision geometry
+      shapes_.push_back(std::make_unique<btEmptyShape>());
+      return shapes_.back().get();
+    }
     if (count == 1 && shapes[0].X_BS.matrix() == Eigen::Matrix4d::Identity()) {
       return make_primitive(shapes[0]);
     }

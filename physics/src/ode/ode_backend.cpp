@@ -111,10 +111,11 @@ class OdeBackend final : public Backend {
     const int index = static_cast<int>(bodies_.size());
     auto info = std::make_unique<GeomInfo>(GeomInfo{index, desc.material, desc.report_contacts});
     for (size_t s = 0; s < desc.shape_count; ++s) {
-      dGeomID geom = make_geom(desc.shapes[s]);
+      Eigen::Vector3d centre;
+      dGeomID geom = make_geom(desc.shapes[s], &centre);
       if (geom == nullptr) continue;
       dGeomSetBody(geom, body);
-      const Eigen::Vector3d p = desc.shapes[s].X_BS.translation();
+      const Eigen::Vector3d p = desc.shapes[s].X_BS * centre;
       dGeomSetOffsetPosition(geom, p.x(), p.y(), p.z());
       dMatrix3 R;
       to_ode(desc.shapes[s].X_BS.linear(), R);
@@ -131,9 +132,10 @@ class OdeBackend final : public Backend {
   }
 
   void add_static(const ShapeSpec& shape, const MaterialSpec& material) override {
-    dGeomID geom = make_geom(shape);
+    Eigen::Vector3d centre;
+    dGeomID geom = make_geom(shape, &centre);
     if (geom == nullptr) return;
-    const Eigen::Vector3d p = shape.X_BS.translation();
+    const Eigen::Vector3d p = shape.X_BS * centre;
     dGeomSetPosition(geom, p.x(), p.y(), p.z());
     dMatrix3 R;
     to_ode(shape.X_BS.linear(), R);
@@ -327,12 +329,32 @@ class OdeBackend final : public Backend {
     }
   }
 
-  dGeomID make_geom(const ShapeSpec& s) {
+  // The geom of a shape; *centre is where in the shape frame the geom's origin must go.
+  dGeomID make_geom(const ShapeSpec& s, Eigen::Vector3d* centre) {
+    *centre = Eigen::Vector3d::Zero();
     switch (s.type) {
       case ShapeType::kBox: return dCreateBox(space_, s.size_m.x(), s.size_m.y(), s.size_m.z());
       case ShapeType::kSphere: return dCreateSphere(space_, s.size_m.x());
       case ShapeType::kCylinder: return dCreateCylinder(space_, s.size_m.x(), s.size_m.y());
       case ShapeType::kCapsule: return dCreateCapsule(space_, s.size_m.x(), s.size_m.y());
+      case ShapeType::kConvex: {
+        // ODE's convex collider wants the geom's origin inside the hull: the arrays are given
+        // about the hull's centroid, and the geom is moved there (*centre). ODE keeps pointers
+        // into them: they live with the backend.
+        const ConvexHull& h = *s.hull;
+        *centre = h.centroid;
+        auto& data = hulls_.emplace_back(std::make_unique<OdeHull>());
+        for (const Eigen::Vector4d& plane : h.planes) {
+          data->planes.insert(data->planes.end(), {plane.x(), plane.y(), plane.z(), plane.w() - plane.head<3>().dot(h.centroid)});
+        }
+        for (const Eigen::Vector3d& v : h.vertices) {
+          const Eigen::Vector3d p = v - h.centroid;
+          data->points.insert(data->points.end(), {p.x(), p.y(), p.z()});
+        }
+        data->polygons = h.polygons;
+        return dCreateConvex(space_, data->planes.data(), static_cast<unsigned>(h.face_count), data->points.data(),
+                             static_cast<unsigned>(h.vertices.size()), data->polygons.data());
+      }
       case ShapeType::kRing: return nullptr;
     }
     return nullptr;
@@ -395,6 +417,12 @@ class OdeBackend final : public Backend {
   double step_s_ = 0.001;
   unsigned long seed_ = 0;
   std::vector<dBodyID> bodies_;
+  struct OdeHull {
+    std::vector<dReal> planes;  // a, b, c, d per face (a x + b y + c z = d), about the centroid
+    std::vector<dReal> points;  // x, y, z per vertex, about the centroid
+    std::vector<unsigned> polygons;
+  };
+  std::vector<std::unique_ptr<OdeHull>> hulls_;  // arrays that dCreateConvex geoms point into
   std::vector<dJointID> pins_;
   std::vector<Joint> joints_;
   std::vector<std::unique_ptr<GeomInfo>> infos_;

@@ -22,6 +22,9 @@ class RobotFile : public TextFile {
   const RobotDescription& description() const noexcept {
     return static_cast<const RobotDescription&>(message());
   }
+  // For loaders that complete the description after parsing (urdf/ fills the figure's bodies and
+  // links from Figure.urdf): messages may be added, existing ones must stay where they are.
+  RobotDescription& mutable_description() noexcept { return static_cast<RobotDescription&>(mutable_message()); }
 
  private:
   RobotFile() = default;

@@ -23,15 +23,22 @@ class TextFile {
   static constexpr std::size_t kMaxBytes = 16 * 1024 * 1024;
   static constexpr std::size_t kMaxDescriptionChars = 1024;
   static constexpr std::size_t kMaxNameChars = 64;
+  static constexpr std::size_t kMaxPathChars = 1024;  // fields named `file` and `package_path`
 
   const std::string& path() const noexcept { return path_; }
   // The parsed message (the type given to parse_into()).
   const google::protobuf::Message& message() const noexcept { return *message_; }
+  google::protobuf::Message& mutable_message() noexcept { return *message_; }
 
   // "path:line:column" of field `field` in `message` (which must be message() or one of its
   // sub-messages); `index` selects an element of a repeated field, -1 otherwise. Falls back to the
   // enclosing message's position, or to "path" alone, when the field was not written in the file.
   std::string location(const google::protobuf::Message& message, std::string_view field, int index = -1) const;
+
+  // Makes `generated` (a message added after parsing, e.g. a Link made from a URDF joint) report the
+  // location of `source` (a message of the file, e.g. the joint's map entry): its fields by name
+  // where `source` has a field of that name, else where `source` starts. Keeps the pointer.
+  void alias(const google::protobuf::Message& generated, const google::protobuf::Message& source);
 
   // Throws std::invalid_argument("<location>: <message type>.<field>: <what>").
   [[noreturn]] void fail(const google::protobuf::Message& message, std::string_view field, int index,
@@ -58,6 +65,7 @@ class TextFile {
   struct Node {
     const google::protobuf::TextFormat::ParseInfoTree* tree;  // locations of this message's fields
     std::string position;                                      // "line:column" where the message starts
+    const google::protobuf::Message* source;                   // alias(): the message it stands for
   };
   std::unordered_map<const google::protobuf::Message*, Node> nodes_;
 };
