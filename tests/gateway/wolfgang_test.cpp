@@ -27,6 +27,11 @@
 namespace doppel::testing {
 namespace {
 
+// How long a cycle waits for a status before it counts an error: long, so that a test process
+// starved of CPU on a loaded machine shows up as a slow cycle (counted and printed), not as an
+// error; a status that never comes or is wrong is still an error.
+constexpr int kReplyTimeoutMs = 1000;
+
 constexpr uint32_t kBaud = 1000000;  // wolfgang.yaml port_info: baudrate 1000000
 constexpr uint8_t kRead = 0x02, kSyncRead = 0x82, kSyncWrite = 0x83, kBroadcast = 0xFE;
 constexpr double kGravity = 9.80665;
@@ -403,7 +408,7 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
       gains.insert(gains.end(), {id, static_cast<uint8_t>(p & 0xFF), static_cast<uint8_t>(p >> 8)});
       torque.insert(torque.end(), {id, 1});
     }
-    const auto statuses = parse_p2_statuses(client.transact(read_positions, ids.size() * 15, 200));
+    const auto statuses = parse_p2_statuses(client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs));
     if (!statuses || statuses->size() != ids.size()) {
       ++stats.errors;
       return;
@@ -429,21 +434,21 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
   for (int cycle = 0; next < stop; ++cycle) {
     std::this_thread::sleep_until(next);
     const auto begin = std::chrono::steady_clock::now();
-    bool ok = check_statuses(client.transact(read_positions, ids.size() * 15, 50), ids, 4);
+    bool ok = check_statuses(client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs), ids, 4);
     if (cycle % 50 == 49) {
-      ok = check_statuses(client.transact(read_volt_temp, ids.size() * 14, 50), ids, 3) && ok;
-      ok = check_statuses(client.transact(read_error, ids.size() * 12, 50), ids, 1) && ok;
+      ok = check_statuses(client.transact(read_volt_temp, ids.size() * 14, kReplyTimeoutMs), ids, 3) && ok;
+      ok = check_statuses(client.transact(read_error, ids.size() * 12, kReplyTimeoutMs), ids, 1) && ok;
     }
     if (b == kRightLegBus || b == kLeftLegBus) {
-      ok = check_statuses(client.transact(read_foot, 11 + kFootBlockLength, 50), {foot}, kFootBlockLength) && ok;
+      ok = check_statuses(client.transact(read_foot, 11 + kFootBlockLength, kReplyTimeoutMs), {foot}, kFootBlockLength) && ok;
     } else if (b == kHeadBus) {
-      ok = check_statuses(client.transact(read_imu, 11 + kImuBlockLength, 50), {kImuId}, kImuBlockLength) && ok;
+      ok = check_statuses(client.transact(read_imu, 11 + kImuBlockLength, kReplyTimeoutMs), {kImuId}, kImuBlockLength) && ok;
       if (cycle % 50 == 0) {
         // Buttons at rest: all three released; a determined answer, compared byte for byte.
-        ok = client.transact(read_buttons, 11 + kButtonsLength, 50) == p2_status(kImuId, 0, {0, 0, 0}) && ok;
+        ok = client.transact(read_buttons, 11 + kButtonsLength, kReplyTimeoutMs) == p2_status(kImuId, 0, {0, 0, 0}) && ok;
       }
     } else if (b == kArmsBus && cycle % 10 == 0) {
-      ok = check_statuses(client.transact(read_core, 11 + kCoreBlockLength, 50), {kCoreId}, kCoreBlockLength) && ok;
+      ok = check_statuses(client.transact(read_core, 11 + kCoreBlockLength, kReplyTimeoutMs), {kCoreId}, kCoreBlockLength) && ok;
     }
     // Goal Position: a slow 0..15-count ramp (1.3 deg) on every joint, so that the writes change,
     // towards the inside of its URDF range: the shoulder rolls stand 0.1 deg from their stops
