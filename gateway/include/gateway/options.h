@@ -39,6 +39,7 @@ struct Options {
   bool viewer = true;
   std::optional<uint16_t> viewer_port;   // unset = control::kDefaultPort
   std::string viewer_address = "127.0.0.1";
+  std::string viewer_dir;                // --viewer-dir DIR: the viewer's page; "" = $DOPPEL_VIEWER_DIR or the source tree's viewer/
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };
