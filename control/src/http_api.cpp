@@ -148,6 +148,7 @@ json state_json(const SimState& state) {
                       {"joints", joints}});
   }
   json out = {{"sim_time_s", state.sim_time_s}, {"paused", state.paused}, {"steps_left", state.steps_left},
+              {"missed_ticks", state.missed_ticks},
               {"robots", robots}};
   out["ball"] = state.ball_m ? json{{"x", (*state.ball_m)[0]}, {"y", (*state.ball_m)[1]}, {"z", (*state.ball_m)[2]}} : json(nullptr);
   return out;

@@ -304,7 +304,7 @@ void Gateway::simulate() noexcept {
         robot->sense(sim_time_ns);
       }
     }
-    controller_->end_tick(sim_time_ns);
+    controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
   }
   missed_ticks_ = clock.missed_ticks();

@@ -118,6 +118,7 @@ control::SimState SimController::state() {
   state.sim_time_s = static_cast<double>(sample.sim_time_ns) * 1e-9;
   state.paused = sample.paused;
   state.steps_left = sample.steps_left;
+  state.missed_ticks = sample.missed_ticks;
   state.carpet_half_length_m = carpet_half_length_m_;
   state.carpet_half_width_m = carpet_half_width_m_;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
@@ -240,7 +241,7 @@ bool SimController::begin_tick() noexcept {
   return advancing_;
 }
 
-void SimController::end_tick(int64_t sim_time_ns) noexcept {
+void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcept {
   bool step_done = false;
   if (advancing_ && steps_left_ > 0) {
     step_done = --steps_left_ == 0;
@@ -252,6 +253,7 @@ void SimController::end_tick(int64_t sim_time_ns) noexcept {
     sample.sim_time_ns = sim_time_ns;
     sample.paused = paused_;
     sample.steps_left = steps_left_;
+    sample.missed_ticks = missed_ticks;
     for (std::size_t r = 0; r < robots_.size(); ++r) {
       if (world_ == nullptr || !robots_[r].in_world) continue;
       const std::size_t w = *robots_[r].in_world;

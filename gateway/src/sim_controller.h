@@ -46,6 +46,7 @@ struct SimSample {
   int64_t sim_time_ns = 0;
   bool paused = false;
   uint64_t steps_left = 0;
+  uint64_t missed_ticks = 0;
   std::array<SimRobotSample, kSimMaxRobots> robots{};
   std::array<double, 3> ball{};
 };
@@ -81,8 +82,9 @@ class SimController final : public control::SimControl {
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
   bool begin_tick() noexcept;
-  // Simulation thread, at the end of every tick: publishes the state every kPublishEveryTicks. rt-safe.
-  void end_tick(int64_t sim_time_ns) noexcept;
+  // Simulation thread, at the end of every tick: publishes the state every kPublishEveryTicks
+  // (with the 1 ms ticks the thread missed so far), the scene every kSceneEveryTicks. rt-safe.
+  void end_tick(int64_t sim_time_ns, uint64_t missed_ticks = 0) noexcept;
 
  private:
   // Queues `request` and waits until the simulation thread has carried it out (or `timeout`).

@@ -31,6 +31,7 @@ struct SimState {
   double sim_time_s = 0.0;
   bool paused = false;
   uint64_t steps_left = 0;             // of a `step` request still running
+  uint64_t missed_ticks = 0;           // 1 ms simulation ticks the simulation thread was late for, since start
   std::vector<RobotState> robots;
   std::optional<std::vector<double>> ball_m;  // x, y, z; none without a world
   double carpet_half_length_m = 0.0;   // where place and ball may put things: |x| <= this
