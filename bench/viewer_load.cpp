@@ -10,6 +10,7 @@
 //
 //   viewer_load [--seconds S] [--rounds N] [--timing fast|wire] [--quick]
 // Exit 77 when chromium is not installed.
+#include <fcntl.h>
 #include <httplib.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -52,11 +53,13 @@ std::string find_chromium() {
 class Browser {
  public:
   Browser(const std::string& chromium, const std::string& url, const std::string& profile) {
+    std::fflush(nullptr);  // the child must not print this process' buffered table again
     pid_ = fork();
     if (pid_ == 0) {
       setpgid(0, 0);
-      freopen("/dev/null", "w", stdout);
-      freopen("/dev/null", "w", stderr);
+      const int null = open("/dev/null", O_WRONLY);
+      dup2(null, 1);
+      dup2(null, 2);
       const std::string profile_arg = "--user-data-dir=" + profile;
       execl(chromium.c_str(), chromium.c_str(), "--headless=new", "--no-sandbox", "--no-first-run",
             "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-dev-shm-usage",
