@@ -199,7 +199,11 @@
   }
 
   // --- panels ----------------------------------------------------------------------------------
-  function fixed(x, digits) { return typeof x === 'number' ? x.toFixed(digits) : '–'; }
+  function fixed(x, digits) {
+    if (typeof x !== 'number') return '–';
+    const text = x.toFixed(digits);
+    return Object.is(Number(text), -0) ? text.slice(1) : text;  // "-0.00" -> "0.00"
+  }
 
   function applyState(state) {
     lastState = state;

@@ -22,6 +22,7 @@ class RecordingControl final : public SimControl {
   SimState state() override {
     SimState s;
     s.sim_time_s = 1.5;
+    s.missed_ticks = 7;
     s.carpet_half_length_m = 5.2;
     s.carpet_half_width_m = 3.7;
     s.ball_m = std::vector<double>{0.0, 0.0, 0.0335};
@@ -87,6 +88,7 @@ TEST(HttpApi, StateCarriesTimeRobotsJointsAndBall) {
   ASSERT_EQ(answer.status, 200);
   EXPECT_DOUBLE_EQ(answer.body["sim_time_s"].get<double>(), 1.5);
   EXPECT_EQ(answer.body["paused"], false);
+  EXPECT_EQ(answer.body["missed_ticks"], 7);
   ASSERT_EQ(answer.body["robots"].size(), 2u);
   EXPECT_EQ(answer.body["robots"][0]["name"], "fumanoid-2011");
   EXPECT_DOUBLE_EQ(answer.body["robots"][0]["joints"]["neck"].get<double>(), 0.25);

@@ -132,8 +132,10 @@ class Browser:
                       {"type": kind, "x": x, "y": y, "button": "left", "buttons": 1 if kind == "mousePressed" else 0,
                        "clickCount": 1, "modifiers": modifiers})
 
-    def click_element(self, element_id):
-        box = self.evaluate(f"(() => {{ const r = document.getElementById('{element_id}').getBoundingClientRect();"
+    def click_element(self, selector):
+        """A click on the middle of the element `selector` (CSS), scrolled into view first."""
+        box = self.evaluate(f"(() => {{ const e = document.querySelector({json.dumps(selector)});"
+                            " e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect();"
                             " return {x: r.left + r.width / 2, y: r.top + r.height / 2}; })()")
         self.click(box["x"], box["y"])
 
@@ -231,12 +233,12 @@ def run(doppel, out_dir, chromium):
               f"the first row '{first}' is not servo {buses[0]['servos'][0]}")
 
         # Step while running: the API refuses it, the page says why.
-        browser.click_element("step")
+        browser.click_element("#step")
         message = browser.wait_for("window.doppelViewer.error()", "the refusal of a step while running")
         check("pause first" in message, f"the page shows '{message}' for a step while running")
 
         # Pause: simulation time stands still.
-        browser.click_element("pause")
+        browser.click_element("#pause")
         browser.wait_for("window.doppelViewer.state() && window.doppelViewer.state().paused", "the page to show 'paused'")
         check(get_state(url)["paused"], "doppel is not paused after a click on Pause")
         frozen = get_state(url)["sim_time_s"]
@@ -261,8 +263,16 @@ def run(doppel, out_dir, chromium):
                          f"(x) => x.kind === 'robot' && Math.abs(x.p[0] - {target[0]}) < 0.3 && Math.abs(x.p[1] - ({target[1]})) < 0.3); }})()",
                          "the robot's shapes at its new place")
 
+        # A push button sends the push for the selected robot (held by the start-up handler, it
+        # does not move; docs/control.md) and the page confirms it.
+        browser.click_element('#push-buttons button[data-fx="30"]')
+        message = browser.wait_for("document.getElementById('message').textContent.startsWith('pushed robot 0') && "
+                                   "document.getElementById('message').textContent", "the push's confirmation")
+        check("30 N x" in message, f"the page says '{message}' after a click on +x")
+        check(browser.evaluate("window.doppelViewer.error()") == "", f"the push was refused: {browser.page_error()}")
+
         # Resume: simulation time runs again.
-        browser.click_element("resume")
+        browser.click_element("#resume")
         wait_sim_time(url, 0.5, "after a click on Resume")
         check(not get_state(url)["paused"], "doppel is still paused after a click on Resume")
         browser.wait_for("!window.doppelViewer.state().paused", "the page to show 'running'")
