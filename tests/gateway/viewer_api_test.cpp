@@ -5,8 +5,12 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <regex>
 #include <set>
@@ -147,6 +151,33 @@ TEST(ViewerApi, ServoTableListsTheBusServosAndFollowsWhatTheDriverWrites) {
     ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the servo table did not follow: " << row.dump();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+}
+
+TEST(ViewerApi, AViewerFolderWithoutAPageStopsDoppelNamingIt) {
+  const std::string folder = "/tmp/doppel-no-viewer-page-" + std::to_string(::getpid());
+  std::filesystem::create_directories(folder);
+  const auto [code, output] = run_command(doppel_executable() + " --no-camera --physics none --link-dir " + folder +
+                                          "/links --viewer 0 --viewer-dir " + folder);
+  EXPECT_NE(code, 0);
+  EXPECT_NE(output.find("--viewer-dir: the viewer's folder " + folder + " has no index.html"), std::string::npos) << output;
+  std::filesystem::remove_all(folder);
+}
+
+TEST(ViewerApi, ServesThePageOfTheNamedFolder) {
+  const std::string folder = "/tmp/doppel-viewer-page-" + std::to_string(::getpid());
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder + "/index.html") << "<title>a team's own viewer</title>";
+  ViewedDoppel doppel({"--physics", "none", "--viewer-dir", folder});
+  httplib::Client client("127.0.0.1", doppel.port);
+  const httplib::Result page = client.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->body, "<title>a team's own viewer</title>");
+  const httplib::Result three = client.Get("/three/three.min.js");  // Debian's three.js beside it
+  ASSERT_TRUE(three);
+  EXPECT_EQ(three->status, 200);
+  EXPECT_NE(three->body.find("REVISION"), std::string::npos);
+  EXPECT_TRUE(doppel.get("/api/scene")["shapes"].empty()) << "no world: nothing to draw";
+  std::filesystem::remove_all(folder);
 }
 
 }  // namespace
