@@ -5,6 +5,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <set>
 #include <stdexcept>
 
@@ -146,8 +148,45 @@ json state_json(const SimState& state) {
                       {"joints", joints}});
   }
   json out = {{"sim_time_s", state.sim_time_s}, {"paused", state.paused}, {"steps_left", state.steps_left},
+              {"missed_ticks", state.missed_ticks},
               {"robots", robots}};
   out["ball"] = state.ball_m ? json{{"x", (*state.ball_m)[0]}, {"y", (*state.ball_m)[1]}, {"z", (*state.ball_m)[2]}} : json(nullptr);
+  return out;
+}
+
+json scene_json(const Scene& scene) {
+  json shapes = json::array();
+  for (const SceneShape& shape : scene.shapes) {
+    shapes.push_back({{"type", shape.type},
+                      {"kind", shape.kind},
+                      {"object", shape.object_id},
+                      {"p", shape.position},
+                      {"q", shape.quaternion},
+                      {"size", shape.size},
+                      {"rgb", shape.colour}});
+  }
+  return {{"sim_time_s", scene.sim_time_s}, {"shapes", shapes}};
+}
+
+json buses_json(const std::vector<BusTable>& buses) {
+  json out = json::array();
+  for (const BusTable& bus : buses) {
+    json servos = json::array();
+    for (const ServoRow& servo : bus.servos) {
+      servos.push_back({{"id", servo.id},
+                        {"name", servo.name},
+                        {"model", servo.model},
+                        {"torque", servo.torque},
+                        {"goal_position", servo.goal_position},
+                        {"present_position", servo.present_position},
+                        {"present_speed", servo.present_speed},
+                        {"present_load", servo.present_load},
+                        {"temperature", servo.temperature},
+                        {"voltage", servo.voltage},
+                        {"error", servo.error >= 0 ? json(servo.error) : json(nullptr)}});
+    }
+    out.push_back({{"robot", bus.robot}, {"robot_name", bus.robot_name}, {"bus", bus.bus}, {"link", bus.link}, {"servos", servos}});
+  }
   return out;
 }
 
@@ -155,8 +194,10 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   constexpr std::string_view kPrefix = "/api/";
   if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
   const std::string action = path.substr(kPrefix.size());
-  if (action == "state") {
-    if (method != "GET") return {405, error_body("/api/state is read with GET")};
+  if (action == "state" || action == "scene" || action == "buses") {
+    if (method != "GET") return {405, error_body("/api/" + action + " is read with GET")};
+    if (action == "scene") return {200, scene_json(control.scene())};
+    if (action == "buses") return {200, buses_json(control.buses())};
     return {200, state_json(control.state())};
   }
   if (method != "POST") return {405, error_body("/api/" + action + " is a POST request")};
@@ -169,8 +210,32 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   }
 }
 
-HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port)
+StaticFiles default_static_files() {
+  StaticFiles files;
+  const char* viewer = std::getenv("DOPPEL_VIEWER_DIR");
+  files.viewer_dir = viewer != nullptr && *viewer != '\0' ? viewer : DOPPEL_VIEWER_SOURCE_DIR;
+  const char* three = std::getenv("DOPPEL_THREE_DIR");
+  files.three_dir = three != nullptr && *three != '\0' ? three : "/usr/share/javascript/three";
+  return files;
+}
+
+std::string static_files_problem(const StaticFiles& files) {
+  if (!files.viewer_dir.empty() && !std::filesystem::is_regular_file(std::filesystem::path(files.viewer_dir) / "index.html")) {
+    return "the viewer's folder " + files.viewer_dir + " has no index.html (--viewer-dir or DOPPEL_VIEWER_DIR names it)";
+  }
+  if (!files.three_dir.empty() && !std::filesystem::is_regular_file(std::filesystem::path(files.three_dir) / "three.min.js")) {
+    return "three.js is not at " + files.three_dir +
+           "/three.min.js (install Debian's libjs-three: scripts/setup; DOPPEL_THREE_DIR names another folder)";
+  }
+  return "";
+}
+
+HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files)
     : control_(control), address_(address), server_(std::make_unique<httplib::Server>()) {
+  // The viewer: its page at /, three.js at /three/. Files only; the API answers JSON below.
+  if (const std::string problem = static_files_problem(files); !problem.empty()) throw std::runtime_error(problem);
+  if (!files.viewer_dir.empty()) server_->set_mount_point("/", files.viewer_dir);
+  if (!files.three_dir.empty()) server_->set_mount_point("/three", files.three_dir);
   server_->set_payload_max_length(64 * 1024);
   // The library's default also sets SO_REUSEPORT, which lets a second doppel share the port
   // unnoticed (and receive half of the requests): only SO_REUSEADDR here.

@@ -143,9 +143,18 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
                                                 0.5 * field.field_length_m + field.border_strip_width_m,
                                                 0.5 * field.field_width_m + field.border_strip_width_m);
   if (options.viewer) {
+    // The viewer's page beside the API; without its files (no libjs-three) the API alone.
+    control::StaticFiles files = control::default_static_files();
+    if (!options.viewer_dir.empty()) files.viewer_dir = options.viewer_dir;
+    if (const std::string problem = control::static_files_problem(files); !problem.empty()) {
+      if (!options.viewer_dir.empty()) throw std::runtime_error("--viewer-dir: " + problem);
+      std::cerr << "doppel: viewer page off: " << problem << "\n";
+      files = {};
+    }
+    viewer_page_ = !files.viewer_dir.empty();
     try {
       control_api_ = std::make_unique<control::HttpApi>(*controller_, options.viewer_address,
-                                                        options.viewer_port.value_or(control::kDefaultPort));
+                                                        options.viewer_port.value_or(control::kDefaultPort), files);
     } catch (const std::runtime_error& e) {
       if (options.viewer_port) {
         throw std::runtime_error(std::string("--viewer: ") + e.what());
@@ -299,7 +308,7 @@ void Gateway::simulate() noexcept {
         robot->sense(sim_time_ns);
       }
     }
-    controller_->end_tick(sim_time_ns);
+    controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
   }
   missed_ticks_ = clock.missed_ticks();
@@ -316,6 +325,9 @@ std::string Gateway::describe() const {
   if (control_api_ != nullptr) {
     out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
         << "/api/state (doppel-ctl --url http://" << control_api_->address() << ":" << control_api_->port() << ")\n";
+    if (viewer_page_) {
+      out << "doppel: viewer on http://" << control_api_->address() << ":" << control_api_->port() << "/\n";
+    }
   }
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))

@@ -73,13 +73,16 @@ Options:
                          $XDG_STATE_HOME/doppel, else ~/.local/state/doppel. A state file that is
                          corrupt or belongs to another robot layout stops doppel.
   --fresh                Start from the robot files' values and overwrite the saved state.
-  --viewer PORT          Serve simulation control (JSON API for doppel-ctl: state, pause, resume, step,
+  --viewer PORT          Serve the web viewer (http://127.0.0.1:PORT/: 3D view, servo tables, controls)
+                         and simulation control (JSON API for doppel-ctl: state, pause, resume, step,
                          reset, place, push, ball) on PORT (default 7580; 0 = any free port, printed at
                          start). If the default port is taken doppel runs without it and says so.
   --viewer-address ADDR  Address to serve it on (default 127.0.0.1: this machine only). Anyone who
                          can reach it can move the robots: name another address only on a network
                          you trust.
-  --no-viewer            Serve no simulation control.
+  --viewer-dir DIR       The viewer's page (index.html, viewer.js) from DIR instead of the source tree's
+                         viewer/ (or $DOPPEL_VIEWER_DIR). three.js comes from Debian's libjs-three.
+  --no-viewer            Serve neither the viewer nor simulation control.
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -124,6 +127,7 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_flag("--fresh", options.fresh);
   app.add_option("--viewer", options.viewer_port)->transform(number_in<uint16_t>(0, 65535));
   app.add_option("--viewer-address", options.viewer_address)->check(not_empty("the address"));
+  app.add_option("--viewer-dir", options.viewer_dir)->check(not_empty("the folder"));
   app.add_flag("--no-viewer{false}", options.viewer);
   app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));

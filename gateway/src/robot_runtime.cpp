@@ -85,6 +85,35 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
   }
   wire_supply_switch();
+  // The servo table's columns: each servo's registers found by their e-Manual names.
+  for (const auto& servo : servos_) {
+    const Gated& device = every_device_[servo.device_index];
+    auto address = [&](std::initializer_list<std::string_view> names) -> int32_t {
+      for (std::string_view name : names) {
+        if (device.p1 != nullptr) {
+          for (const dynamixel::RegisterSpec& r : device.p1->spec().registers) {
+            if (r.name == name) return r.address;
+          }
+        }
+        if (device.p2 != nullptr) {
+          for (const dynamixel::P2RegisterSpec& r : device.p2->spec().registers) {
+            if (r.name == name) return r.address;
+          }
+        }
+      }
+      return -1;
+    };
+    ServoColumns columns{servo.device_index, {}};
+    columns.address[kTorque] = address({"Torque Enable"});
+    columns.address[kGoal] = address({"Goal Position"});
+    columns.address[kPresent] = address({"Present Position"});
+    columns.address[kSpeed] = address({"Present Speed", "Present Velocity"});
+    columns.address[kLoad] = address({"Present Load", "Present Current"});
+    columns.address[kTemperature] = address({"Present Temperature"});
+    columns.address[kVoltage] = address({"Present Voltage", "Present Input Voltage"});
+    columns.address[kError] = address({"Hardware Error Status"});
+    servo_columns_.push_back(columns);
+  }
 
   bus::BusServerOptions server_options;
   server_options.timing_mode = options.timing;
@@ -98,6 +127,7 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     std::copy(bytes.begin(), bytes.end(), eeprom_seen_.bytes[d].begin());
   }
   eeprom_.publish(eeprom_seen_);
+  publish_servo_table();
 }
 
 void BusRuntime::publish_eeprom_changes() noexcept {
@@ -277,6 +307,64 @@ void BusRuntime::after_dispatch() noexcept {
 void BusRuntime::on_tick() noexcept {
   before_dispatch();
   after_dispatch();
+  if (++servo_table_ticks_ >= kServoTableEveryTicks) {
+    servo_table_ticks_ = 0;
+    publish_servo_table();
+  }
+}
+
+void BusRuntime::publish_servo_table() noexcept {
+  BusServoTable& table = servo_table_.back();
+  for (std::size_t i = 0; i < servo_columns_.size(); ++i) {
+    const ServoColumns& columns = servo_columns_[i];
+    const Gated& device = every_device_[columns.device_index];
+    auto value = [&](Column column) -> int64_t {
+      const int32_t address = columns.address[column];
+      if (address < 0) return -1;
+      if (device.p2 != nullptr) return device.p2->register_value(static_cast<uint16_t>(address));
+      return device.p1->register_raw(static_cast<uint8_t>(address));
+    };
+    ServoRegisters& row = table.servos[i];
+    row.id = devices_[columns.device_index]->id();
+    row.torque = value(kTorque) > 0;
+    row.goal_position = value(kGoal);
+    row.present_position = value(kPresent);
+    row.present_speed = value(kSpeed);
+    row.present_load = value(kLoad);
+    row.temperature = value(kTemperature);
+    row.voltage = value(kVoltage);
+    row.error = value(kError);
+  }
+  servo_table_.publish();
+}
+
+control::BusTable BusRuntime::servo_table() {
+  BusServoTable table;
+  {
+    std::lock_guard<std::mutex> lock(servo_table_mutex_);
+    servo_table_.read(table);
+  }
+  control::BusTable out;
+  out.bus = bus_index_;
+  out.link = port_->link_path();
+  for (std::size_t i = 0; i < servo_columns_.size(); ++i) {
+    const ServoRegisters& r = table.servos[i];
+    const DeviceConfig& device = config_.devices[servo_columns_[i].device_index];
+    control::ServoRow row;
+    row.id = r.id;
+    row.name = device.name;
+    row.model = device.model;
+    row.torque = r.torque;
+    row.goal_position = r.goal_position;
+    row.present_position = r.present_position;
+    row.present_speed = r.present_speed;
+    row.present_load = r.present_load;
+    row.temperature = r.temperature;
+    row.voltage = r.voltage;
+    row.error = r.error;
+    out.servos.push_back(std::move(row));
+  }
+  return out;
 }
 
 void BusRuntime::drive(double dt_s) noexcept {
@@ -412,6 +500,12 @@ RobotEeprom RobotRuntime::eeprom_now() const {
 std::vector<std::vector<uint16_t>> RobotRuntime::model_numbers() const {
   std::vector<std::vector<uint16_t>> out;
   for (const auto& bus : buses_) out.push_back(bus->model_numbers());
+  return out;
+}
+
+std::vector<control::BusTable> RobotRuntime::servo_tables() {
+  std::vector<control::BusTable> out;
+  for (auto& bus : buses_) out.push_back(bus->servo_table());
   return out;
 }
 

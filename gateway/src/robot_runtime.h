@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "bus/pty_port.h"
 #include "body/simulated_body.h"
 #include "concurrency/snapshot.h"
+#include "control/sim_control.h"
 #include "dynamixel/built_device.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/darwin_boards.h"
@@ -48,6 +50,19 @@ struct BusFeedback {
   std::array<dynamixel::ImuFeedback, kMaxBoards> imus{};      // by IMU index on the bus
   std::array<dynamixel::FootFeedback, kMaxBoards> feet{};     // by foot-board index on the bus
   dynamixel::PowerFeedback power{};                           // for every power board on the bus
+};
+
+// Every servo's registers as the viewer's servo table shows them (bus thread -> HTTP threads),
+// decoded on the bus thread every kServoTableEveryTicks. Raw register values, model units.
+inline constexpr int kServoTableEveryTicks = 10;  // bus ticks are 10 ms: every 100 ms
+struct ServoRegisters {
+  uint8_t id = 0;
+  bool torque = false;
+  int64_t goal_position = 0, present_position = 0, present_speed = 0, present_load = 0, temperature = 0, voltage = 0;
+  int64_t error = -1;  // -1: no error register
+};
+struct BusServoTable {
+  std::array<ServoRegisters, kMaxServos> servos{};  // by servo index on the bus
 };
 
 class BusRuntime final : public bus::DeviceSync {
@@ -92,8 +107,19 @@ class BusRuntime final : public bus::DeviceSync {
   // The devices' EEPROM areas now; only while the bus thread is not running.
   std::vector<std::vector<uint8_t>> eeprom_now() const;
   std::vector<uint16_t> model_numbers() const;
+  // The servo table (ID, name, model, registers) the bus thread published last. Any thread but
+  // the bus thread (one at a time: a mutex on the reading side only).
+  control::BusTable servo_table();
 
  private:
+  // Decodes every servo's registers into servo_table_ and publishes them. Bus thread; rt-safe.
+  void publish_servo_table() noexcept;
+  // Where a servo's table columns are in its control table (-1: the model has no such register).
+  enum Column : std::size_t { kTorque, kGoal, kPresent, kSpeed, kLoad, kTemperature, kVoltage, kError, kColumns };
+  struct ServoColumns {
+    std::size_t device_index;
+    std::array<int32_t, kColumns> address;
+  };
   // Compares every device's EEPROM with what was published and publishes a change. Bus thread; rt-safe.
   void publish_eeprom_changes() noexcept;
   // A device's simulation side and its index in the body.
@@ -147,6 +173,10 @@ class BusRuntime final : public bus::DeviceSync {
   std::atomic<uint64_t> power_on_requested_{0};
   std::atomic<uint64_t> power_on_done_{0};
   uint64_t power_on_pending_ = 0;  // bus thread: the request being carried out, 0 = none
+  std::vector<ServoColumns> servo_columns_;  // by servo index on the bus
+  concurrency::Snapshot<BusServoTable> servo_table_;
+  std::mutex servo_table_mutex_;  // reading side only: the snapshot has one reader
+  int servo_table_ticks_ = 0;     // bus thread
   std::thread thread_;
 };
 
@@ -178,6 +208,8 @@ class RobotRuntime {
   // While the bus threads are stopped: the EEPROM areas now.
   RobotEeprom eeprom_now() const;
   std::vector<std::vector<uint16_t>> model_numbers() const;
+  // Every bus' servo table (robot fields left to the caller). Any thread but the bus threads.
+  std::vector<control::BusTable> servo_tables();
 
  private:
   RobotConfig config_;

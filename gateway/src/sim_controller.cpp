@@ -32,6 +32,80 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
     }
     joint_names_.push_back(std::move(names));
   }
+  if (world_ != nullptr) {
+    physics::SceneView initial;
+    world_->fill_scene(initial);  // sizes the shapes once: later fills of a copy do not allocate
+    scene_ = std::make_unique<concurrency::Snapshot<physics::SceneView>>(initial);
+  }
+}
+
+namespace {
+
+const char* shape_type(physics::ShapeType type) {
+  switch (type) {
+    case physics::ShapeType::kBox: return "box";
+    case physics::ShapeType::kSphere: return "sphere";
+    case physics::ShapeType::kCylinder: return "cylinder";
+    case physics::ShapeType::kCapsule: return "capsule";
+    case physics::ShapeType::kRing: return "ring";
+  }
+  return "box";
+}
+
+const char* object_kind(physics::ObjectKind kind) {
+  switch (kind) {
+    case physics::ObjectKind::kCarpet: return "carpet";
+    case physics::ObjectKind::kFieldLine: return "line";
+    case physics::ObjectKind::kGoalPost: return "goal_post";
+    case physics::ObjectKind::kGoalBar: return "goal_bar";
+    case physics::ObjectKind::kGoalNet: return "goal_net";
+    case physics::ObjectKind::kBall: return "ball";
+    case physics::ObjectKind::kSidePole: return "side_pole";
+    case physics::ObjectKind::kRobotBody: return "robot";
+    case physics::ObjectKind::kTeamMarker: return "team_marker";
+    case physics::ObjectKind::kOther: return "other";
+  }
+  return "other";
+}
+
+}  // namespace
+
+control::Scene SimController::scene() {
+  control::Scene out;
+  if (scene_ == nullptr) return out;
+  physics::SceneView view;
+  {
+    std::lock_guard<std::mutex> lock(scene_mutex_);
+    view = scene_->latest();  // copies (allocates) on this HTTP thread, never on the simulation's
+  }
+  out.sim_time_s = view.sim_time_s;
+  out.shapes.reserve(view.shapes.size());
+  for (const physics::VisualShape& shape : view.shapes) {
+    control::SceneShape s;
+    s.type = shape_type(shape.type);
+    s.kind = object_kind(shape.kind);
+    s.object_id = shape.object_id;
+    const Eigen::Vector3d p = shape.X_WS.translation();
+    const Eigen::Quaterniond q(shape.X_WS.linear());
+    s.position = {p.x(), p.y(), p.z()};
+    s.quaternion = {q.x(), q.y(), q.z(), q.w()};
+    s.size = {shape.size_m.x(), shape.size_m.y(), shape.size_m.z()};
+    s.colour = {shape.colour.r, shape.colour.g, shape.colour.b};
+    out.shapes.push_back(s);
+  }
+  return out;
+}
+
+std::vector<control::BusTable> SimController::buses() {
+  std::vector<control::BusTable> out;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    for (control::BusTable& table : robots_[r].runtime->servo_tables()) {
+      table.robot = r;
+      table.robot_name = robots_[r].name;
+      out.push_back(std::move(table));
+    }
+  }
+  return out;
 }
 
 control::SimState SimController::state() {
@@ -44,6 +118,7 @@ control::SimState SimController::state() {
   state.sim_time_s = static_cast<double>(sample.sim_time_ns) * 1e-9;
   state.paused = sample.paused;
   state.steps_left = sample.steps_left;
+  state.missed_ticks = sample.missed_ticks;
   state.carpet_half_length_m = carpet_half_length_m_;
   state.carpet_half_width_m = carpet_half_width_m_;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
@@ -166,7 +241,7 @@ bool SimController::begin_tick() noexcept {
   return advancing_;
 }
 
-void SimController::end_tick(int64_t sim_time_ns) noexcept {
+void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcept {
   bool step_done = false;
   if (advancing_ && steps_left_ > 0) {
     step_done = --steps_left_ == 0;
@@ -178,6 +253,7 @@ void SimController::end_tick(int64_t sim_time_ns) noexcept {
     sample.sim_time_ns = sim_time_ns;
     sample.paused = paused_;
     sample.steps_left = steps_left_;
+    sample.missed_ticks = missed_ticks;
     for (std::size_t r = 0; r < robots_.size(); ++r) {
       if (world_ == nullptr || !robots_[r].in_world) continue;
       const std::size_t w = *robots_[r].in_world;
@@ -196,6 +272,13 @@ void SimController::end_tick(int64_t sim_time_ns) noexcept {
       sample.ball = {ball.x(), ball.y(), ball.z()};
     }
     samples_.publish();
+  }
+  if (scene_ != nullptr && ++scene_ticks_ >= kSceneEveryTicks) {
+    scene_ticks_ = 0;
+    physics::SceneView& view = scene_->back();
+    world_->fill_scene(view);  // same shape count as at setup: no allocation
+    view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+    scene_->publish();
   }
   if (pending_sequence_ != 0) {
     finish(pending_sequence_, pending_status_);

@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <cstdint>
 #include <mutex>
 #include <optional>
@@ -17,6 +18,7 @@
 #include "concurrency/snapshot.h"
 #include "concurrency/spsc_queue.h"
 #include "control/sim_control.h"
+#include "physics/scene_view.h"
 #include "physics/world.h"
 
 namespace doppel::gateway {
@@ -44,6 +46,7 @@ struct SimSample {
   int64_t sim_time_ns = 0;
   bool paused = false;
   uint64_t steps_left = 0;
+  uint64_t missed_ticks = 0;
   std::array<SimRobotSample, kSimMaxRobots> robots{};
   std::array<double, 3> ball{};
 };
@@ -53,6 +56,7 @@ class SimController final : public control::SimControl {
   static constexpr std::size_t kMaxRobots = kSimMaxRobots;
   static constexpr std::size_t kMaxJoints = kSimMaxJoints;
   static constexpr int kPublishEveryTicks = 10;  // 100 Hz state
+  static constexpr int kSceneEveryTicks = 34;    // the viewer's scene: at most 30 Hz
 
   // One robot: its runtime, its index in `world` (none without a body) and its name.
   struct Robot {
@@ -72,12 +76,15 @@ class SimController final : public control::SimControl {
   control::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
   control::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
   control::Outcome ball(double x_m, double y_m) override;
+  control::Scene scene() override;
+  std::vector<control::BusTable> buses() override;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
   bool begin_tick() noexcept;
-  // Simulation thread, at the end of every tick: publishes the state every kPublishEveryTicks. rt-safe.
-  void end_tick(int64_t sim_time_ns) noexcept;
+  // Simulation thread, at the end of every tick: publishes the state every kPublishEveryTicks
+  // (with the 1 ms ticks the thread missed so far), the scene every kSceneEveryTicks. rt-safe.
+  void end_tick(int64_t sim_time_ns, uint64_t missed_ticks = 0) noexcept;
 
  private:
   // Queues `request` and waits until the simulation thread has carried it out (or `timeout`).
@@ -103,6 +110,10 @@ class SimController final : public control::SimControl {
 
   std::mutex read_mutex_;  // request side only: the snapshot has one reader
   concurrency::Snapshot<Sample> samples_;
+  // Every visible shape, published every kSceneEveryTicks. Every slot is sized at setup
+  // (World::fill_scene), so publishing allocates nothing.
+  std::mutex scene_mutex_;  // request side only
+  std::unique_ptr<concurrency::Snapshot<physics::SceneView>> scene_;  // null without a world
 
   // Simulation thread.
   bool paused_ = false;
@@ -112,6 +123,7 @@ class SimController final : public control::SimControl {
   int pending_status_ = 200;
   bool advancing_ = true;       // the world advances in this tick
   int ticks_ = 0;
+  int scene_ticks_ = 0;
 };
 
 }  // namespace doppel::gateway

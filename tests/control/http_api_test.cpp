@@ -1,9 +1,13 @@
 // The simulation-control API's checks (control/http_api.h) against a recording SimControl: what a
 // request must look like, that a refused one reaches nothing, and one round trip over a socket.
 #include <httplib.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,6 +22,7 @@ class RecordingControl final : public SimControl {
   SimState state() override {
     SimState s;
     s.sim_time_s = 1.5;
+    s.missed_ticks = 7;
     s.carpet_half_length_m = 5.2;
     s.carpet_half_width_m = 3.7;
     s.ball_m = std::vector<double>{0.0, 0.0, 0.0335};
@@ -43,6 +48,31 @@ class RecordingControl final : public SimControl {
                   std::to_string(fz) + " " + std::to_string(steps));
   }
   Outcome ball(double x, double y) override { return record("ball " + std::to_string(x) + " " + std::to_string(y)); }
+  Scene scene() override {
+    Scene s;
+    s.sim_time_s = 2.25;
+    SceneShape trunk;
+    trunk.type = "box";
+    trunk.kind = "robot";
+    trunk.object_id = 100;
+    trunk.position = {1.0, -0.5, 0.4};
+    trunk.quaternion = {0.0, 0.0, 0.7071067811865476, 0.7071067811865476};
+    trunk.size = {0.1, 0.16, 0.2};
+    trunk.colour = {60, 60, 60};
+    s.shapes = {trunk};
+    return s;
+  }
+  std::vector<BusTable> buses() override {
+    BusTable bus;
+    bus.robot = 0;
+    bus.robot_name = "fumanoid-2011";
+    bus.bus = 0;
+    bus.link = "/tmp/links/ttyDXL0";
+    ServoRow p1{1, "HEAD_PITCH", "RX-28", true, 600, 598, 12, 40, 31, 148, -1};
+    ServoRow p2{7, "HIP_PITCH", "XM430-W350", false, 2048, 2047, 0, -3, 35, 120, 0x20};
+    bus.servos = {p1, p2};
+    return {bus};
+  }
   std::vector<std::string> calls;
 
  private:
@@ -58,6 +88,7 @@ TEST(HttpApi, StateCarriesTimeRobotsJointsAndBall) {
   ASSERT_EQ(answer.status, 200);
   EXPECT_DOUBLE_EQ(answer.body["sim_time_s"].get<double>(), 1.5);
   EXPECT_EQ(answer.body["paused"], false);
+  EXPECT_EQ(answer.body["missed_ticks"], 7);
   ASSERT_EQ(answer.body["robots"].size(), 2u);
   EXPECT_EQ(answer.body["robots"][0]["name"], "fumanoid-2011");
   EXPECT_DOUBLE_EQ(answer.body["robots"][0]["joints"]["neck"].get<double>(), 0.25);
@@ -142,6 +173,114 @@ TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
   EXPECT_EQ(by_name.status, 400);
   EXPECT_NE(by_name.body["error"].get<std::string>().find("give its index"), std::string::npos);
   EXPECT_EQ(handle(twins, "POST", "/api/place", R"({"robot": 1, "x": 0, "y": 0, "yaw": 0})").status, 200);
+}
+
+TEST(HttpApi, SceneCarriesEveryShapeWithPoseSizeAndColour) {
+  RecordingControl control;
+  const Answer answer = handle(control, "GET", "/api/scene", "");
+  ASSERT_EQ(answer.status, 200);
+  EXPECT_DOUBLE_EQ(answer.body["sim_time_s"].get<double>(), 2.25);
+  ASSERT_EQ(answer.body["shapes"].size(), 1u);
+  const auto& shape = answer.body["shapes"][0];
+  EXPECT_EQ(shape["type"], "box");
+  EXPECT_EQ(shape["kind"], "robot");
+  EXPECT_EQ(shape["object"], 100);
+  EXPECT_EQ(shape["p"], (std::vector<double>{1.0, -0.5, 0.4}));
+  EXPECT_DOUBLE_EQ(shape["q"][3].get<double>(), 0.7071067811865476);  // x, y, z, w: w last
+  EXPECT_EQ(shape["size"], (std::vector<double>{0.1, 0.16, 0.2}));
+  EXPECT_EQ(shape["rgb"], (std::vector<int>{60, 60, 60}));
+  EXPECT_EQ(handle(control, "POST", "/api/scene", "").status, 405);
+  EXPECT_TRUE(control.calls.empty());
+}
+
+TEST(HttpApi, BusesCarryEveryServosRegistersAndNoErrorRegisterAsNull) {
+  RecordingControl control;
+  const Answer answer = handle(control, "GET", "/api/buses", "");
+  ASSERT_EQ(answer.status, 200);
+  ASSERT_EQ(answer.body.size(), 1u);
+  const auto& bus = answer.body[0];
+  EXPECT_EQ(bus["robot_name"], "fumanoid-2011");
+  EXPECT_EQ(bus["link"], "/tmp/links/ttyDXL0");
+  ASSERT_EQ(bus["servos"].size(), 2u);
+  const auto& p1 = bus["servos"][0];
+  EXPECT_EQ(p1["id"], 1);
+  EXPECT_EQ(p1["name"], "HEAD_PITCH");
+  EXPECT_EQ(p1["model"], "RX-28");
+  EXPECT_EQ(p1["torque"], true);
+  EXPECT_EQ(p1["goal_position"], 600);
+  EXPECT_EQ(p1["present_position"], 598);
+  EXPECT_EQ(p1["present_speed"], 12);
+  EXPECT_EQ(p1["present_load"], 40);
+  EXPECT_EQ(p1["temperature"], 31);
+  EXPECT_EQ(p1["voltage"], 148);
+  EXPECT_TRUE(p1["error"].is_null());  // Protocol 1.0: no error register
+  EXPECT_EQ(bus["servos"][1]["error"], 0x20);
+  EXPECT_EQ(bus["servos"][1]["present_load"], -3);
+  EXPECT_EQ(handle(control, "POST", "/api/buses", "").status, 405);
+}
+
+// A folder under the test's temporary directory holding `files` (name -> content).
+std::string folder_with(const std::string& name, const std::vector<std::pair<std::string, std::string>>& files) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-http-api-test-" + std::to_string(::getpid())) / name;
+  std::filesystem::create_directories(dir);
+  for (const auto& [file, content] : files) std::ofstream(dir / file) << content;
+  return dir.string();
+}
+
+TEST(HttpApi, ServesTheViewerPageAndThreeJsBesideTheApi) {
+  RecordingControl control;
+  const StaticFiles files{folder_with("viewer", {{"index.html", "<title>viewer page</title>"}, {"viewer.js", "let x = 1;"}}),
+                          folder_with("three", {{"three.min.js", "var THREE = {};"}})};
+  ASSERT_EQ(static_files_problem(files), "");
+  HttpApi api(control, "127.0.0.1", 0, files);
+  api.start();
+  httplib::Client client("127.0.0.1", api.port());
+  const httplib::Result page = client.Get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_EQ(page->body, "<title>viewer page</title>");
+  const httplib::Result script = client.Get("/viewer.js");
+  ASSERT_TRUE(script);
+  EXPECT_EQ(script->body, "let x = 1;");
+  const httplib::Result three = client.Get("/three/three.min.js");
+  ASSERT_TRUE(three);
+  EXPECT_EQ(three->body, "var THREE = {};");
+  const httplib::Result scene = client.Get("/api/scene");  // the API answers beside the files
+  ASSERT_TRUE(scene);
+  EXPECT_EQ(scene->status, 200);
+  EXPECT_EQ(nlohmann::json::parse(scene->body)["shapes"].size(), 1u);
+  const httplib::Result missing = client.Get("/no-such-file.js");
+  ASSERT_TRUE(missing);
+  EXPECT_EQ(missing->status, 404);
+  api.stop();
+  std::filesystem::remove_all(std::filesystem::path(files.viewer_dir).parent_path());
+}
+
+TEST(HttpApi, AViewerFolderWithoutItsFilesIsNamed) {
+  RecordingControl control;
+  const std::string empty = folder_with("empty", {});
+  const std::string problem = static_files_problem({empty, ""});
+  EXPECT_NE(problem.find(empty), std::string::npos) << problem;
+  EXPECT_NE(problem.find("index.html"), std::string::npos) << problem;
+  const std::string no_three = static_files_problem({"", empty});
+  EXPECT_NE(no_three.find("libjs-three"), std::string::npos) << no_three;
+  EXPECT_THROW(HttpApi(control, "127.0.0.1", 0, {empty, ""}), std::runtime_error);
+  std::filesystem::remove_all(std::filesystem::path(empty).parent_path());
+}
+
+TEST(HttpApi, TheDefaultViewerFolderIsTheSourceTreesUnlessTheEnvironmentNamesOne) {
+  ::unsetenv("DOPPEL_VIEWER_DIR");
+  ::unsetenv("DOPPEL_THREE_DIR");
+  const StaticFiles defaults = default_static_files();
+  EXPECT_TRUE(std::filesystem::is_regular_file(std::filesystem::path(defaults.viewer_dir) / "index.html")) << defaults.viewer_dir;
+  EXPECT_EQ(defaults.three_dir, "/usr/share/javascript/three");
+  ::setenv("DOPPEL_VIEWER_DIR", "/elsewhere/viewer", 1);
+  ::setenv("DOPPEL_THREE_DIR", "/elsewhere/three", 1);
+  const StaticFiles named = default_static_files();
+  EXPECT_EQ(named.viewer_dir, "/elsewhere/viewer");
+  EXPECT_EQ(named.three_dir, "/elsewhere/three");
+  ::unsetenv("DOPPEL_VIEWER_DIR");
+  ::unsetenv("DOPPEL_THREE_DIR");
 }
 
 TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {

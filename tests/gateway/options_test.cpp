@@ -65,6 +65,22 @@ TEST(Options, BadOptionsAreRejectedWithTheirName) {
   }
 }
 
+TEST(Options, TheViewerOptions) {
+  const Options defaults = parse({});
+  EXPECT_TRUE(defaults.viewer);
+  EXPECT_EQ(defaults.viewer_dir, "");
+  const Options sut = parse({"--viewer", "0", "--viewer-dir", "/srv/viewer"});
+  EXPECT_EQ(sut.viewer_port, 0);
+  EXPECT_EQ(sut.viewer_dir, "/srv/viewer");
+  EXPECT_FALSE(parse({"--no-viewer"}).viewer);
+  try {
+    parse({"--viewer-dir", ""});
+    FAIL() << "an empty --viewer-dir was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--viewer-dir"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Options, ARepeatedOptionKeepsItsLastValue) {
   Options sut = parse({"--timing", "fast", "--timing", "wire", "--latency-timer", "4", "--latency-timer", "8"});
 

@@ -9,6 +9,9 @@
 //   POST /api/place  {"robot": 0 | "name", "x": 1.0, "y": 0.5, "yaw": 1.57}
 //   POST /api/push   {"robot": ..., "fx": 20, "fy": 0, "fz": 0, "ms": 100}
 //   POST /api/ball   {"x": 0.5, "y": 0}
+//   GET  /api/scene                                   -> every visible shape (scene_json)
+//   GET  /api/buses                                   -> every bus' servo table (buses_json)
+//   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
 #include <cstdint>
@@ -32,6 +35,20 @@ inline constexpr uint32_t kMaxPushMs = 10'000;
 inline constexpr double kMaxPushForceN = 1000.0;
 
 nlohmann::json state_json(const SimState& state);
+nlohmann::json scene_json(const Scene& scene);
+nlohmann::json buses_json(const std::vector<BusTable>& buses);
+
+// Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's
+// libjs-three: three.min.js). Empty: not served.
+struct StaticFiles {
+  std::string viewer_dir;
+  std::string three_dir;
+};
+// The viewer's folder: $DOPPEL_VIEWER_DIR, else the source tree's viewer/ (compiled in); three.js:
+// $DOPPEL_THREE_DIR, else /usr/share/javascript/three.
+StaticFiles default_static_files();
+// Why `files` cannot be served ("" when they can): a folder without index.html, no three.min.js.
+std::string static_files_problem(const StaticFiles& files);
 
 // A request as the API takes it, for tests of the checks without a socket: `method` "GET" or
 // "POST", `path` as in the table above, `body` the request body. Returns the HTTP status and the
@@ -46,7 +63,8 @@ class HttpApi {
  public:
   // Binds `address`:`port` at once (port 0: any free port), so that a port in use is reported
   // before anything runs. Throws std::runtime_error naming the address and port.
-  HttpApi(SimControl& control, const std::string& address, uint16_t port);
+  // `files`: the viewer served at / (a folder that does not exist is an error naming it).
+  HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files = {});
   ~HttpApi();
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;

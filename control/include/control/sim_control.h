@@ -3,6 +3,7 @@
 // the contract between the HTTP API (control/) and the process that owns the world (gateway/), so
 // that neither knows the other's insides. Requests are checked before anything is applied.
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -30,10 +31,52 @@ struct SimState {
   double sim_time_s = 0.0;
   bool paused = false;
   uint64_t steps_left = 0;             // of a `step` request still running
+  uint64_t missed_ticks = 0;           // 1 ms simulation ticks the simulation thread was late for, since start
   std::vector<RobotState> robots;
   std::optional<std::vector<double>> ball_m;  // x, y, z; none without a world
   double carpet_half_length_m = 0.0;   // where place and ball may put things: |x| <= this
   double carpet_half_width_m = 0.0;    // |y| <= this
+};
+
+// One visible shape of the world (physics::VisualShape as the viewer draws it). Field frame, m.
+struct SceneShape {
+  const char* type = "box";   // box (size = full extents), sphere (size[0] = radius), cylinder and capsule
+                              // (size[0] = radius, size[1] = length along the shape's z), ring (outer
+                              // radius, inner radius, thickness; flat in the shape's xy plane)
+  const char* kind = "other";  // carpet, line, goal_post, goal_bar, goal_net, ball, side_pole, robot, team_marker, other
+  uint16_t object_id = 0;      // which robot / goal / pole it belongs to (robot r: kFirstRobotObjectId + r)
+  std::array<double, 3> position{};                  // shape frame origin
+  std::array<double, 4> quaternion{0.0, 0.0, 0.0, 1.0};  // shape frame orientation: x, y, z, w
+  std::array<double, 3> size{};
+  std::array<uint8_t, 3> colour{};  // r, g, b
+};
+
+struct Scene {
+  double sim_time_s = 0.0;  // simulation time the poses belong to
+  std::vector<SceneShape> shapes;
+};
+
+// One servo's registers as its bus thread last published them (every 100 ms): raw register values
+// in the model's units (the e-Manual's), as the thesis' servo table showed them.
+struct ServoRow {
+  uint8_t id = 0;
+  std::string name;   // the robot file's name for it
+  std::string model;  // registry model name
+  bool torque = false;
+  int64_t goal_position = 0, present_position = 0;
+  int64_t present_speed = 0;  // Present Speed (P1) / Present Velocity (P2)
+  int64_t present_load = 0;   // Present Load (P1, and P2 models without current) / Present Current
+  int64_t temperature = 0;    // Present Temperature, deg C
+  int64_t voltage = 0;        // Present (Input) Voltage, 0.1 V
+  int64_t error = -1;         // Hardware Error Status (Protocol 2.0); -1: the model has no such register (P1)
+};
+
+struct BusTable {
+  std::size_t robot = 0;
+  std::string robot_name;
+  std::size_t bus = 0;
+  std::string link;        // the bus' pseudo-terminal link
+  std::vector<ServoRow> servos;
 };
 
 // A robot counts as fallen when its robot frame leans more than this from upright (trunk on the
@@ -68,6 +111,11 @@ class SimControl {
   virtual Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) = 0;
   // The ball at rest at (x, y) on the carpet.
   virtual Outcome ball(double x_m, double y_m) = 0;
+  // What the viewer draws: every visible shape (empty without a world). Published by the
+  // simulation thread at most 30 times a second.
+  virtual Scene scene() { return {}; }
+  // Every bus' servo table (robot by robot, bus by bus).
+  virtual std::vector<BusTable> buses() { return {}; }
 };
 
 }  // namespace doppel::control

@@ -74,6 +74,7 @@ class Gateway {
   std::vector<std::string> state_files_;  // per robot; empty without a state directory
   bool state_saved_ = false;               // stop() saved the final state
   uint64_t missed_ticks_ = 0;
+  bool viewer_page_ = false;  // control_api_ serves the viewer's page too
 };
 
 // The robots of `options`, loaded in order (robot names looked up in robots_dir or the default).

@@ -36,12 +36,13 @@ struct Options {
   // (parse_options' default: $XDG_STATE_HOME/doppel, else ~/.local/state/doppel); "" keeps nothing.
   std::string state_dir;
   bool fresh = false;                    // --fresh: start from the robot files, overwrite their saved state
-  // Simulation control over HTTP (control/http_api.h, doppel-ctl): --viewer PORT (0 = any free
+  // The web viewer and simulation control over HTTP (control/http_api.h, doppel-ctl, docs/viewer.md): --viewer PORT (0 = any free
   // port), --viewer-address ADDR, --no-viewer. The default port is used only if it is free; a port
   // the user names must be.
   bool viewer = true;
   std::optional<uint16_t> viewer_port;   // unset = control::kDefaultPort
   std::string viewer_address = "127.0.0.1";
+  std::string viewer_dir;                // --viewer-dir DIR: the viewer's page; "" = $DOPPEL_VIEWER_DIR or the source tree's viewer/
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };

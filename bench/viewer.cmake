@@ -1,0 +1,7 @@
+# The web viewer's cost to the bus and simulation threads (docs/benchmarks.md "Viewer"): bus
+# latency and missed simulation ticks with a headless-Chromium viewer open and closed, same run.
+pkg_check_modules(HTTPLIB_BENCH REQUIRED IMPORTED_TARGET cpp-httplib)
+doppel_bus_tool(viewer_load)
+target_link_libraries(viewer_load PRIVATE PkgConfig::HTTPLIB_BENCH nlohmann_json::nlohmann_json)
+add_test(NAME viewer_load_smoke COMMAND viewer_load --quick)
+set_tests_properties(viewer_load_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE SKIP_RETURN_CODE 77)

@@ -1,0 +1,323 @@
+#!/usr/bin/env python3
+"""The web viewer as a person uses it, in headless Chromium (Debian's `chromium`).
+
+Starts doppel with its viewer on a free port, opens the page, and checks: the 3D view draws the
+robot (the page's robot count, and the pixel under the robot's trunk is not carpet), the servo
+table lists the robot's servos, a click on Pause pauses the simulation (simulation time stands
+still), a shift-click on the carpet places the robot there, a click on Step while running shows
+the API's refusal, Resume lets simulation time run on; then it saves a screenshot.
+
+Chromium is driven through its DevTools protocol over --remote-debugging-pipe (file descriptors
+3 and 4, JSON messages ended by NUL), so no websocket library or npm package is needed.
+Judged on simulation time and on what the API reports, never on wall-clock pace.
+
+usage: viewer_browser_test.py DOPPEL OUTPUT_DIR
+Exit 77 (CTest: skipped) only when chromium is not installed.
+"""
+
+import base64
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+
+SKIP = 77
+ROBOT = "fumanoid-2011"  # doppel's default robot
+
+
+class Failure(Exception):
+    pass
+
+
+def check(condition, message):
+    if not condition:
+        raise Failure(message)
+
+
+class Browser:
+    """Headless Chromium and a DevTools session with its one page."""
+
+    def __init__(self, executable, profile, width=1280, height=900):
+        to_browser_read, to_browser_write = os.pipe()
+        from_browser_read, from_browser_write = os.pipe()
+
+        def child_fds():  # Chromium reads its commands from fd 3 and writes to fd 4
+            read_end, write_end = os.dup(to_browser_read), os.dup(from_browser_write)  # above 4 once 3, 4 are taken
+            os.dup2(read_end, 3)
+            os.dup2(write_end, 4)
+
+        self.process = subprocess.Popen(
+            [executable, "--headless=new", "--remote-debugging-pipe", "--no-sandbox", "--no-first-run",
+             "--no-default-browser-check", "--disable-gpu-sandbox", "--use-angle=swiftshader",
+             "--enable-unsafe-swiftshader", "--disable-dev-shm-usage", f"--user-data-dir={profile}",
+             f"--window-size={width},{height}", "about:blank"],
+            pass_fds=(3, 4), preexec_fn=child_fds, start_new_session=True,
+            stdout=subprocess.DEVNULL, stderr=open(os.path.join(profile, "chromium.log"), "wb"))
+        os.close(to_browser_read)
+        os.close(from_browser_write)
+        self.out = os.fdopen(to_browser_write, "wb", buffering=0)
+        self.inp = os.fdopen(from_browser_read, "rb", buffering=0)
+        self.buffer = b""
+        self.next_id = 0
+        self.session = None
+        self.events = []
+
+    def _read_message(self):
+        while b"\0" not in self.buffer:
+            chunk = self.inp.read(65536)
+            if not chunk:
+                raise Failure("chromium closed its DevTools pipe (see chromium.log in the output folder)")
+            self.buffer += chunk
+        message, self.buffer = self.buffer.split(b"\0", 1)
+        return json.loads(message)
+
+    def call(self, method, params=None, session=True):
+        self.next_id += 1
+        request = {"id": self.next_id, "method": method, "params": params or {}}
+        if session and self.session is not None:
+            request["sessionId"] = self.session
+        self.out.write(json.dumps(request).encode() + b"\0")
+        while True:
+            message = self._read_message()
+            if message.get("id") == self.next_id:
+                if "error" in message:
+                    raise Failure(f"DevTools {method}: {message['error']}")
+                return message.get("result", {})
+            self.events.append(message)
+
+    def open(self, url):
+        targets = self.call("Target.getTargets", session=False)["targetInfos"]
+        page = next(t for t in targets if t["type"] == "page")
+        self.session = self.call("Target.attachToTarget", {"targetId": page["targetId"], "flatten": True},
+                                 session=False)["sessionId"]
+        self.call("Page.enable")
+        self.call("Runtime.enable")
+        self.call("Page.navigate", {"url": url})
+
+    def evaluate(self, expression):
+        result = self.call("Runtime.evaluate", {"expression": expression, "returnByValue": True, "awaitPromise": True})
+        if "exceptionDetails" in result:
+            raise Failure(f"page script failed: {expression}: {result['exceptionDetails']}")
+        return result["result"].get("value")
+
+    def wait_for(self, expression, what, timeout_s=60):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            try:
+                value = self.evaluate(expression)
+            except Failure:
+                value = None
+            if value:
+                return value
+            time.sleep(0.1)
+        raise Failure(f"timed out waiting for {what} ({expression}); page error: {self.page_error()}")
+
+    def page_error(self):
+        try:
+            return self.evaluate("window.doppelViewer ? window.doppelViewer.error() : 'no viewer script'")
+        except Failure as e:
+            return str(e)
+
+    def click(self, x, y, shift=False):
+        """A left click at page pixel (x, y), as a mouse makes it."""
+        modifiers = 8 if shift else 0
+        self.call("Input.dispatchMouseEvent", {"type": "mouseMoved", "x": x, "y": y, "modifiers": modifiers})
+        for kind in ("mousePressed", "mouseReleased"):
+            self.call("Input.dispatchMouseEvent",
+                      {"type": kind, "x": x, "y": y, "button": "left", "buttons": 1 if kind == "mousePressed" else 0,
+                       "clickCount": 1, "modifiers": modifiers})
+
+    def click_element(self, selector):
+        """A click on the middle of the element `selector` (CSS), scrolled into view first."""
+        box = self.evaluate(f"(() => {{ const e = document.querySelector({json.dumps(selector)});"
+                            " e.scrollIntoView({block: 'center'}); const r = e.getBoundingClientRect();"
+                            " return {x: r.left + r.width / 2, y: r.top + r.height / 2}; })()")
+        self.click(box["x"], box["y"])
+
+    def screenshot(self, path):
+        data = self.call("Page.captureScreenshot", {"format": "png"})["data"]
+        with open(path, "wb") as f:
+            f.write(base64.b64decode(data))
+
+    def close(self):
+        try:
+            self.call("Browser.close", session=False)
+        except Exception:
+            pass
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        try:
+            os.killpg(self.process.pid, signal.SIGKILL)  # its helper processes, if any outlived it
+        except ProcessLookupError:
+            pass
+
+
+def get_state(url):
+    with urllib.request.urlopen(url + "api/state", timeout=10) as response:
+        return json.load(response)
+
+
+def wait_sim_time(url, seconds, what, timeout_s=60):
+    """Waits until simulation time has advanced by `seconds` (judged on simulation time)."""
+    start = get_state(url)["sim_time_s"]
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if get_state(url)["sim_time_s"] >= start + seconds:
+            return
+        time.sleep(0.05)
+    raise Failure(f"simulation time did not advance by {seconds} s ({what})")
+
+
+def start_doppel(doppel, work):
+    output_path = os.path.join(work, "doppel.txt")
+    output = open(output_path, "wb")
+    process = subprocess.Popen([doppel, "--viewer", "0", "--no-camera", "--timing", "fast",
+                                "--link-dir", os.path.join(work, "links"), "--state-dir", os.path.join(work, "state")],
+                               stdout=output, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        text = open(output_path, encoding="utf-8", errors="replace").read()
+        match = re.search(r"viewer on (http://127\.0\.0\.1:\d+/)", text)
+        if match:
+            return process, match.group(1)
+        if process.poll() is not None:
+            raise Failure(f"doppel exited ({process.returncode}) before serving its viewer:\n{text}")
+        time.sleep(0.05)
+    raise Failure("doppel did not say where its viewer is within 120 s")
+
+
+def run(doppel, out_dir, chromium):
+    work = tempfile.mkdtemp(prefix="doppel-viewer-test-")
+    os.makedirs(out_dir, exist_ok=True)
+    process, url = start_doppel(doppel, work)
+    browser = None
+    try:
+        profile = os.path.join(work, "chromium")
+        os.makedirs(profile)
+        browser = Browser(chromium, profile)
+        browser.open(url)
+
+        # The robot is drawn: its shapes are in the 3D scene and the frame shows it.
+        robots = browser.wait_for("window.doppelViewer && window.doppelViewer.robotCount()", "the robot in the 3D view")
+        check(robots == 1, f"the view draws {robots} robots, doppel simulates 1")
+        browser.wait_for("window.doppelViewer.frames() > 5 && window.doppelViewer.sceneUpdates() > 2", "frames drawn")
+        # The pixel under the robot's trunk is not the carpet's colour: the robot is drawn there.
+        pixel = browser.evaluate("""(() => {
+            const v = window.doppelViewer, s = v.state().robots[0].pose;
+            const canvas = document.getElementById('canvas');
+            const p = v.pageXY(s.x, s.y, s.z + 0.25), r = canvas.getBoundingClientRect();
+            const copy = document.createElement('canvas');
+            copy.width = canvas.width; copy.height = canvas.height;
+            const g = copy.getContext('2d');
+            g.drawImage(canvas, 0, 0);
+            const k = canvas.width / r.width;
+            const robot = g.getImageData(Math.round((p.x - r.left) * k), Math.round((p.y - r.top) * k), 1, 1).data;
+            const c = v.pageXY(s.x + 0.6, s.y + 0.6, 0);
+            const carpet = g.getImageData(Math.round((c.x - r.left) * k), Math.round((c.y - r.top) * k), 1, 1).data;
+            return {robot: Array.from(robot.slice(0, 3)), carpet: Array.from(carpet.slice(0, 3))};
+        })()""")
+        difference = sum(abs(a - b) for a, b in zip(pixel["robot"], pixel["carpet"]))
+        check(difference > 30, f"the pixel at the robot's trunk {pixel['robot']} looks like the carpet {pixel['carpet']}")
+
+        # The servo table lists every servo of the robot's bus.
+        rows = browser.wait_for("window.doppelViewer.servoRows()", "the servo table")
+        buses = browser.evaluate("window.doppelViewer.buses()")
+        servos = sum(len(bus["servos"]) for bus in buses)
+        check(servos > 0 and rows == servos, f"the servo table shows {rows} rows, the API {servos} servos")
+        first = browser.evaluate("document.querySelector('#buses table.servo-table tbody tr').innerText")
+        check(str(buses[0]["servos"][0]["id"]) in first and buses[0]["servos"][0]["name"] in first,
+              f"the first row '{first}' is not servo {buses[0]['servos'][0]}")
+
+        # Step while running: the API refuses it, the page says why.
+        browser.click_element("#step")
+        message = browser.wait_for("window.doppelViewer.error()", "the refusal of a step while running")
+        check("pause first" in message, f"the page shows '{message}' for a step while running")
+
+        # Pause: simulation time stands still.
+        browser.click_element("#pause")
+        browser.wait_for("window.doppelViewer.state() && window.doppelViewer.state().paused", "the page to show 'paused'")
+        check(get_state(url)["paused"], "doppel is not paused after a click on Pause")
+        frozen = get_state(url)["sim_time_s"]
+        time.sleep(0.3)
+        check(get_state(url)["sim_time_s"] == frozen, "simulation time runs on while paused")
+
+        # Shift-click on the carpet places the robot there (paused: it stays where it was put).
+        target = (0.5, -0.3)
+        where = browser.evaluate(f"window.doppelViewer.pageXY({target[0]}, {target[1]}, 0)")
+        browser.click(where["x"], where["y"], shift=True)
+        deadline = time.monotonic() + 20
+        pose = None
+        while time.monotonic() < deadline:
+            pose = get_state(url)["robots"][0]["pose"]
+            if abs(pose["x"] - target[0]) < 0.03 and abs(pose["y"] - target[1]) < 0.03:
+                break
+            time.sleep(0.1)
+        check(abs(pose["x"] - target[0]) < 0.03 and abs(pose["y"] - target[1]) < 0.03,
+              f"a shift-click at {target} placed the robot at ({pose['x']:.3f}, {pose['y']:.3f}); page: {browser.page_error()}")
+        # The view follows: the trunk is drawn where the robot now is (scene polled after the place).
+        browser.wait_for(f"(() => {{ const s = window.doppelViewer.scene(); return s && s.shapes.some("
+                         f"(x) => x.kind === 'robot' && Math.abs(x.p[0] - {target[0]}) < 0.3 && Math.abs(x.p[1] - ({target[1]})) < 0.3); }})()",
+                         "the robot's shapes at its new place")
+
+        # A push button sends the push for the selected robot (held by the start-up handler, it
+        # does not move; docs/control.md) and the page confirms it.
+        browser.click_element('#push-buttons button[data-fx="30"]')
+        message = browser.wait_for("document.getElementById('message').textContent.startsWith('pushed robot 0') && "
+                                   "document.getElementById('message').textContent", "the push's confirmation")
+        check("30 N x" in message, f"the page says '{message}' after a click on +x")
+        check(browser.evaluate("window.doppelViewer.error()") == "", f"the push was refused: {browser.page_error()}")
+
+        # Resume: simulation time runs again.
+        browser.click_element("#resume")
+        wait_sim_time(url, 0.5, "after a click on Resume")
+        check(not get_state(url)["paused"], "doppel is still paused after a click on Resume")
+        browser.wait_for("!window.doppelViewer.state().paused", "the page to show 'running'")
+
+        shot = os.path.join(out_dir, "viewer.png")
+        time.sleep(0.5)  # a few frames with the robot at its new place
+        browser.screenshot(shot)
+        check(os.path.getsize(shot) > 10000, f"the screenshot {shot} is nearly empty")
+        print(f"viewer test: passed; screenshot {shot}")
+    finally:
+        if browser is not None:
+            browser.close()
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        for name in ("doppel.txt", "chromium/chromium.log"):
+            path = os.path.join(work, name)
+            if os.path.exists(path):
+                shutil.copy(path, os.path.join(out_dir, os.path.basename(name)))
+        shutil.rmtree(work, ignore_errors=True)
+
+
+def main():
+    if len(sys.argv) != 3:
+        print(__doc__)
+        return 2
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        print("SKIPPED: chromium is not installed (scripts/setup installs Debian's chromium)")
+        return SKIP
+    try:
+        run(sys.argv[1], sys.argv[2], chromium)
+    except Failure as e:
+        print(f"viewer test: FAILED: {e}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,72 @@
+// A bus thread publishes its servo table for the viewer without allocating: after setup,
+// BusRuntime::on_tick (every 10 ms; the table every 10th tick) calls no operator new while an
+// HTTP-side reader copies the table at the same time, and the table lists the bus' servos under
+// their IDs, names and models. Its own executable, because it replaces the global operator new.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <filesystem>
+#include <thread>
+#include <unistd.h>
+
+#include "allocation_counter.h"
+#include "body/kinematic_body.h"
+#include "dynamixel/models.h"
+#include "dynamixel/protocol2_models.h"
+#include "gateway/options.h"
+#include "gateway/robot_config.h"
+#include "robot_runtime.h"
+
+namespace doppel::gateway {
+namespace {
+
+TEST(BusRuntimeAllocations, PublishingTheServoTableAllocatesNothingAndListsTheServos) {
+  const RobotConfig robot = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);
+  ASSERT_FALSE(robot.buses.empty());
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-bus-alloc-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  body::KinematicBody body;
+  const Options options;
+  BusRuntime sut(robot.buses[0], 0, body, (dir / "ttyDXL0").string(), options);
+
+  std::atomic<bool> done{false};
+  std::atomic<int> reads{0};
+  std::thread reader([&] {  // an HTTP thread polling /api/buses
+    while (!done.load()) {
+      const control::BusTable table = sut.servo_table();
+      EXPECT_FALSE(table.servos.empty());
+      reads.fetch_add(1);
+    }
+  });
+  for (int tick = 0; tick < 200; ++tick) {  // 2 s of bus ticks: 20 tables
+    doppel::testing::count_allocations_on_this_thread(true);
+    sut.on_tick();
+    doppel::testing::count_allocations_on_this_thread(false);
+  }
+  while (reads.load() < 3) std::this_thread::yield();
+  done = true;
+  reader.join();
+  EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 bus ticks";
+
+  const control::BusTable table = sut.servo_table();
+  EXPECT_EQ(table.link, (dir / "ttyDXL0").string());
+  std::size_t row = 0;
+  for (const DeviceConfig& device : robot.buses[0].devices) {
+    const bool servo = device.firmware == dynamixel::Protocol::kV2
+                           ? dynamixel::p2_model_spec(device.model).kind == dynamixel::P2DeviceKind::kServo
+                           : dynamixel::model_spec(device.model).kind == dynamixel::DeviceKind::kServo;
+    if (!servo) continue;  // the IMU and foot boards have no row
+    ASSERT_LT(row, table.servos.size());
+    EXPECT_EQ(table.servos[row].id, device.id);
+    EXPECT_EQ(table.servos[row].name, device.name);
+    EXPECT_EQ(table.servos[row].model, device.model);
+    EXPECT_FALSE(table.servos[row].torque) << "power-on: torque off";
+    EXPECT_GE(table.servos[row].goal_position, 0);
+    ++row;
+  }
+  EXPECT_EQ(row, table.servos.size());
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace doppel::gateway
