@@ -82,6 +82,13 @@
         geometry.translate(0, 0, c / 2);  // its top face, where the flat boxes of the lines end too
         return new THREE.Mesh(geometry, mat);
       }
+      case 'convex': {  // a URDF mesh's hull: its triangles as sent
+        const geometry = new THREE.BufferGeometry();
+        geometry.setAttribute('position', new THREE.Float32BufferAttribute(shape.vertices, 3));
+        geometry.setIndex(shape.triangles);
+        geometry.computeVertexNormals();
+        return new THREE.Mesh(geometry, mat);
+      }
       default:
         return new THREE.Mesh(new THREE.BoxBufferGeometry(a || 0.05, b || 0.05, c || 0.05), mat);
     }

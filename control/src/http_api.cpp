@@ -164,6 +164,10 @@ json scene_json(const Scene& scene) {
                       {"q", shape.quaternion},
                       {"size", shape.size},
                       {"rgb", shape.colour}});
+    if (!shape.vertices.empty()) {
+      shapes.back()["vertices"] = shape.vertices;
+      shapes.back()["triangles"] = shape.triangles;
+    }
   }
   return {{"sim_time_s", scene.sim_time_s}, {"shapes", shapes}};
 }

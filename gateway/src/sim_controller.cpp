@@ -48,6 +48,7 @@ const char* shape_type(physics::ShapeType type) {
     case physics::ShapeType::kCylinder: return "cylinder";
     case physics::ShapeType::kCapsule: return "capsule";
     case physics::ShapeType::kRing: return "ring";
+    case physics::ShapeType::kConvex: return "convex";
   }
   return "box";
 }
@@ -91,7 +92,19 @@ control::Scene SimController::scene() {
     s.quaternion = {q.x(), q.y(), q.z(), q.w()};
     s.size = {shape.size_m.x(), shape.size_m.y(), shape.size_m.z()};
     s.colour = {shape.colour.r, shape.colour.g, shape.colour.b};
-    out.shapes.push_back(s);
+    if (shape.type == physics::ShapeType::kConvex && shape.hull != nullptr) {
+      const physics::ConvexHull& hull = *shape.hull;
+      for (const Eigen::Vector3d& v : hull.vertices) s.vertices.insert(s.vertices.end(), {v.x(), v.y(), v.z()});
+      std::size_t at = 0;  // polygons: count, then indices; each face fanned into triangles
+      for (std::size_t f = 0; f < hull.face_count && at < hull.polygons.size(); ++f) {
+        const unsigned n = hull.polygons[at];
+        for (unsigned k = 2; k < n; ++k) {
+          s.triangles.insert(s.triangles.end(), {hull.polygons[at + 1], hull.polygons[at + k], hull.polygons[at + k + 1]});
+        }
+        at += n + 1;
+      }
+    }
+    out.shapes.push_back(std::move(s));
   }
   return out;
 }

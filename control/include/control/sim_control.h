@@ -49,6 +49,10 @@ struct SceneShape {
   std::array<double, 4> quaternion{0.0, 0.0, 0.0, 1.0};  // shape frame orientation: x, y, z, w
   std::array<double, 3> size{};
   std::array<uint8_t, 3> colour{};  // r, g, b
+  // convex (a URDF mesh's hull): its vertices (x, y, z, ... in the shape frame) and triangles
+  // (three vertex indices each, counter-clockwise seen from outside); empty for the other types
+  std::vector<double> vertices;
+  std::vector<unsigned> triangles;
 };
 
 struct Scene {
