@@ -175,6 +175,21 @@ TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
   EXPECT_EQ(handle(twins, "POST", "/api/place", R"({"robot": 1, "x": 0, "y": 0, "yaw": 0})").status, 200);
 }
 
+// A URDF mesh's hull goes to the page as its vertices and triangles, which the viewer draws.
+TEST(HttpApi, AConvexHullCarriesItsVerticesAndTriangles) {
+  Scene scene;
+  SceneShape hull;
+  hull.type = "convex";
+  hull.vertices = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+  hull.triangles = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+  scene.shapes = {hull, SceneShape{}};
+  const nlohmann::json json = scene_json(scene);
+  EXPECT_EQ(json["shapes"][0]["type"], "convex");
+  EXPECT_EQ(json["shapes"][0]["vertices"].size(), 12u);
+  EXPECT_EQ(json["shapes"][0]["triangles"].get<std::vector<unsigned>>(), hull.triangles);
+  EXPECT_FALSE(json["shapes"][1].contains("vertices")) << "a box carries no mesh";
+}
+
 TEST(HttpApi, SceneCarriesEveryShapeWithPoseSizeAndColour) {
   RecordingControl control;
   const Answer answer = handle(control, "GET", "/api/scene", "");
