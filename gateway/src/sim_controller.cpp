@@ -37,6 +37,9 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
     world_->fill_scene(initial);  // sizes the shapes once: later fills of a copy do not allocate
     scene_ = std::make_unique<concurrency::Snapshot<physics::SceneView>>(initial);
   }
+  // The start, for a request that comes before the first tick (the simulation thread is not
+  // running yet: publishing from here is the writer's first publish).
+  publish_sample(world_ != nullptr ? world_->time_ns() : 0, 0);
 }
 
 namespace {
@@ -254,6 +257,32 @@ bool SimController::begin_tick() noexcept {
   return advancing_;
 }
 
+void SimController::publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept {
+  Sample& sample = samples_.back();
+  sample.sim_time_ns = sim_time_ns;
+  sample.paused = paused_;
+  sample.steps_left = steps_left_;
+  sample.missed_ticks = missed_ticks;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (world_ == nullptr || !robots_[r].in_world) continue;
+    const std::size_t w = *robots_[r].in_world;
+    RobotSample& s = sample.robots[r];
+    const Eigen::Isometry3d X_WR = world_->robot_pose(w);
+    s.x = X_WR.translation().x();
+    s.y = X_WR.translation().y();
+    s.z = X_WR.translation().z();
+    s.yaw = std::atan2(X_WR.linear()(1, 0), X_WR.linear()(0, 0));
+    s.tilt = world_->tilt_rad(w);
+    s.held = world_->held(w);
+    for (std::size_t j = 0; j < joint_names_[r].size(); ++j) s.joints[j] = world_->link_position(w, j);
+  }
+  if (world_ != nullptr) {
+    const Eigen::Vector3d ball = world_->ball_position();
+    sample.ball = {ball.x(), ball.y(), ball.z()};
+  }
+  samples_.publish();
+}
+
 void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcept {
   bool step_done = false;
   if (advancing_ && steps_left_ > 0) {
@@ -262,29 +291,7 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
   const bool answer_due = pending_sequence_ != 0 || step_done;
   if (++ticks_ >= kPublishEveryTicks || answer_due) {
     ticks_ = 0;
-    Sample& sample = samples_.back();
-    sample.sim_time_ns = sim_time_ns;
-    sample.paused = paused_;
-    sample.steps_left = steps_left_;
-    sample.missed_ticks = missed_ticks;
-    for (std::size_t r = 0; r < robots_.size(); ++r) {
-      if (world_ == nullptr || !robots_[r].in_world) continue;
-      const std::size_t w = *robots_[r].in_world;
-      RobotSample& s = sample.robots[r];
-      const Eigen::Isometry3d X_WR = world_->robot_pose(w);
-      s.x = X_WR.translation().x();
-      s.y = X_WR.translation().y();
-      s.z = X_WR.translation().z();
-      s.yaw = std::atan2(X_WR.linear()(1, 0), X_WR.linear()(0, 0));
-      s.tilt = world_->tilt_rad(w);
-      s.held = world_->held(w);
-      for (std::size_t j = 0; j < joint_names_[r].size(); ++j) s.joints[j] = world_->link_position(w, j);
-    }
-    if (world_ != nullptr) {
-      const Eigen::Vector3d ball = world_->ball_position();
-      sample.ball = {ball.x(), ball.y(), ball.z()};
-    }
-    samples_.publish();
+    publish_sample(sim_time_ns, missed_ticks);
   }
   if (scene_ != nullptr && ++scene_ticks_ >= kSceneEveryTicks) {
     scene_ticks_ = 0;

@@ -96,6 +96,8 @@ class SimController final : public control::SimControl {
   control::Outcome submit(Request request, std::chrono::milliseconds timeout);
   void apply(const Request& request) noexcept;
   void finish(uint64_t sequence, int status) noexcept;
+  // Fills and publishes the state sample (simulation thread, or the constructor before it runs).
+  void publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept;
 
   physics::World* world_;
   std::vector<Robot> robots_;

@@ -81,22 +81,22 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   // Power-on: Dynamixel Power is 0, so the MX-28s and the FSR boards have no supply.
   EXPECT_TRUE(client.transact(p1_instruction(1, kPing), 6, 100).empty());
   EXPECT_TRUE(client.transact(p1_instruction(kRightFsr, kPing), 6, 100).empty());
-  EXPECT_EQ(client.transact(p1_instruction(kCm730, kRead, {kDxlPower, 1}), 7), status(kCm730, 0, {0}));
+  EXPECT_EQ(client.transact(p1_instruction(kCm730, kRead, {kDxlPower, 1}), 7, 1000), status(kCm730, 0, {0}));
 
   // CM730::Connect(): the CM-730 answers its PING, then DXLPowerOn() writes 24 = 1.
-  ASSERT_EQ(client.transact(p1_instruction(kCm730, kPing), 6), status(kCm730, 0));
-  ASSERT_EQ(client.transact(p1_instruction(kCm730, kWrite, {kDxlPower, 1}), 6), status(kCm730, 0));
+  ASSERT_EQ(client.transact(p1_instruction(kCm730, kPing), 6, 1000), status(kCm730, 0));
+  ASSERT_EQ(client.transact(p1_instruction(kCm730, kWrite, {kDxlPower, 1}), 6, 1000), status(kCm730, 0));
   for (uint8_t id = 1; id <= kServoCount; ++id) {
-    ASSERT_EQ(client.transact(p1_instruction(id, kPing), 6), status(id, 0)) << int(id);
+    ASSERT_EQ(client.transact(p1_instruction(id, kPing), 6, 1000), status(id, 0)) << int(id);
   }
-  ASSERT_EQ(client.transact(p1_instruction(kLeftFsr, kPing), 6), status(kLeftFsr, 0));
-  ASSERT_EQ(client.transact(p1_instruction(kRightFsr, kPing), 6), status(kRightFsr, 0));
+  ASSERT_EQ(client.transact(p1_instruction(kLeftFsr, kPing), 6, 1000), status(kLeftFsr, 0));
+  ASSERT_EQ(client.transact(p1_instruction(kRightFsr, kPing), 6, 1000), status(kRightFsr, 0));
 
   // MotionManager::Initialize() reads every joint's Present Position: the held robot stands in the
   // file's initial pose, the walk-ready pose, the arms up to 3 deg lower under the handler's finite
   // grip (darwin_op_physics_test.cpp, HeldUntilTheDriverPowersAndEnablesIt).
   for (uint8_t id = 1; id <= kServoCount; ++id) {
-    const Bytes reply = client.transact(p1_instruction(id, kRead, {kPresentPosition, 2}), 8);
+    const Bytes reply = client.transact(p1_instruction(id, kRead, {kPresentPosition, 2}), 8, 1000);
     ASSERT_EQ(reply.size(), 8u) << int(id);
     EXPECT_EQ(reply, status(id, 0, {reply[5], reply[6]})) << int(id);
     EXPECT_NEAR(word_at(reply, 5), kWalkReady[id], id <= 6 ? 34 : 7) << int(id);

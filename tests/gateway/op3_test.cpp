@@ -115,7 +115,7 @@ class Op3Bus {
   }
   Bytes read(uint8_t id, uint16_t address, uint16_t length) { return transact(id, kRead, read_params(address, length), length); }
   void write(uint8_t id, uint16_t address, uint32_t value, int size) {
-    EXPECT_EQ(client_.transact(p2_instruction(id, kWrite, write_params(address, value, size)), 11), p2_status(id, 0))
+    EXPECT_EQ(client_.transact(p2_instruction(id, kWrite, write_params(address, value, size)), 11, 1000), p2_status(id, 0))
         << "WRITE " << address << " to ID " << int(id);
   }
 
