@@ -15,6 +15,7 @@
 #include "doppel_process.h"
 #include "held_pose.h"
 #include "reference_client.h"
+#include "sim_time.h"
 
 namespace doppel::testing {
 namespace {
@@ -33,20 +34,6 @@ constexpr int kSamples = 25;
 
 Bytes status(uint8_t id, uint8_t error, const Bytes& params = {}) { return p1_instruction(id, error, params); }
 
-void wait_sim_time(SerialClient& clock, double seconds) {
-  auto counter = [&] {
-    const Bytes reply = clock.transact(p1_instruction(100, kRead, {48, 2}), 8, 1000);
-    EXPECT_EQ(reply.size(), 8u);
-    return reply.size() == 8u ? word_at(reply, 5) : uint16_t{0};
-  };
-  const uint16_t start = counter();
-  const auto samples = static_cast<uint16_t>(seconds / 0.020);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(40);
-  while (static_cast<uint16_t>(counter() - start) < samples) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the simulation did not advance " << seconds << " s";
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-}
 
 struct Reading {
   std::array<int, 3> gyro{};   // Gyro X, Y, Z

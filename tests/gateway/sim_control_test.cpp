@@ -13,6 +13,7 @@
 
 #include "doppel_process.h"
 #include "reference_client.h"
+#include "sim_time.h"
 
 namespace doppel::testing {
 namespace {
@@ -20,8 +21,8 @@ namespace {
 using nlohmann::json;
 
 constexpr uint32_t kBaud = 1000000;
-constexpr uint8_t kImu = 100, kRead = 0x02, kWrite = 0x03, kPing = 0x01;
-constexpr uint8_t kSampleCounter = 48, kTorqueEnable = 24;
+constexpr uint8_t kRead = 0x02, kWrite = 0x03, kPing = 0x01;
+constexpr uint8_t kTorqueEnable = 24;
 
 // doppel with its control API on a port the system picks, and that port.
 struct ControlledDoppel {
@@ -51,32 +52,16 @@ struct ControlledDoppel {
   std::string url;
 };
 
-uint16_t sample_counter(SerialClient& client) {
-  const Bytes reply = client.transact(p1_instruction(kImu, kRead, {kSampleCounter, 2}), 8, 1000);
-  EXPECT_EQ(reply.size(), 8u);
-  return reply.size() == 8u ? static_cast<uint16_t>(reply[5] | (reply[6] << 8)) : 0;
-}
-
-// Waits until the IMU has counted `samples` more samples (20 ms each), for at most 30 s.
-void wait_samples(SerialClient& client, uint16_t samples) {
-  const uint16_t start = sample_counter(client);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (static_cast<uint16_t>(sample_counter(client) - start) < samples) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the simulation did not advance";
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-}
-
 TEST(SimControl, PauseFreezesTheWorldWhileTheBusAnswersAndStepRunsExactlyWhatWasAsked) {
   ControlledDoppel doppel({"--physics", "ode"});
   SerialClient client(doppel.doppel.link(), kBaud);
-  wait_samples(client, 5);
+  wait_sim_time(client, 0.1);
 
   const json paused = doppel.ok("pause");
   EXPECT_EQ(paused["paused"], true);
-  const uint16_t frozen = sample_counter(client);
+  const uint16_t frozen = imu_sample_counter(client);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  EXPECT_EQ(sample_counter(client), frozen) << "the IMU kept sampling while paused";
+  EXPECT_EQ(imu_sample_counter(client), frozen) << "the IMU kept sampling while paused";
   EXPECT_EQ(client.transact(p1_instruction(15, kPing), 6).size(), 6u) << "a servo stopped answering while paused";
   const double t0 = doppel.ok("state")["sim_time_s"].get<double>();
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -85,10 +70,10 @@ TEST(SimControl, PauseFreezesTheWorldWhileTheBusAnswersAndStepRunsExactlyWhatWas
   const json stepped = doppel.ok("step 100");
   EXPECT_NEAR(stepped["sim_time_s"].get<double>() - t0, 0.100, 1e-9);
   EXPECT_EQ(stepped["paused"], true);
-  EXPECT_EQ(static_cast<uint16_t>(sample_counter(client) - frozen), 5) << "100 ms are five 20 ms IMU samples";
+  EXPECT_EQ(static_cast<uint16_t>(imu_sample_counter(client) - frozen), 5) << "100 ms are five 20 ms IMU samples";
 
   EXPECT_EQ(doppel.ok("resume")["paused"], false);
-  wait_samples(client, 3);
+  wait_sim_time(client, 0.06);
   EXPECT_GT(doppel.ok("state")["sim_time_s"].get<double>(), t0 + 0.1);
 }
 
@@ -106,7 +91,7 @@ TEST(SimControl, PlaceMovesTheRobotAndResetPowersItOnWhereItStarted) {
   EXPECT_EQ(placed["fallen"], false);
 
   client.send(p1_instruction(0xFE, kWrite, {kTorqueEnable, 1}));  // the driver takes over: the handler lets go
-  wait_samples(client, 10);
+  wait_sim_time(client, 0.2);
   EXPECT_EQ(doppel.ok("state")["robots"][0]["held"], false);
 
   const json reset = doppel.ok("reset")["robots"][0];
@@ -119,7 +104,7 @@ TEST(SimControl, PlaceMovesTheRobotAndResetPowersItOnWhereItStarted) {
   const Bytes torque = client.transact(p1_instruction(15, kRead, {kTorqueEnable, 1}), 7);
   ASSERT_EQ(torque.size(), 7u);
   EXPECT_EQ(torque[5], 0);
-  wait_samples(client, 10);
+  wait_sim_time(client, 0.2);
   EXPECT_EQ(doppel.ok("state")["robots"][0]["held"], true) << "the old torque commands released it again";
 }
 
@@ -127,11 +112,11 @@ TEST(SimControl, APushSidewaysFellsTheStandingRobot) {
   ControlledDoppel doppel({"--physics", "ode"});
   SerialClient client(doppel.doppel.link(), kBaud);
   client.send(p1_instruction(0xFE, kWrite, {kTorqueEnable, 1}));
-  wait_samples(client, 25);
+  wait_sim_time(client, 0.5);
   ASSERT_EQ(doppel.ok("state")["robots"][0]["fallen"], false);
 
   doppel.ok("push fumanoid-2011 0 60 0 300");  // 18 N s into a 4.7 kg robot: nearly 4 m/s sideways
-  wait_samples(client, 100);
+  wait_sim_time(client, 2);
   const json robot = doppel.ok("state")["robots"][0];
   EXPECT_EQ(robot["fallen"], true) << robot.dump();
   EXPECT_GT(robot["tilt"].get<double>(), M_PI / 4);

@@ -12,6 +12,7 @@
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
 #include "reference_client.h"
+#include "sim_time.h"
 
 namespace doppel::testing {
 namespace {
@@ -26,20 +27,6 @@ int16_t word(const Bytes& reply, std::size_t offset) {
 }
 
 // Simulation time from the IMU's Sample Counter (48, +1 per 20 ms), as physics_integration_test.
-void wait_sim_time(SerialClient& client, double seconds) {
-  auto counter = [&] {
-    const Bytes reply = client.transact(p1_instruction(100, 0x02, {48, 2}), 8, 1000);
-    EXPECT_EQ(reply.size(), 8u);
-    return reply.size() == 8u ? static_cast<uint16_t>(word(reply, 5)) : uint16_t{0};
-  };
-  const uint16_t start = counter();
-  const auto samples = static_cast<uint16_t>(seconds / 0.020);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (static_cast<uint16_t>(counter() - start) < samples) {
-    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the simulation did not advance " << seconds << " s";
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-}
 
 class UrdfRobot : public ::testing::TestWithParam<const char*> {};
 
