@@ -48,6 +48,7 @@ const char* shape_type(physics::ShapeType type) {
     case physics::ShapeType::kCylinder: return "cylinder";
     case physics::ShapeType::kCapsule: return "capsule";
     case physics::ShapeType::kRing: return "ring";
+    case physics::ShapeType::kConvex: return "convex";
   }
   return "box";
 }
