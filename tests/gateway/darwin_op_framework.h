@@ -42,9 +42,10 @@ inline constexpr std::array<uint16_t, kServoCount + 1> kWalkReady = {
 // the default 32. The walk-ready Action page 9 gives the same (compliance slopes 0x55 -> 32, arms
 // 0x77 -> 8). I and D stay 0.
 inline constexpr uint8_t kDefaultPGain = 32;
-// At 32 Doppel's MX-28 (duty = P/8 x error / 1023: 6.4 N m/rad) lets this body's knees sink: on ODE
-// the robot sits down and falls over backwards within 2 s, on Bullet it stays up leaning 21 deg
-// further back (docs/devices.md, DARwIn-OP body). The tests run Walking with `p_gain = 64`.
+// At 32 the body stands on both engines but sags out of the walk-ready lean (knees 80 counts, trunk
+// 1.3 deg forward instead of 12.9), as the model's statics predict for Doppel's MX-28 (duty = P/8 x
+// error / 1023: 6.4 N m/rad) under Webots' centres of mass (docs/devices.md, DARwIn-OP body). The
+// tests run Walking with `p_gain = 64`, where the lean stays within 4 deg.
 inline constexpr uint8_t kConfigPGain = 64;
 inline constexpr uint8_t p_gain(uint8_t id, uint8_t leg_p = kConfigPGain) {
   return id <= 6 ? 8 : id >= 19 ? kDefaultPGain : leg_p;

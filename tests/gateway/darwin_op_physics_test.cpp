@@ -131,7 +131,8 @@ TEST_P(DarwinOpBody, StandsInTheWalkReadyPoseAtWalkingsGains) {
   EXPECT_NEAR(r.feet_n, weight_n, 0.05 * weight_n);
   for (std::size_t axis = 0; axis < 3; ++axis) EXPECT_NEAR(r.gyro[axis], 512, kGyroCounts) << "gyro axis " << axis;
   EXPECT_NEAR(r.accel_norm(), 128.0, kAccelCounts);
-  // Standing in the walk-ready lean; the loaded knees give a little (P 64: 0.05 N m per count).
+  // Standing in the walk-ready lean; the loaded knees give a little (P 64: 0.0196 N m per count,
+  // static equilibrium of the model 9 deg, docs/devices.md).
   EXPECT_NEAR(r.lean_deg(), kLeanDeg, 6.0);
   EXPECT_NEAR(r.roll_deg(), 0.0, 2.0);
   // Both feet on the carpet, each with its centre of pressure inside the board.
