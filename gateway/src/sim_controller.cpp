@@ -3,6 +3,7 @@
 #include <cmath>
 #include <thread>
 
+#include "camera/lens.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -11,6 +12,50 @@ namespace {
 constexpr std::chrono::milliseconds kAnswerTimeout{5000};  // a loaded machine may lag its 1 kHz loop
 
 }  // namespace
+
+void SimController::add_devices(std::size_t r) {
+  imus_.emplace_back();
+  feet_.emplace_back();
+  cameras_.emplace_back();
+  const Robot& robot = robots_[r];
+  if (world_ == nullptr || !robot.in_world) return;
+  const std::size_t w = *robot.in_world;
+  const RobotConfig& config = robot.config != nullptr ? *robot.config : robot.runtime->config();
+  for (std::size_t b = 0; b < config.buses.size(); ++b) {
+    for (const DeviceConfig& device : config.buses[b].devices) {
+      const auto bus = static_cast<uint32_t>(b);
+      if (const auto imu = world_->find_imu(w, bus, device.id)) imus_.back().push_back({device.name, bus, device.id, *imu});
+      if (const auto foot = world_->find_foot(w, bus, device.id)) feet_.back().push_back({device.name, bus, device.id, *foot});
+    }
+  }
+  for (const CameraSetup& setup : config.cameras) {
+    Camera camera;
+    // The name CameraFeed streams it under (gateway.cpp): robots after the first get a prefix.
+    camera.name = r > 0 ? "robot" + std::to_string(r) + "-" + setup.config.name : setup.config.name;
+    camera.body = setup.body;
+    camera.mount = setup.config.mount;
+    const camera::Lens lens(setup.config.lens, setup.config.width_px, setup.config.height_px);
+    const double right = setup.config.width_px - 1.0, bottom = setup.config.height_px - 1.0;
+    const std::array<Eigen::Vector2d, 4> corners{Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(right, 0.0),
+                                                 Eigen::Vector2d(right, bottom), Eigen::Vector2d(0.0, bottom)};
+    const Eigen::Vector2d centre(0.5 * right, 0.5 * bottom);
+    for (std::size_t c = 0; c < 4; ++c) {
+      // A fisheye whose image circle ends inside the image has no ray at its corners: the ray
+      // where the corner's diagonal leaves the circle stands in for it.
+      Eigen::Vector3d ray;
+      for (double t = 1.0; t > 0.0; t -= 0.01) {
+        if (lens.unproject(centre + t * (corners[c] - centre), &ray)) break;
+      }
+      camera.corner_rays[c] = {ray.x(), ray.y(), ray.z()};
+    }
+    cameras_.back().push_back(std::move(camera));
+  }
+  if (imus_.back().size() > kSimMaxImus || feet_.back().size() > kSimMaxFeet || cameras_.back().size() > kSimMaxCameras) {
+    throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
+                                std::to_string(kSimMaxImus) + " IMUs, " + std::to_string(kSimMaxFeet) +
+                                " foot boards or " + std::to_string(kSimMaxCameras) + " cameras");
+  }
+}
 
 SimController::SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m,
                              double carpet_half_width_m)
@@ -31,6 +76,7 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
                                   std::to_string(kMaxJoints) + " links");
     }
     joint_names_.push_back(std::move(names));
+    add_devices(joint_names_.size() - 1);
   }
   if (world_ != nullptr) {
     physics::SceneView initial;
@@ -48,6 +94,7 @@ const char* shape_type(physics::ShapeType type) {
     case physics::ShapeType::kCylinder: return "cylinder";
     case physics::ShapeType::kCapsule: return "capsule";
     case physics::ShapeType::kRing: return "ring";
+    case physics::ShapeType::kConvex: return "box";  // drawn as its bounding box (scene() doubles the half extents)
   }
   return "box";
 }
@@ -89,7 +136,8 @@ control::Scene SimController::scene() {
     const Eigen::Quaterniond q(shape.X_WS.linear());
     s.position = {p.x(), p.y(), p.z()};
     s.quaternion = {q.x(), q.y(), q.z(), q.w()};
-    s.size = {shape.size_m.x(), shape.size_m.y(), shape.size_m.z()};
+    const double scale = shape.type == physics::ShapeType::kConvex ? 2.0 : 1.0;  // half extents -> box size
+    s.size = {scale * shape.size_m.x(), scale * shape.size_m.y(), scale * shape.size_m.z()};
     s.colour = {shape.colour.r, shape.colour.g, shape.colour.b};
     out.shapes.push_back(s);
   }
@@ -135,6 +183,17 @@ control::SimState SimController::state() {
       robot.fallen = s.tilt > control::kFallenTiltRad;
       robot.held = s.held;
       for (std::size_t j = 0; j < joint_names_[r].size(); ++j) robot.joints.push_back({joint_names_[r][j], s.joints[j]});
+      for (std::size_t i = 0; i < imus_[r].size(); ++i) {
+        const auto& imu = imus_[r][i];
+        robot.imus.push_back({imu.name, imu.bus, imu.id, s.imus[i].roll, s.imus[i].pitch, s.imus[i].gyro});
+      }
+      for (std::size_t i = 0; i < feet_[r].size(); ++i) {
+        const auto& foot = feet_[r][i];
+        robot.feet.push_back({foot.name, foot.bus, foot.id, s.feet[i]});
+      }
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+        robot.cameras.push_back({cameras_[r][i].name, s.cameras[i].p, s.cameras[i].q, cameras_[r][i].corner_rays});
+      }
     }
     state.robots.push_back(std::move(robot));
   }
@@ -266,6 +325,18 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
       s.tilt = world_->tilt_rad(w);
       s.held = world_->held(w);
       for (std::size_t j = 0; j < joint_names_[r].size(); ++j) s.joints[j] = world_->link_position(w, j);
+      for (std::size_t i = 0; i < imus_[r].size(); ++i) {
+        const physics::ImuState imu = world_->imu(imus_[r][i].handle);  // what the device reports
+        s.imus[i] = {imu.roll_rad, imu.pitch_rad, imu.w_WS_S_rad_s};
+      }
+      for (std::size_t i = 0; i < feet_[r].size(); ++i) s.feet[i] = world_->foot(feet_[r][i].handle).force_n;
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+        const Camera& camera = cameras_[r][i];
+        const Eigen::Isometry3d X_WC = camera::camera_pose_W(camera.mount, world_->body_pose(w, camera.body));
+        const Eigen::Quaterniond q(X_WC.linear());
+        s.cameras[i].p = {X_WC.translation().x(), X_WC.translation().y(), X_WC.translation().z()};
+        s.cameras[i].q = {q.x(), q.y(), q.z(), q.w()};
+      }
     }
     if (world_ != nullptr) {
       const Eigen::Vector3d ball = world_->ball_position();

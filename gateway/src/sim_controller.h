@@ -15,9 +15,11 @@
 #include <string>
 #include <vector>
 
+#include "camera/camera_config.h"
 #include "concurrency/snapshot.h"
 #include "concurrency/spsc_queue.h"
 #include "control/sim_control.h"
+#include "gateway/robot_config.h"
 #include "physics/scene_view.h"
 #include "physics/world.h"
 
@@ -27,6 +29,9 @@ class RobotRuntime;
 
 inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
 inline constexpr std::size_t kSimMaxJoints = 64;
+inline constexpr std::size_t kSimMaxImus = 4;     // per robot
+inline constexpr std::size_t kSimMaxFeet = 8;     // foot boards per robot
+inline constexpr std::size_t kSimMaxCameras = 4;  // per robot
 
 // A request on its way to the simulation thread, and the state it publishes (SimController).
 enum class SimRequestKind : uint8_t { kPause, kResume, kStep, kReset, kPlace, kPush, kBall };
@@ -41,6 +46,17 @@ struct SimRobotSample {
   double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0, tilt = 0.0;
   bool held = false;
   std::array<double, kSimMaxJoints> joints{};
+  struct Imu {
+    double roll = 0.0, pitch = 0.0;
+    std::array<double, 3> gyro{};
+  };
+  std::array<Imu, kSimMaxImus> imus{};
+  std::array<std::array<double, 4>, kSimMaxFeet> feet{};
+  struct Camera {
+    std::array<double, 3> p{};
+    std::array<double, 4> q{0.0, 0.0, 0.0, 1.0};
+  };
+  std::array<Camera, kSimMaxCameras> cameras{};
 };
 struct SimSample {
   int64_t sim_time_ns = 0;
@@ -63,6 +79,7 @@ class SimController final : public control::SimControl {
     RobotRuntime* runtime = nullptr;
     std::optional<std::size_t> in_world;
     std::string name;
+    const RobotConfig* config = nullptr;  // its file (devices, cameras; outlives the controller); null: the runtime's
   };
   // `world` may be null (no robot has a body); it and the runtimes outlive the controller. Setup.
   SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m, double carpet_half_width_m);
@@ -93,6 +110,8 @@ class SimController final : public control::SimControl {
   using RobotSample = SimRobotSample;
   using Sample = SimSample;
 
+  // Setup: finds robot r's IMUs, foot boards (by its file's devices) and cameras in the world.
+  void add_devices(std::size_t r);
   control::Outcome submit(Request request, std::chrono::milliseconds timeout);
   void apply(const Request& request) noexcept;
   void finish(uint64_t sequence, int status) noexcept;
@@ -100,6 +119,23 @@ class SimController final : public control::SimControl {
   physics::World* world_;
   std::vector<Robot> robots_;
   std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)
+  // Per robot (in the world): its IMUs, foot boards and cameras, found at setup.
+  template <typename Handle>
+  struct Sensor {
+    std::string name;
+    uint32_t bus = 0;
+    uint8_t id = 0;
+    Handle handle;
+  };
+  struct Camera {
+    std::string name;
+    std::size_t body = 0;
+    camera::CameraMount mount;
+    std::array<std::array<double, 3>, 4> corner_rays{};
+  };
+  std::vector<std::vector<Sensor<physics::ImuHandle>>> imus_;
+  std::vector<std::vector<Sensor<physics::FootHandle>>> feet_;
+  std::vector<std::vector<Camera>> cameras_;
   double carpet_half_length_m_, carpet_half_width_m_;
 
   std::mutex submit_mutex_;  // request side only

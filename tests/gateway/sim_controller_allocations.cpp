@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <thread>
 
 #include "allocation_counter.h"
+#include "camera/camera_config.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "physics/engines.h"
@@ -26,7 +28,7 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   world_options.hold = physics::HoldMode::kReleased;  // the robot falls: every scene differs
   world_options.field = physics::field_shapes();
   physics::World world(physics::make_backend(*options.physics), {*robot.body}, {}, world_options);
-  SimController sut(&world, {{nullptr, 0, robot.name}}, 5.0, 3.5);
+  SimController sut(&world, {{nullptr, 0, robot.name, &robot}}, 5.0, 3.5);
 
   std::atomic<bool> done{false};
   std::atomic<int> reads{0};
@@ -56,6 +58,51 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   physics::SceneView now;
   world.fill_scene(now);
   ASSERT_EQ(scene.shapes.size(), now.shapes.size());
+
+  // The state of tick 500 carries what the IMU and foot boards measured in that step (the world's
+  // readouts), and where the head camera is.
+  const control::SimState state = sut.state();
+  ASSERT_EQ(state.robots.size(), 1u);
+  const control::RobotState& r = state.robots[0];
+  std::size_t imus = 0, feet = 0;
+  for (std::size_t b = 0; b < robot.buses.size(); ++b) {
+    for (const DeviceConfig& device : robot.buses[b].devices) {
+      if (const auto imu = world.find_imu(0, static_cast<uint32_t>(b), device.id)) {
+        ASSERT_LT(imus, r.imus.size());
+        const physics::ImuState expected = world.imu(*imu);
+        EXPECT_EQ(r.imus[imus].id, device.id);
+        EXPECT_EQ(r.imus[imus].name, device.name);
+        EXPECT_EQ(r.imus[imus].roll_rad, expected.roll_rad);
+        EXPECT_EQ(r.imus[imus].pitch_rad, expected.pitch_rad);
+        EXPECT_EQ(r.imus[imus].gyro_rad_s, expected.w_WS_S_rad_s);
+        ++imus;
+      }
+      if (const auto foot = world.find_foot(0, static_cast<uint32_t>(b), device.id)) {
+        ASSERT_LT(feet, r.feet.size());
+        EXPECT_EQ(r.feet[feet].id, device.id);
+        EXPECT_EQ(r.feet[feet].force_n, world.foot(*foot).force_n);
+        ++feet;
+      }
+    }
+  }
+  EXPECT_EQ(r.imus.size(), imus);
+  EXPECT_EQ(r.feet.size(), feet);
+  EXPECT_GE(imus, 1u) << "the FUmanoid has an IMU";
+  EXPECT_GE(feet, 2u) << "the FUmanoid has a foot board per foot";
+  ASSERT_EQ(r.cameras.size(), robot.cameras.size());
+  ASSERT_GE(r.cameras.size(), 1u);
+  const Eigen::Isometry3d X_WC =
+      camera::camera_pose_W(robot.cameras[0].config.mount, world.body_pose(0, robot.cameras[0].body));
+  EXPECT_NEAR(r.cameras[0].position[0], X_WC.translation().x(), 1e-12);
+  EXPECT_NEAR(r.cameras[0].position[2], X_WC.translation().z(), 1e-12);
+  for (const auto& ray : r.cameras[0].corner_rays) {
+    EXPECT_NEAR(std::hypot(ray[0], ray[1], ray[2]), 1.0, 1e-9);
+    EXPECT_GT(ray[2], -1.0) << "a corner ray of a field of view below 360 degrees";
+  }
+  EXPECT_LT(r.cameras[0].corner_rays[0][0], 0.0) << "top-left: x left";
+  EXPECT_LT(r.cameras[0].corner_rays[0][1], 0.0) << "top-left: y up";
+  EXPECT_GT(r.cameras[0].corner_rays[2][0], 0.0) << "bottom-right: x right";
+  EXPECT_GT(r.cameras[0].corner_rays[2][1], 0.0) << "bottom-right: y down";
 }
 
 }  // namespace
