@@ -282,6 +282,18 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     response.status = answer.status;
     response.set_content(answer.body.dump(), "application/json");
   };
+  // A camera's latest still as PNG (the only answer that is not JSON, unless it is an error).
+  server_->Get(R"(/api/camera/(.+))", [this](const httplib::Request& request, httplib::Response& response) {
+    const CameraStill still = control_.camera_still(request.matches[1]);
+    response.status = still.status;
+    if (still.status != 200) {
+      response.set_content(error_body(still.error).dump(), "application/json");
+      return;
+    }
+    response.set_header("Cache-Control", "no-store");
+    response.set_header("X-Sim-Time", std::to_string(still.sim_time_s));
+    response.set_content(still.png, "image/png");
+  });
   server_->Get(R"(/api/.*)", serve);
   server_->Post(R"(/api/.*)", serve);
   if (port == 0) {

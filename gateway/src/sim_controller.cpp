@@ -3,6 +3,7 @@
 #include <cmath>
 #include <thread>
 
+#include "camera/image_io.h"
 #include "camera/lens.h"
 #include "robot_runtime.h"
 
@@ -33,7 +34,7 @@ void SimController::add_devices(std::size_t r) {
     // The name CameraFeed streams it under (gateway.cpp): robots after the first get a prefix.
     camera.name = r > 0 ? "robot" + std::to_string(r) + "-" + setup.config.name : setup.config.name;
     camera.body = setup.body;
-    camera.mount = setup.config.mount;
+    camera.config = setup.config;
     const camera::Lens lens(setup.config.lens, setup.config.width_px, setup.config.height_px);
     const double right = setup.config.width_px - 1.0, bottom = setup.config.height_px - 1.0;
     const std::array<Eigen::Vector2d, 4> corners{Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(right, 0.0),
@@ -79,9 +80,17 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
     add_devices(joint_names_.size() - 1);
   }
   if (world_ != nullptr) {
-    physics::SceneView initial;
-    world_->fill_scene(initial);  // sizes the shapes once: later fills of a copy do not allocate
-    scene_ = std::make_unique<concurrency::Snapshot<physics::SceneView>>(initial);
+    ScenePublication initial;
+    world_->fill_scene(initial.view);  // sizes the shapes once: later fills of a copy do not allocate
+    for (auto& robot : initial.X_WC) robot.fill(Eigen::Isometry3d::Identity());
+    scene_ = std::make_unique<concurrency::Snapshot<ScenePublication>>(initial);
+    for (std::size_t r = 0; r < cameras_.size(); ++r) {
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+        stills_.emplace_back();
+        stills_.back().robot = r;
+        stills_.back().camera = i;
+      }
+    }
   }
 }
 
@@ -123,7 +132,7 @@ control::Scene SimController::scene() {
   physics::SceneView view;
   {
     std::lock_guard<std::mutex> lock(scene_mutex_);
-    view = scene_->latest();  // copies (allocates) on this HTTP thread, never on the simulation's
+    view = scene_->latest().view;  // copies (allocates) on this HTTP thread, never on the simulation's
   }
   out.sim_time_s = view.sim_time_s;
   out.shapes.reserve(view.shapes.size());
@@ -142,6 +151,48 @@ control::Scene SimController::scene() {
     out.shapes.push_back(s);
   }
   return out;
+}
+
+Eigen::Isometry3d SimController::camera_pose(std::size_t r, std::size_t i) const noexcept {
+  const Camera& camera = cameras_[r][i];
+  return camera::camera_pose_W(camera.config.mount, world_->body_pose(*robots_[r].in_world, camera.body));
+}
+
+control::CameraStill SimController::camera_still(const std::string& name) {
+  std::lock_guard<std::mutex> lock(stills_mutex_);  // HTTP threads only: one still rendered at a time
+  Still* still = nullptr;
+  for (Still& s : stills_) {
+    if (cameras_[s.robot][s.camera].name == name) still = &s;
+  }
+  if (still == nullptr) {
+    std::string names;
+    for (const Still& s : stills_) names += (names.empty() ? "" : ", ") + cameras_[s.robot][s.camera].name;
+    return {404, "no camera '" + name + "' (robot cameras: " + (names.empty() ? "none" : names) + ")", "", 0.0};
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (!still->png.empty() && now - still->taken < kStillPeriod) return {200, "", still->png, still->sim_time_s};
+  ScenePublication publication;
+  {
+    std::lock_guard<std::mutex> scene_lock(scene_mutex_);
+    publication = scene_->latest();  // a copy on this thread; the simulation thread never waits
+  }
+  if (!still->png.empty() && publication.view.sim_time_s == still->sim_time_s) {
+    still->taken = now;  // paused: the same scene, the same picture
+    return {200, "", still->png, still->sim_time_s};
+  }
+  const camera::CameraConfig& config = cameras_[still->robot][still->camera].config;
+  if (still->renderer == nullptr) {
+    still->renderer = std::make_unique<camera::Renderer>(config.lens, config.width_px, config.height_px,
+                                                         camera::PixelFormat::kRgb24);
+    still->renderer->set_noise(config.noise);
+    still->rgb.resize(3 * static_cast<std::size_t>(config.width_px) * static_cast<std::size_t>(config.height_px));
+  }
+  const auto frame = static_cast<uint64_t>(publication.view.sim_time_s * 1000.0);  // keys the noise
+  still->renderer->render(publication.view, publication.X_WC[still->robot][still->camera], frame, still->rgb.data(), nullptr);
+  still->png = camera::encode_png_rgb(still->rgb.data(), config.width_px, config.height_px);
+  still->sim_time_s = publication.view.sim_time_s;
+  still->taken = now;
+  return {200, "", still->png, still->sim_time_s};
 }
 
 std::vector<control::BusTable> SimController::buses() {
@@ -331,8 +382,7 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
       }
       for (std::size_t i = 0; i < feet_[r].size(); ++i) s.feet[i] = world_->foot(feet_[r][i].handle).force_n;
       for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
-        const Camera& camera = cameras_[r][i];
-        const Eigen::Isometry3d X_WC = camera::camera_pose_W(camera.mount, world_->body_pose(w, camera.body));
+        const Eigen::Isometry3d X_WC = camera_pose(r, i);
         const Eigen::Quaterniond q(X_WC.linear());
         s.cameras[i].p = {X_WC.translation().x(), X_WC.translation().y(), X_WC.translation().z()};
         s.cameras[i].q = {q.x(), q.y(), q.z(), q.w()};
@@ -346,9 +396,12 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
   }
   if (scene_ != nullptr && ++scene_ticks_ >= kSceneEveryTicks) {
     scene_ticks_ = 0;
-    physics::SceneView& view = scene_->back();
-    world_->fill_scene(view);  // same shape count as at setup: no allocation
-    view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+    ScenePublication& publication = scene_->back();
+    world_->fill_scene(publication.view);  // same shape count as at setup: no allocation
+    publication.view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+    for (std::size_t r = 0; r < cameras_.size(); ++r) {
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) publication.X_WC[r][i] = camera_pose(r, i);
+    }
     scene_->publish();
   }
   if (pending_sequence_ != 0) {

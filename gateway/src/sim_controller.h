@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "camera/camera_config.h"
+#include "camera/renderer.h"
 #include "concurrency/snapshot.h"
 #include "concurrency/spsc_queue.h"
 #include "control/sim_control.h"
@@ -95,6 +96,10 @@ class SimController final : public control::SimControl {
   control::Outcome ball(double x_m, double y_m) override;
   control::Scene scene() override;
   std::vector<control::BusTable> buses() override;
+  // Renders the camera's view of the newest published scene on the calling (HTTP) thread, at most
+  // once per kStillPeriod per camera (the same still otherwise), and encodes it as PNG.
+  control::CameraStill camera_still(const std::string& name) override;
+  static constexpr std::chrono::milliseconds kStillPeriod{250};
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -110,6 +115,8 @@ class SimController final : public control::SimControl {
   using RobotSample = SimRobotSample;
   using Sample = SimSample;
 
+  // Where camera i of robot r is now. Simulation thread; rt-safe.
+  Eigen::Isometry3d camera_pose(std::size_t r, std::size_t i) const noexcept;
   // Setup: finds robot r's IMUs, foot boards (by its file's devices) and cameras in the world.
   void add_devices(std::size_t r);
   control::Outcome submit(Request request, std::chrono::milliseconds timeout);
@@ -130,7 +137,7 @@ class SimController final : public control::SimControl {
   struct Camera {
     std::string name;
     std::size_t body = 0;
-    camera::CameraMount mount;
+    camera::CameraConfig config;  // its file's lens, size, noise and mount
     std::array<std::array<double, 3>, 4> corner_rays{};
   };
   std::vector<std::vector<Sensor<physics::ImuHandle>>> imus_;
@@ -148,8 +155,25 @@ class SimController final : public control::SimControl {
   concurrency::Snapshot<Sample> samples_;
   // Every visible shape, published every kSceneEveryTicks. Every slot is sized at setup
   // (World::fill_scene), so publishing allocates nothing.
+  // The scene and where every robot camera was when it was taken (for camera_still()).
+  struct ScenePublication {
+    physics::SceneView view;
+    std::array<std::array<Eigen::Isometry3d, kSimMaxCameras>, kSimMaxRobots> X_WC;
+  };
   std::mutex scene_mutex_;  // request side only
-  std::unique_ptr<concurrency::Snapshot<physics::SceneView>> scene_;  // null without a world
+  std::unique_ptr<concurrency::Snapshot<ScenePublication>> scene_;  // null without a world
+  // Camera stills (HTTP threads only, under stills_mutex_): per camera (cameras_ flattened), a
+  // renderer made on first use and the last PNG with its wall-clock time.
+  struct Still {
+    std::size_t robot = 0, camera = 0;
+    std::unique_ptr<camera::Renderer> renderer;
+    std::vector<uint8_t> rgb;
+    std::string png;
+    double sim_time_s = -1.0;
+    std::chrono::steady_clock::time_point taken{};
+  };
+  std::mutex stills_mutex_;
+  std::vector<Still> stills_;
 
   // Simulation thread.
   bool paused_ = false;

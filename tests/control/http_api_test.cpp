@@ -77,6 +77,10 @@ class RecordingControl final : public SimControl {
     bus.counters = {1200, 3, 1150, 2, 1, 4, 5, 250'000, 9600, 7200, true};
     return {bus};
   }
+  CameraStill camera_still(const std::string& name) override {
+    if (name != "head") return {404, "no camera '" + name + "' (robot cameras: head)", "", 0.0};
+    return {200, "", std::string("\x89PNG\r\n\x1a\n", 8) + "pixels", 2.25};
+  }
   std::vector<std::string> calls;
 
  private:
@@ -338,6 +342,25 @@ TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {
   }
   api.stop();
   EXPECT_TRUE(control.calls.empty());
+}
+
+TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
+  RecordingControl control;
+  HttpApi api(control, "127.0.0.1", 0);
+  api.start();
+  httplib::Client client("127.0.0.1", api.port());
+  const httplib::Result still = client.Get("/api/camera/head");
+  ASSERT_TRUE(still);
+  EXPECT_EQ(still->status, 200);
+  EXPECT_EQ(still->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(still->get_header_value("Cache-Control"), "no-store");
+  EXPECT_EQ(still->body, std::string("\x89PNG\r\n\x1a\n", 8) + "pixels");
+  EXPECT_DOUBLE_EQ(std::stod(still->get_header_value("X-Sim-Time")), 2.25);
+  const httplib::Result unknown = client.Get("/api/camera/tail");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 404);
+  EXPECT_EQ(nlohmann::json::parse(unknown->body)["error"], "no camera 'tail' (robot cameras: head)");
+  api.stop();
 }
 
 }  // namespace

@@ -6,10 +6,12 @@
 
 #include <atomic>
 #include <cmath>
+#include <fstream>
 #include <thread>
 
 #include "allocation_counter.h"
 #include "camera/camera_config.h"
+#include "camera/image_io.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "physics/engines.h"
@@ -32,10 +34,11 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
 
   std::atomic<bool> done{false};
   std::atomic<int> reads{0};
-  std::thread reader([&] {  // an HTTP thread polling /api/scene
+  std::thread reader([&] {  // an HTTP thread polling /api/scene and rendering a camera's stills
     while (!done.load()) {
       const control::Scene scene = sut.scene();
       EXPECT_FALSE(scene.shapes.empty());
+      EXPECT_EQ(sut.camera_still(robot.cameras[0].config.name).status, 200);
       reads.fetch_add(1);
     }
   });
@@ -99,6 +102,28 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
     EXPECT_NEAR(std::hypot(ray[0], ray[1], ray[2]), 1.0, 1e-9);
     EXPECT_GT(ray[2], -1.0) << "a corner ray of a field of view below 360 degrees";
   }
+  // The still: a PNG of the camera's size showing the carpet (green above red and blue) below the
+  // horizon; an unknown camera is refused with the names of those there are.
+  std::this_thread::sleep_for(SimController::kStillPeriod);  // a new still, of the last scene
+  const control::CameraStill still = sut.camera_still(r.cameras[0].name);
+  ASSERT_EQ(still.status, 200) << still.error;
+  EXPECT_NEAR(still.sim_time_s, 0.476, 1e-9);
+  const std::string path = ::testing::TempDir() + "/sim_controller_still.png";
+  { std::ofstream(path, std::ios::binary) << still.png; }
+  std::string rgb;
+  int width = 0, height = 0;
+  camera::read_png_rgb(path, &rgb, &width, &height);
+  EXPECT_EQ(width, robot.cameras[0].config.width_px);
+  EXPECT_EQ(height, robot.cameras[0].config.height_px);
+  int green = 0;
+  for (std::size_t i = 0; i + 2 < rgb.size(); i += 3) {
+    const int red = static_cast<uint8_t>(rgb[i]), g = static_cast<uint8_t>(rgb[i + 1]), blue = static_cast<uint8_t>(rgb[i + 2]);
+    green += g > red + 20 && g > blue + 20;
+  }
+  EXPECT_GT(green, width * height / 20) << "the carpet should fill part of the picture";
+  const control::CameraStill unknown = sut.camera_still("tail");
+  EXPECT_EQ(unknown.status, 404);
+  EXPECT_NE(unknown.error.find("no camera 'tail' (robot cameras: " + r.cameras[0].name + ")"), std::string::npos) << unknown.error;
   EXPECT_LT(r.cameras[0].corner_rays[0][0], 0.0) << "top-left: x left";
   EXPECT_LT(r.cameras[0].corner_rays[0][1], 0.0) << "top-left: y up";
   EXPECT_GT(r.cameras[0].corner_rays[2][0], 0.0) << "bottom-right: x right";

@@ -123,6 +123,14 @@ struct BusTable {
   BusCounters counters;
 };
 
+// The latest still of a camera: a PNG, or an HTTP status and a message naming the problem.
+struct CameraStill {
+  int status = 200;  // 200, 404 no such camera, 503 nothing to render yet
+  std::string error;
+  std::string png;          // the encoded image
+  double sim_time_s = 0.0;  // simulation time of the scene it shows
+};
+
 // A robot counts as fallen when its robot frame leans more than this from upright (trunk on the
 // carpet is 90 degrees; a walking robot leans far less than 45).
 inline constexpr double kFallenTiltRad = 0.7853981633974483;  // 45 degrees
@@ -160,6 +168,8 @@ class SimControl {
   virtual Scene scene() { return {}; }
   // Every bus' servo table (robot by robot, bus by bus).
   virtual std::vector<BusTable> buses() { return {}; }
+  // The latest image of robot camera `name` (as RobotState::cameras names it), a few per second.
+  virtual CameraStill camera_still(const std::string& name) { return {404, "no camera '" + name + "'", "", 0.0}; }
 };
 
 }  // namespace doppel::control
