@@ -6,7 +6,8 @@
 (function () {
   const SCENE_PERIOD_MS = 50;   // 20 Hz: doppel publishes the scene at most 30 times a second
   const STATE_PERIOD_MS = 100;  // 10 Hz
-  const BUSES_PERIOD_MS = 500;  // the bus threads publish their servo tables every 100 ms
+  const BUSES_PERIOD_MS = 500;
+  const CAMERA_PERIOD_MS = 300;  // doppel renders a still at most every 250 ms per camera  // the bus threads publish their servo tables every 100 ms
   const PUSH_N = 30, PUSH_MS = 200;
   const PLOT_WINDOW_S = 10;     // the rolling plots show the last 10 s of simulation time
   const FRUSTUM_DEPTH_M = 0.4;  // how far the camera frustums reach into the field
@@ -255,7 +256,7 @@
       caption.textContent = title;
       this.canvas = document.createElement('canvas');
       this.canvas.width = 300;
-      this.canvas.height = 72;
+      this.canvas.height = 60;
       this.box.append(caption, this.canvas);
     }
     push(t, values) {
@@ -354,9 +355,46 @@
     });
   }
 
+  // The camera list of the state in the select; the chosen one's still is polled as PNG.
+  let cameraImages = 0;
+  function applyCameraList(state) {
+    const select = $('camera-name');
+    const names = [];
+    for (const robot of state.robots) for (const cam of robot.cameras || []) names.push(cam.name);
+    if (select.dataset.names !== names.join()) {
+      const chosen = select.value;
+      select.innerHTML = '';
+      for (const name of names) select.add(new Option(name, name));
+      if (names.includes(chosen)) select.value = chosen;
+      select.dataset.names = names.join();
+      if (names.length === 0) $('camera-image').alt = 'no robot camera';
+    }
+  }
+  let cameraBusy = false;
+  setInterval(() => {
+    const name = $('camera-name').value;
+    if (!name || cameraBusy) return;
+    cameraBusy = true;
+    fetch(`/api/camera/${encodeURIComponent(name)}`, { cache: 'no-store' }).then(async (response) => {
+      if (!response.ok) {
+        const answer = await response.json().catch(() => ({}));
+        throw new Error(`GET /api/camera/${name}: ${response.status} ${answer.error || response.statusText}`);
+      }
+      const time = Number(response.headers.get('X-Sim-Time'));
+      const blob = await response.blob();
+      const image = $('camera-image');
+      const old = image.src;
+      image.src = URL.createObjectURL(blob);
+      if (old.startsWith('blob:')) URL.revokeObjectURL(old);
+      $('camera-time').textContent = `at ${fixed(time, 2)} s`;
+      ++cameraImages;
+    }).catch((e) => showError(e.message)).finally(() => { cameraBusy = false; });
+  }, CAMERA_PERIOD_MS);
+
   function applyState(state) {
     lastState = state;
     applyFrustums(state);
+    applyCameraList(state);
     applyPlots(state);
     $('sim-time').textContent = fixed(state.sim_time_s, 3);
     $('paused').textContent = state.paused ? (state.steps_left > 0 ? 'stepping' : 'paused') : 'running';
@@ -522,6 +560,20 @@
     }),
     plotTitles: () => Array.from(document.querySelectorAll('#plots .plot-title')).map((d) => d.textContent),
     frustumCount: () => frustums.length,
+    cameraImages: () => cameraImages,
+    // The camera image's size and how many of a 16 x 12 grid of its pixels are carpet green.
+    cameraImage: () => {
+      const image = $('camera-image');
+      if (!image.complete || image.naturalWidth === 0) return null;
+      const c = document.createElement('canvas');
+      c.width = 16; c.height = 12;
+      const g = c.getContext('2d');
+      g.drawImage(image, 0, 0, 16, 12);
+      const data = g.getImageData(0, 0, 16, 12).data;
+      let green = 0;
+      for (let i = 0; i < data.length; i += 4) if (data[i + 1] > data[i] + 20 && data[i + 1] > data[i + 2] + 20) ++green;
+      return { width: image.naturalWidth, height: image.naturalHeight, green };
+    },
     busCounters: () => Array.from(document.querySelectorAll('#buses table.bus-counters')).map((t) => {
       const out = {};
       COUNTERS.forEach(([key], c) => { out[key] = t.tBodies[0].rows[0].cells[c].textContent; });

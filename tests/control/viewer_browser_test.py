@@ -6,8 +6,8 @@ robot (the page's robot count, and the pixel under the robot's trunk is not carp
 table lists the robot's servos, a click on Pause pauses the simulation (simulation time stands
 still), a shift-click on the carpet places the robot there, a click on Step while running shows
 the API's refusal, Resume lets simulation time run on; the bus counters count the test's own PINGs,
-every IMU and foot-board plot has a line drawn, and each camera of the robot has a frustum in the
-3D view; then it saves a screenshot.
+every IMU and foot-board plot has a line drawn, each camera of the robot has a frustum in the 3D
+view and the camera panel shows a still of the camera with carpet in it; then it saves a screenshot.
 
 Chromium is driven through its DevTools protocol over --remote-debugging-pipe (file descriptors
 3 and 4, JSON messages ended by NUL), so no websocket library or npm package is needed.
@@ -299,6 +299,18 @@ def run(doppel, out_dir, chromium):
         check(cameras >= 1, "the robot's figure has no camera in the state")
         frustums = browser.wait_for("window.doppelViewer.frustumCount()", "the camera frustums")
         check(frustums == cameras, f"the view draws {frustums} frustums for {cameras} cameras")
+
+        # The camera panel shows the first camera's still: a PNG of the camera's size with carpet in it.
+        image = browser.wait_for("window.doppelViewer.cameraImages() > 0 && window.doppelViewer.cameraImage()",
+                                 "the camera image")
+        with urllib.request.urlopen(url + "api/camera/" + state["cameras"][0]["name"], timeout=30) as answer:
+            png = answer.read()
+            check(answer.headers["Content-Type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n",
+                  f"/api/camera/{state['cameras'][0]['name']} is not a PNG ({answer.headers['Content-Type']})")
+        width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+        check((image["width"], image["height"]) == (width, height),
+              f"the page shows a {image['width']}x{image['height']} image, the camera's still is {width}x{height}")
+        check(image["green"] > 10, f"the camera image shows no carpet ({image['green']} of 192 samples green)")
 
         # Step while running: the API refuses it, the page says why.
         browser.click_element("#step")
