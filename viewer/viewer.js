@@ -365,7 +365,8 @@
       const chosen = select.value;
       select.innerHTML = '';
       for (const name of names) select.add(new Option(name, name));
-      if (names.includes(chosen)) select.value = chosen;
+      if (names.length > 0) select.add(new Option('off', ''));  // no stills: doppel renders none
+      if (names.includes(chosen) || (chosen === '' && select.dataset.names !== undefined)) select.value = chosen;
       select.dataset.names = names.join();
       if (names.length === 0) $('camera-image').alt = 'no robot camera';
     }
