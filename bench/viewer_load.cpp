@@ -1,7 +1,8 @@
 // viewer_load: does an open web viewer slow doppel's bus or simulation threads? One doppel run
 // (default robot, physics on, viewer on a free port); phases rotate between "closed" (nobody
 // reads the viewer's API), "polled" (a thread of this tool polls the API as the page does:
-// /api/scene at 20 Hz, /api/state at 10 Hz, /api/buses at 2 Hz: doppel's own serving cost) and
+// /api/scene at 20 Hz, /api/state at 10 Hz, /api/buses at 2 Hz, the first robot camera's still
+// /api/camera/NAME about 3 times a second: doppel's own serving cost) and
 // "open" (headless Chromium shows the viewer page, which polls so and renders with three.js in
 // software (SwiftShader) on the same cores: the page's cost to a machine without a GPU).
 // In every phase the client reads servo 1's Present Position (READ 2 B) back to back and times
@@ -123,7 +124,8 @@ Phase measure(SerialClient& client, int port, double seconds) {
 // Polls the API at the page's rates until destroyed.
 class Poller {
  public:
-  explicit Poller(int port) : thread_([this, port] {
+  // `camera`: the robot camera whose still the page shows ("" = none).
+  Poller(int port, std::string camera) : thread_([this, port, camera] {
     httplib::Client client("127.0.0.1", port);
     client.set_keep_alive(true);
     const auto start = Clock::now();
@@ -132,6 +134,7 @@ class Poller {
         if (!client.Get("/api/scene")) ++failures;
         if (k == 0 && !client.Get("/api/state")) ++failures;
         if (k == 0 && tick % 5 == 0 && !client.Get("/api/buses")) ++failures;
+        if (k == 1 && tick % 3 == 0 && !camera.empty() && !client.Get("/api/camera/" + camera)) ++failures;
         std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * tick + 50 * (k + 1)));
       }
     }
@@ -199,6 +202,8 @@ int main(int argc, char** argv) {
   const std::string url = match[1].str();
   const int port = std::stoi(match[2].str());
   SerialClient client(doppel.link(), kBaud);
+  const nlohmann::json cameras = state(port)["robots"][0]["cameras"];
+  const std::string camera = cameras.empty() ? "" : cameras[0]["name"].get<std::string>();
   const std::string profile = doppel.link_dir() + "/../chromium";
 
   std::printf("doppel (fumanoid-2011, ODE, %s timing); READ 2 B of servo 1 back to back, %d x (%.1f s each: closed, polled, open)\n\n",
@@ -212,7 +217,7 @@ int main(int argc, char** argv) {
     add(closed_total, closed);
     Phase polled;
     {
-      Poller poller(port);
+      Poller poller(port, camera);
       polled = measure(client, port, seconds);
       polled.failures += poller.failures.load();
     }

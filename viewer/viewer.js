@@ -6,8 +6,11 @@
 (function () {
   const SCENE_PERIOD_MS = 50;   // 20 Hz: doppel publishes the scene at most 30 times a second
   const STATE_PERIOD_MS = 100;  // 10 Hz
-  const BUSES_PERIOD_MS = 500;  // the bus threads publish their servo tables every 100 ms
+  const BUSES_PERIOD_MS = 500;
+  const CAMERA_PERIOD_MS = 300;  // doppel renders a still at most every 250 ms per camera  // the bus threads publish their servo tables every 100 ms
   const PUSH_N = 30, PUSH_MS = 200;
+  const PLOT_WINDOW_S = 10;     // the rolling plots show the last 10 s of simulation time
+  const FRUSTUM_DEPTH_M = 0.4;  // how far the camera frustums reach into the field
   // Hardware Error Status bits (Protocol 2.0 e-Manual, X series, address 70).
   const ERROR_BITS = { 0: 'input voltage', 2: 'overheating', 3: 'motor encoder', 4: 'electrical shock', 5: 'overload' };
 
@@ -123,6 +126,42 @@
     ++sceneUpdates;
   }
 
+  // --- camera frustums (state: robots[].cameras[] with pose and corner rays) --------------------
+  let frustums = [];  // one LineSegments per camera, in state order
+  let frustumKey = '';
+  function makeFrustum(corners, colour) {
+    const points = [];
+    const far = corners.map(([x, y, z]) => [x * FRUSTUM_DEPTH_M, y * FRUSTUM_DEPTH_M, z * FRUSTUM_DEPTH_M]);
+    for (let i = 0; i < 4; ++i) {
+      points.push(0, 0, 0, ...far[i]);              // apex to corner
+      points.push(...far[i], ...far[(i + 1) % 4]);  // the image rectangle
+    }
+    points.push(...far[0], ...far[2]);  // a cross on the top-left to bottom-right diagonal marks "up"
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute('position', new THREE.Float32BufferAttribute(points, 3));
+    const lines = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({ color: colour }));
+    // The top edge (first corner to second) in a second colour shows which way is up in the image.
+    const top = new THREE.BufferGeometry();
+    top.setAttribute('position', new THREE.Float32BufferAttribute([...far[0], ...far[1]], 3));
+    lines.add(new THREE.LineSegments(top, new THREE.LineBasicMaterial({ color: 0xff4040 })));
+    return lines;
+  }
+  function applyFrustums(state) {
+    const cameras = [];
+    for (const robot of state.robots) for (const cam of robot.cameras || []) cameras.push(cam);
+    const key = cameras.map((c) => c.name + c.corners.flat().join(',')).join(';');
+    if (key !== frustumKey) {
+      for (const f of frustums) scene.remove(f);
+      frustums = cameras.map((c) => makeFrustum(c.corners, 0xffee55));
+      for (const f of frustums) scene.add(f);
+      frustumKey = key;
+    }
+    cameras.forEach((c, i) => {
+      frustums[i].position.set(c.p[0], c.p[1], c.p[2]);
+      frustums[i].quaternion.set(c.q[0], c.q[1], c.q[2], c.q[3]);
+    });
+  }
+
   function resize() {
     const width = view.clientWidth, height = view.clientHeight;
     if (canvas.width !== Math.floor(width * renderer.getPixelRatio()) || canvas.height !== Math.floor(height * renderer.getPixelRatio())) {
@@ -212,8 +251,159 @@
     return Object.is(Number(text), -0) ? text.slice(1) : text;  // "-0.00" -> "0.00"
   }
 
+  // A rolling plot of a few series over simulation time, drawn on a canvas (no library).
+  class Plot {
+    constructor(title, unit, series) {  // series: [{label, colour, width}]
+      this.series = series;
+      this.unit = unit;
+      this.samples = [];  // [t, v0, v1, ...]
+      this.box = document.createElement('div');
+      const caption = document.createElement('div');
+      caption.className = 'plot-title';
+      caption.textContent = title;
+      this.canvas = document.createElement('canvas');
+      this.canvas.width = 300;
+      this.canvas.height = 60;
+      this.box.append(caption, this.canvas);
+    }
+    push(t, values) {
+      const last = this.samples[this.samples.length - 1];
+      if (last && t <= last[0]) {
+        if (t < last[0]) this.samples = [];  // time went back: a new doppel
+        else return;                          // paused: nothing new
+      }
+      this.samples.push([t, ...values]);
+      while (this.samples.length > 0 && this.samples[0][0] < t - PLOT_WINDOW_S) this.samples.shift();
+    }
+    draw() {
+      const ctx = this.canvas.getContext('2d');
+      const w = this.canvas.width, h = this.canvas.height, top = 12, bottom = h - 2;
+      ctx.fillStyle = '#ffffff';
+      ctx.fillRect(0, 0, w, h);
+      if (this.samples.length === 0) return;
+      // The last PLOT_WINDOW_S, or all there is while there is less (the plot fills its width).
+      const t1 = this.samples[this.samples.length - 1][0];
+      const t0 = Math.min(this.samples[0][0], t1 - 0.5), span = t1 - t0;
+      let lo = Infinity, hi = -Infinity;
+      for (const s of this.samples) for (let k = 1; k < s.length; ++k) { lo = Math.min(lo, s[k]); hi = Math.max(hi, s[k]); }
+      if (hi - lo < 1e-6) { lo -= 0.5; hi += 0.5; }
+      const pad = 0.05 * (hi - lo);
+      lo -= pad; hi += pad;
+      const x = (t) => (t - t0) / span * (w - 1);
+      const y = (v) => bottom - (v - lo) / (hi - lo) * (bottom - top);
+      if (lo < 0 && hi > 0) {  // the zero line
+        ctx.strokeStyle = '#bbb';
+        ctx.lineWidth = 1;
+        ctx.beginPath();
+        ctx.moveTo(0, y(0));
+        ctx.lineTo(w, y(0));
+        ctx.stroke();
+      }
+      this.series.forEach((series, k) => {
+        ctx.strokeStyle = series.colour;
+        ctx.lineWidth = series.width || 1;
+        ctx.beginPath();
+        this.samples.forEach((s, i) => (i === 0 ? ctx.moveTo(x(s[0]), y(s[k + 1])) : ctx.lineTo(x(s[0]), y(s[k + 1]))));
+        ctx.stroke();
+      });
+      ctx.font = '10px sans-serif';
+      let lx = 2;
+      for (const series of this.series) {
+        ctx.fillStyle = series.colour;
+        ctx.fillText(series.label, lx, 10);
+        lx += ctx.measureText(series.label).width + 6;
+      }
+      ctx.fillStyle = '#555';
+      const range = `${fixed(lo, 1)}…${fixed(hi, 1)} ${this.unit}, ${fixed(span, 1)} s`;
+      ctx.fillText(range, w - ctx.measureText(range).width - 2, 10);
+    }
+  }
+
+  let plots = null;  // {robot, key, imus: [[angles, gyro]], feet: [plot]}
+  const DEG = 180 / Math.PI;
+  const CELL_COLOURS = ['#1f77b4', '#ff7f0e', '#2ca02c', '#9467bd'];
+  function applyPlots(state) {
+    const robot = state.robots[selectedRobot];
+    const container = $('plots');
+    const imus = (robot && robot.imus) || [], feet = (robot && robot.feet) || [];
+    const key = `${selectedRobot}:` + imus.map((i) => i.name).join() + '/' + feet.map((f) => f.name).join();
+    if (!plots || plots.key !== key) {
+      container.innerHTML = '';
+      $('sensor-robot').textContent = robot ? `${selectedRobot} '${robot.name}'` : '';
+      plots = { key, imus: [], feet: [] };
+      for (const imu of imus) {
+        const angles = new Plot(`${imu.name} (ID ${imu.id}): roll, pitch`, '°',
+                                [{ label: 'roll', colour: '#d62728' }, { label: 'pitch', colour: '#1f77b4' }]);
+        const gyro = new Plot(`${imu.name} (ID ${imu.id}): gyro`, '°/s',
+                              ['x', 'y', 'z'].map((a, k) => ({ label: a, colour: ['#d62728', '#2ca02c', '#1f77b4'][k] })));
+        plots.imus.push([angles, gyro]);
+        container.append(angles.box, gyro.box);
+      }
+      for (const foot of feet) {
+        const plot = new Plot(`${foot.name} (ID ${foot.id}): total and cells FL FR BL BR`, 'N',
+                              [{ label: 'total', colour: '#000', width: 2 },
+                               ...['FL', 'FR', 'BL', 'BR'].map((c, k) => ({ label: c, colour: CELL_COLOURS[k] }))]);
+        plots.feet.push(plot);
+        container.append(plot.box);
+      }
+      if (imus.length === 0 && feet.length === 0) {
+        container.innerHTML = '<div class="none">no IMU or foot board in the world for this robot</div>';
+      }
+    }
+    imus.forEach((imu, i) => {
+      plots.imus[i][0].push(state.sim_time_s, [imu.roll * DEG, imu.pitch * DEG]);
+      plots.imus[i][1].push(state.sim_time_s, imu.gyro.map((g) => g * DEG));
+      plots.imus[i][0].draw();
+      plots.imus[i][1].draw();
+    });
+    feet.forEach((foot, i) => {
+      plots.feet[i].push(state.sim_time_s, [foot.total, ...foot.cells]);
+      plots.feet[i].draw();
+    });
+  }
+
+  // The camera list of the state in the select; the chosen one's still is polled as PNG.
+  let cameraImages = 0;
+  function applyCameraList(state) {
+    const select = $('camera-name');
+    const names = [];
+    for (const robot of state.robots) for (const cam of robot.cameras || []) names.push(cam.name);
+    if (select.dataset.names !== names.join()) {
+      const chosen = select.value;
+      select.innerHTML = '';
+      for (const name of names) select.add(new Option(name, name));
+      if (names.length > 0) select.add(new Option('off', ''));  // no stills: doppel renders none
+      if (names.includes(chosen) || (chosen === '' && select.dataset.names !== undefined)) select.value = chosen;
+      select.dataset.names = names.join();
+      if (names.length === 0) $('camera-image').alt = 'no robot camera';
+    }
+  }
+  let cameraBusy = false;
+  setInterval(() => {
+    const name = $('camera-name').value;
+    if (!name || cameraBusy) return;
+    cameraBusy = true;
+    fetch(`/api/camera/${encodeURIComponent(name)}`, { cache: 'no-store' }).then(async (response) => {
+      if (!response.ok) {
+        const answer = await response.json().catch(() => ({}));
+        throw new Error(`GET /api/camera/${name}: ${response.status} ${answer.error || response.statusText}`);
+      }
+      const time = Number(response.headers.get('X-Sim-Time'));
+      const blob = await response.blob();
+      const image = $('camera-image');
+      const old = image.src;
+      image.src = URL.createObjectURL(blob);
+      if (old.startsWith('blob:')) URL.revokeObjectURL(old);
+      $('camera-time').textContent = `at ${fixed(time, 2)} s`;
+      ++cameraImages;
+    }).catch((e) => showError(e.message)).finally(() => { cameraBusy = false; });
+  }, CAMERA_PERIOD_MS);
+
   function applyState(state) {
     lastState = state;
+    applyFrustums(state);
+    applyCameraList(state);
+    applyPlots(state);
     $('sim-time').textContent = fixed(state.sim_time_s, 3);
     $('paused').textContent = state.paused ? (state.steps_left > 0 ? 'stepping' : 'paused') : 'running';
     const body = $('robots').tBodies[0];
@@ -244,6 +434,18 @@
     return ['0x' + error.toString(16).padStart(2, '0'), names.join(', ')];
   }
 
+  // Bus counters of /api/buses: key, column, what it counts, whether a non-zero value is bad.
+  const COUNTERS = [
+    ['packets', 'packets', 'instruction packets framed', false],
+    ['replies', 'replies', 'instructions answered with a status packet', false],
+    ['bad_checksums', 'bad sum', 'packets with a wrong checksum', true],
+    ['collisions', 'collisions', 'replies of several devices at once on the wire', true],
+    ['timeouts', 'timeouts', 'partial packets dropped by the inter-byte timeout', true],
+    ['dropped_replies', 'dropped', 'replies dropped because the client did not read', true],
+    ['late_deliveries', 'late', 'status packets written after the late threshold', true],
+    ['max_lateness_us', 'worst µs', 'worst lateness of a status packet, µs', false],
+  ];
+
   function applyBuses(buses) {
     lastBuses = buses;
     const container = $('buses');
@@ -254,6 +456,10 @@
         const box = document.createElement('div');
         const title = document.createElement('h3');
         title.textContent = `robot ${bus.robot} '${bus.robot_name}', bus ${bus.bus} (${bus.link})`;
+        const counters = document.createElement('table');
+        counters.className = 'bus-counters';
+        counters.innerHTML = '<thead><tr>' + COUNTERS.map(([, label, hint]) => `<th title="${hint}">${label}</th>`).join('') +
+                             '</tr></thead><tbody><tr>' + COUNTERS.map(() => '<td></td>').join('') + '</tr></tbody>';
         const table = document.createElement('table');
         table.className = 'servo-table';
         table.innerHTML = '<thead><tr><th>ID</th><th class="text">name</th><th class="text">model</th><th>torque</th>' +
@@ -263,13 +469,20 @@
           const row = table.tBodies[0].insertRow();
           for (let c = 0; c < 11; ++c) row.insertCell().className = c === 1 || c === 2 ? 'text' : '';
         }
-        box.append(title, table);
+        box.append(title, counters, table);
         container.append(box);
       }
       container.dataset.layout = wanted;
     }
     const tables = container.querySelectorAll('table.servo-table');
+    const counterTables = container.querySelectorAll('table.bus-counters');
     buses.forEach((bus, b) => {
+      const cells = counterTables[b].tBodies[0].rows[0].cells;
+      COUNTERS.forEach(([key, , , bad], c) => {
+        const value = bus.counters ? bus.counters[key] : undefined;
+        cells[c].textContent = value === undefined ? '–' : key === 'max_lateness_us' ? value.toFixed(0) : value;
+        cells[c].className = bad && value > 0 ? 'bad' : '';
+      });
       bus.servos.forEach((servo, i) => {
         const cells = tables[b].tBodies[0].rows[i].cells;
         const [error, names] = errorText(servo.error);
@@ -346,6 +559,34 @@
     frames: () => frames,
     sceneUpdates: () => sceneUpdates,
     servoRows: () => document.querySelectorAll('#buses table.servo-table tbody tr').length,
+    // Canvas pixels of the sensor plots that are not background (white), per plot.
+    plotInk: () => Array.from(document.querySelectorAll('#plots canvas')).map((c) => {
+      const data = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let ink = 0;
+      for (let i = 12 * c.width * 4; i < data.length; i += 4) if (data[i] < 200 || data[i + 1] < 200 || data[i + 2] < 200) ++ink;
+      return ink;  // below the legend line (the top 12 rows)
+    }),
+    plotTitles: () => Array.from(document.querySelectorAll('#plots .plot-title')).map((d) => d.textContent),
+    frustumCount: () => frustums.length,
+    cameraImages: () => cameraImages,
+    // The camera image's size and how many of a 16 x 12 grid of its pixels are carpet green.
+    cameraImage: () => {
+      const image = $('camera-image');
+      if (!image.complete || image.naturalWidth === 0) return null;
+      const c = document.createElement('canvas');
+      c.width = 16; c.height = 12;
+      const g = c.getContext('2d');
+      g.drawImage(image, 0, 0, 16, 12);
+      const data = g.getImageData(0, 0, 16, 12).data;
+      let green = 0;
+      for (let i = 0; i < data.length; i += 4) if (data[i + 1] > data[i] + 20 && data[i + 1] > data[i + 2] + 20) ++green;
+      return { width: image.naturalWidth, height: image.naturalHeight, green };
+    },
+    busCounters: () => Array.from(document.querySelectorAll('#buses table.bus-counters')).map((t) => {
+      const out = {};
+      COUNTERS.forEach(([key], c) => { out[key] = t.tBodies[0].rows[0].cells[c].textContent; });
+      return out;
+    }),
     state: () => lastState,
     buses: () => lastBuses,
     scene: () => lastScene,

@@ -45,6 +45,24 @@ void write_png_rgb(const std::string& path, const uint8_t* rgb, int width_px, in
   png_destroy_write_struct(&png, &info);
 }
 
+std::string encode_png_rgb(const uint8_t* rgb, int width_px, int height_px) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = static_cast<png_uint_32>(width_px);
+  image.height = static_cast<png_uint_32>(height_px);
+  image.format = PNG_FORMAT_RGB;
+  png_alloc_size_t size = 0;
+  if (!png_image_write_get_memory_size(image, size, 0, rgb, 0, nullptr)) {
+    throw std::runtime_error(std::string("PNG encoding failed: ") + image.message);
+  }
+  std::string out(size, '\0');
+  if (!png_image_write_to_memory(&image, out.data(), &size, 0, rgb, 0, nullptr)) {
+    throw std::runtime_error(std::string("PNG encoding failed: ") + image.message);
+  }
+  out.resize(size);
+  return out;
+}
+
 void read_png_rgb(const std::string& path, std::string* rgb, int* width_px, int* height_px) {
   png_image image{};
   image.version = PNG_IMAGE_VERSION;

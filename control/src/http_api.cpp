@@ -139,13 +139,30 @@ json state_json(const SimState& state) {
   for (const RobotState& robot : state.robots) {
     json joints = json::object();
     for (const JointState& joint : robot.joints) joints[joint.name] = joint.position_rad;
+    json imus = json::array();
+    for (const ImuReading& imu : robot.imus) {
+      imus.push_back({{"name", imu.name}, {"bus", imu.bus}, {"id", imu.id}, {"roll", imu.roll_rad}, {"pitch", imu.pitch_rad},
+                      {"gyro", imu.gyro_rad_s}});
+    }
+    json feet = json::array();
+    for (const FootReading& foot : robot.feet) {
+      const double total = foot.force_n[0] + foot.force_n[1] + foot.force_n[2] + foot.force_n[3];
+      feet.push_back({{"name", foot.name}, {"bus", foot.bus}, {"id", foot.id}, {"cells", foot.force_n}, {"total", total}});
+    }
+    json cameras = json::array();
+    for (const CameraView& camera : robot.cameras) {
+      cameras.push_back({{"name", camera.name}, {"p", camera.position}, {"q", camera.quaternion}, {"corners", camera.corner_rays}});
+    }
     robots.push_back({{"name", robot.name},
                       {"simulated", robot.simulated},
                       {"pose", {{"x", robot.x_m}, {"y", robot.y_m}, {"z", robot.z_m}, {"yaw", robot.yaw_rad}}},
                       {"tilt", robot.tilt_rad},
                       {"fallen", robot.fallen},
                       {"held", robot.held},
-                      {"joints", joints}});
+                      {"joints", joints},
+                      {"imus", imus},
+                      {"feet", feet},
+                      {"cameras", cameras}});
   }
   json out = {{"sim_time_s", state.sim_time_s}, {"paused", state.paused}, {"steps_left", state.steps_left},
               {"missed_ticks", state.missed_ticks},
@@ -189,7 +206,24 @@ json buses_json(const std::vector<BusTable>& buses) {
                         {"voltage", servo.voltage},
                         {"error", servo.error >= 0 ? json(servo.error) : json(nullptr)}});
     }
-    out.push_back({{"robot", bus.robot}, {"robot_name", bus.robot_name}, {"bus", bus.bus}, {"link", bus.link}, {"servos", servos}});
+    const BusCounters& c = bus.counters;
+    const json counters = {{"packets", c.packets},
+                           {"bad_checksums", c.bad_checksums},
+                           {"replies", c.replies},
+                           {"collisions", c.collisions},
+                           {"dropped_replies", c.dropped_replies},
+                           {"timeouts", c.timeouts},
+                           {"late_deliveries", c.late_deliveries},
+                           {"max_lateness_us", static_cast<double>(c.max_lateness_ns) * 1e-3},
+                           {"bytes_in", c.bytes_in},
+                           {"bytes_out", c.bytes_out},
+                           {"connected", c.connected}};
+    out.push_back({{"robot", bus.robot},
+                   {"robot_name", bus.robot_name},
+                   {"bus", bus.bus},
+                   {"link", bus.link},
+                   {"servos", servos},
+                   {"counters", counters}});
   }
   return out;
 }
@@ -252,6 +286,18 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     response.status = answer.status;
     response.set_content(answer.body.dump(), "application/json");
   };
+  // A camera's latest still as PNG (the only answer that is not JSON, unless it is an error).
+  server_->Get(R"(/api/camera/(.+))", [this](const httplib::Request& request, httplib::Response& response) {
+    const CameraStill still = control_.camera_still(request.matches[1]);
+    response.status = still.status;
+    if (still.status != 200) {
+      response.set_content(error_body(still.error).dump(), "application/json");
+      return;
+    }
+    response.set_header("Cache-Control", "no-store");
+    response.set_header("X-Sim-Time", std::to_string(still.sim_time_s));
+    response.set_content(still.png, "image/png");
+  });
   server_->Get(R"(/api/.*)", serve);
   server_->Post(R"(/api/.*)", serve);
   if (port == 0) {

@@ -136,7 +136,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   }
   std::vector<SimController::Robot> controlled;
   for (std::size_t r = 0; r < configs.size(); ++r) {
-    controlled.push_back({robots_[r].get(), world_ != nullptr ? in_world[r] : std::nullopt, configs[r].name});
+    controlled.push_back({robots_[r].get(), world_ != nullptr ? in_world[r] : std::nullopt, configs[r].name, nullptr});
   }
   const physics::FieldSpec field;
   controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),

@@ -298,6 +298,7 @@ void BusRuntime::after_dispatch() noexcept {
   }
   commands_.publish();
   publish_eeprom_changes();
+  collisions_.store(bus_devices_.counters().collisions, std::memory_order_relaxed);  // for servo_table()
   if (power_on_pending_ != 0) {
     power_on_done_.store(power_on_pending_, std::memory_order_release);  // the new commands are out
     power_on_pending_ = 0;
@@ -347,6 +348,9 @@ control::BusTable BusRuntime::servo_table() {
   control::BusTable out;
   out.bus = bus_index_;
   out.link = port_->link_path();
+  const bus::BusDiagnostics d = server_->diagnostics();  // lock-free
+  out.counters = {d.packets, d.bad_checksums, d.replies, collisions_.load(std::memory_order_relaxed), d.dropped_replies,
+                  d.timeouts, d.late_deliveries, d.max_lateness_ns, d.bytes_in, d.bytes_out, d.connected};
   for (std::size_t i = 0; i < servo_columns_.size(); ++i) {
     const ServoRegisters& r = table.servos[i];
     const DeviceConfig& device = config_.devices[servo_columns_[i].device_index];

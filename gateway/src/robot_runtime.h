@@ -177,6 +177,7 @@ class BusRuntime final : public bus::DeviceSync {
   concurrency::Snapshot<BusServoTable> servo_table_;
   std::mutex servo_table_mutex_;  // reading side only: the snapshot has one reader
   int servo_table_ticks_ = 0;     // bus thread
+  std::atomic<uint64_t> collisions_{0};  // BusDevices' wire collisions, stored by the bus thread after each packet
   std::thread thread_;
 };
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <thread>
 
+#include "camera/image_io.h"
+#include "camera/lens.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -11,6 +13,50 @@ namespace {
 constexpr std::chrono::milliseconds kAnswerTimeout{5000};  // a loaded machine may lag its 1 kHz loop
 
 }  // namespace
+
+void SimController::add_devices(std::size_t r) {
+  imus_.emplace_back();
+  feet_.emplace_back();
+  cameras_.emplace_back();
+  const Robot& robot = robots_[r];
+  if (world_ == nullptr || !robot.in_world) return;
+  const std::size_t w = *robot.in_world;
+  const RobotConfig& config = robot.config != nullptr ? *robot.config : robot.runtime->config();
+  for (std::size_t b = 0; b < config.buses.size(); ++b) {
+    for (const DeviceConfig& device : config.buses[b].devices) {
+      const auto bus = static_cast<uint32_t>(b);
+      if (const auto imu = world_->find_imu(w, bus, device.id)) imus_.back().push_back({device.name, bus, device.id, *imu});
+      if (const auto foot = world_->find_foot(w, bus, device.id)) feet_.back().push_back({device.name, bus, device.id, *foot});
+    }
+  }
+  for (const CameraSetup& setup : config.cameras) {
+    Camera camera;
+    // The name CameraFeed streams it under (gateway.cpp): robots after the first get a prefix.
+    camera.name = r > 0 ? "robot" + std::to_string(r) + "-" + setup.config.name : setup.config.name;
+    camera.body = setup.body;
+    camera.config = setup.config;
+    const camera::Lens lens(setup.config.lens, setup.config.width_px, setup.config.height_px);
+    const double right = setup.config.width_px - 1.0, bottom = setup.config.height_px - 1.0;
+    const std::array<Eigen::Vector2d, 4> corners{Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(right, 0.0),
+                                                 Eigen::Vector2d(right, bottom), Eigen::Vector2d(0.0, bottom)};
+    const Eigen::Vector2d centre(0.5 * right, 0.5 * bottom);
+    for (std::size_t c = 0; c < 4; ++c) {
+      // A fisheye whose image circle ends inside the image has no ray at its corners: the ray
+      // where the corner's diagonal leaves the circle stands in for it.
+      Eigen::Vector3d ray;
+      for (double t = 1.0; t > 0.0; t -= 0.01) {
+        if (lens.unproject(centre + t * (corners[c] - centre), &ray)) break;
+      }
+      camera.corner_rays[c] = {ray.x(), ray.y(), ray.z()};
+    }
+    cameras_.back().push_back(std::move(camera));
+  }
+  if (imus_.back().size() > kSimMaxImus || feet_.back().size() > kSimMaxFeet || cameras_.back().size() > kSimMaxCameras) {
+    throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
+                                std::to_string(kSimMaxImus) + " IMUs, " + std::to_string(kSimMaxFeet) +
+                                " foot boards or " + std::to_string(kSimMaxCameras) + " cameras");
+  }
+}
 
 SimController::SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m,
                              double carpet_half_width_m)
@@ -31,11 +77,20 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
                                   std::to_string(kMaxJoints) + " links");
     }
     joint_names_.push_back(std::move(names));
+    add_devices(joint_names_.size() - 1);
   }
   if (world_ != nullptr) {
-    physics::SceneView initial;
-    world_->fill_scene(initial);  // sizes the shapes once: later fills of a copy do not allocate
-    scene_ = std::make_unique<concurrency::Snapshot<physics::SceneView>>(initial);
+    ScenePublication initial;
+    world_->fill_scene(initial.view);  // sizes the shapes once: later fills of a copy do not allocate
+    for (auto& robot : initial.X_WC) robot.fill(Eigen::Isometry3d::Identity());
+    scene_ = std::make_unique<concurrency::Snapshot<ScenePublication>>(initial);
+    for (std::size_t r = 0; r < cameras_.size(); ++r) {
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+        stills_.emplace_back();
+        stills_.back().robot = r;
+        stills_.back().camera = i;
+      }
+    }
   }
   // The start, for a request that comes before the first tick (the simulation thread is not
   // running yet: publishing from here is the writer's first publish).
@@ -80,7 +135,7 @@ control::Scene SimController::scene() {
   physics::SceneView view;
   {
     std::lock_guard<std::mutex> lock(scene_mutex_);
-    view = scene_->latest();  // copies (allocates) on this HTTP thread, never on the simulation's
+    view = scene_->latest().view;  // copies (allocates) on this HTTP thread, never on the simulation's
   }
   out.sim_time_s = view.sim_time_s;
   out.shapes.reserve(view.shapes.size());
@@ -93,7 +148,8 @@ control::Scene SimController::scene() {
     const Eigen::Quaterniond q(shape.X_WS.linear());
     s.position = {p.x(), p.y(), p.z()};
     s.quaternion = {q.x(), q.y(), q.z(), q.w()};
-    s.size = {shape.size_m.x(), shape.size_m.y(), shape.size_m.z()};
+    const double scale = shape.type == physics::ShapeType::kConvex ? 2.0 : 1.0;  // half extents -> box size
+    s.size = {scale * shape.size_m.x(), scale * shape.size_m.y(), scale * shape.size_m.z()};
     s.colour = {shape.colour.r, shape.colour.g, shape.colour.b};
     if (shape.type == physics::ShapeType::kConvex && shape.hull != nullptr) {
       const physics::ConvexHull& hull = *shape.hull;
@@ -110,6 +166,48 @@ control::Scene SimController::scene() {
     out.shapes.push_back(std::move(s));
   }
   return out;
+}
+
+Eigen::Isometry3d SimController::camera_pose(std::size_t r, std::size_t i) const noexcept {
+  const Camera& camera = cameras_[r][i];
+  return camera::camera_pose_W(camera.config.mount, world_->body_pose(*robots_[r].in_world, camera.body));
+}
+
+control::CameraStill SimController::camera_still(const std::string& name) {
+  std::lock_guard<std::mutex> lock(stills_mutex_);  // HTTP threads only: one still rendered at a time
+  Still* still = nullptr;
+  for (Still& s : stills_) {
+    if (cameras_[s.robot][s.camera].name == name) still = &s;
+  }
+  if (still == nullptr) {
+    std::string names;
+    for (const Still& s : stills_) names += (names.empty() ? "" : ", ") + cameras_[s.robot][s.camera].name;
+    return {404, "no camera '" + name + "' (robot cameras: " + (names.empty() ? "none" : names) + ")", "", 0.0};
+  }
+  const auto now = std::chrono::steady_clock::now();
+  if (!still->png.empty() && now - still->taken < kStillPeriod) return {200, "", still->png, still->sim_time_s};
+  ScenePublication publication;
+  {
+    std::lock_guard<std::mutex> scene_lock(scene_mutex_);
+    publication = scene_->latest();  // a copy on this thread; the simulation thread never waits
+  }
+  if (!still->png.empty() && publication.view.sim_time_s == still->sim_time_s) {
+    still->taken = now;  // paused: the same scene, the same picture
+    return {200, "", still->png, still->sim_time_s};
+  }
+  const camera::CameraConfig& config = cameras_[still->robot][still->camera].config;
+  if (still->renderer == nullptr) {
+    still->renderer = std::make_unique<camera::Renderer>(config.lens, config.width_px, config.height_px,
+                                                         camera::PixelFormat::kRgb24);
+    still->renderer->set_noise(config.noise);
+    still->rgb.resize(3 * static_cast<std::size_t>(config.width_px) * static_cast<std::size_t>(config.height_px));
+  }
+  const auto frame = static_cast<uint64_t>(publication.view.sim_time_s * 1000.0);  // keys the noise
+  still->renderer->render(publication.view, publication.X_WC[still->robot][still->camera], frame, still->rgb.data(), nullptr);
+  still->png = camera::encode_png_rgb(still->rgb.data(), config.width_px, config.height_px);
+  still->sim_time_s = publication.view.sim_time_s;
+  still->taken = now;
+  return {200, "", still->png, still->sim_time_s};
 }
 
 std::vector<control::BusTable> SimController::buses() {
@@ -151,6 +249,17 @@ control::SimState SimController::state() {
       robot.fallen = s.tilt > control::kFallenTiltRad;
       robot.held = s.held;
       for (std::size_t j = 0; j < joint_names_[r].size(); ++j) robot.joints.push_back({joint_names_[r][j], s.joints[j]});
+      for (std::size_t i = 0; i < imus_[r].size(); ++i) {
+        const auto& imu = imus_[r][i];
+        robot.imus.push_back({imu.name, imu.bus, imu.id, s.imus[i].roll, s.imus[i].pitch, s.imus[i].gyro});
+      }
+      for (std::size_t i = 0; i < feet_[r].size(); ++i) {
+        const auto& foot = feet_[r][i];
+        robot.feet.push_back({foot.name, foot.bus, foot.id, s.feet[i]});
+      }
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+        robot.cameras.push_back({cameras_[r][i].name, s.cameras[i].p, s.cameras[i].q, cameras_[r][i].corner_rays});
+      }
     }
     state.robots.push_back(std::move(robot));
   }
@@ -275,6 +384,17 @@ void SimController::publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) n
     s.tilt = world_->tilt_rad(w);
     s.held = world_->held(w);
     for (std::size_t j = 0; j < joint_names_[r].size(); ++j) s.joints[j] = world_->link_position(w, j);
+    for (std::size_t i = 0; i < imus_[r].size(); ++i) {
+      const physics::ImuState imu = world_->imu(imus_[r][i].handle);  // what the device reports
+      s.imus[i] = {imu.roll_rad, imu.pitch_rad, imu.w_WS_S_rad_s};
+    }
+    for (std::size_t i = 0; i < feet_[r].size(); ++i) s.feet[i] = world_->foot(feet_[r][i].handle).force_n;
+    for (std::size_t i = 0; i < cameras_[r].size(); ++i) {
+      const Eigen::Isometry3d X_WC = camera_pose(r, i);
+      const Eigen::Quaterniond q(X_WC.linear());
+      s.cameras[i].p = {X_WC.translation().x(), X_WC.translation().y(), X_WC.translation().z()};
+      s.cameras[i].q = {q.x(), q.y(), q.z(), q.w()};
+    }
   }
   if (world_ != nullptr) {
     const Eigen::Vector3d ball = world_->ball_position();
@@ -295,9 +415,12 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
   }
   if (scene_ != nullptr && ++scene_ticks_ >= kSceneEveryTicks) {
     scene_ticks_ = 0;
-    physics::SceneView& view = scene_->back();
-    world_->fill_scene(view);  // same shape count as at setup: no allocation
-    view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+    ScenePublication& publication = scene_->back();
+    world_->fill_scene(publication.view);  // same shape count as at setup: no allocation
+    publication.view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+    for (std::size_t r = 0; r < cameras_.size(); ++r) {
+      for (std::size_t i = 0; i < cameras_[r].size(); ++i) publication.X_WC[r][i] = camera_pose(r, i);
+    }
     scene_->publish();
   }
   if (pending_sequence_ != 0) {

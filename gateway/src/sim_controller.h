@@ -15,9 +15,12 @@
 #include <string>
 #include <vector>
 
+#include "camera/camera_config.h"
+#include "camera/renderer.h"
 #include "concurrency/snapshot.h"
 #include "concurrency/spsc_queue.h"
 #include "control/sim_control.h"
+#include "gateway/robot_config.h"
 #include "physics/scene_view.h"
 #include "physics/world.h"
 
@@ -27,6 +30,9 @@ class RobotRuntime;
 
 inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
 inline constexpr std::size_t kSimMaxJoints = 64;
+inline constexpr std::size_t kSimMaxImus = 4;     // per robot
+inline constexpr std::size_t kSimMaxFeet = 8;     // foot boards per robot
+inline constexpr std::size_t kSimMaxCameras = 4;  // per robot
 
 // A request on its way to the simulation thread, and the state it publishes (SimController).
 enum class SimRequestKind : uint8_t { kPause, kResume, kStep, kReset, kPlace, kPush, kBall };
@@ -41,6 +47,17 @@ struct SimRobotSample {
   double x = 0.0, y = 0.0, z = 0.0, yaw = 0.0, tilt = 0.0;
   bool held = false;
   std::array<double, kSimMaxJoints> joints{};
+  struct Imu {
+    double roll = 0.0, pitch = 0.0;
+    std::array<double, 3> gyro{};
+  };
+  std::array<Imu, kSimMaxImus> imus{};
+  std::array<std::array<double, 4>, kSimMaxFeet> feet{};
+  struct Camera {
+    std::array<double, 3> p{};
+    std::array<double, 4> q{0.0, 0.0, 0.0, 1.0};
+  };
+  std::array<Camera, kSimMaxCameras> cameras{};
 };
 struct SimSample {
   int64_t sim_time_ns = 0;
@@ -63,6 +80,7 @@ class SimController final : public control::SimControl {
     RobotRuntime* runtime = nullptr;
     std::optional<std::size_t> in_world;
     std::string name;
+    const RobotConfig* config = nullptr;  // its file (devices, cameras; outlives the controller); null: the runtime's
   };
   // `world` may be null (no robot has a body); it and the runtimes outlive the controller. Setup.
   SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m, double carpet_half_width_m);
@@ -78,6 +96,10 @@ class SimController final : public control::SimControl {
   control::Outcome ball(double x_m, double y_m) override;
   control::Scene scene() override;
   std::vector<control::BusTable> buses() override;
+  // Renders the camera's view of the newest published scene on the calling (HTTP) thread, at most
+  // once per kStillPeriod per camera (the same still otherwise), and encodes it as PNG.
+  control::CameraStill camera_still(const std::string& name) override;
+  static constexpr std::chrono::milliseconds kStillPeriod{250};
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -93,6 +115,10 @@ class SimController final : public control::SimControl {
   using RobotSample = SimRobotSample;
   using Sample = SimSample;
 
+  // Where camera i of robot r is now. Simulation thread; rt-safe.
+  Eigen::Isometry3d camera_pose(std::size_t r, std::size_t i) const noexcept;
+  // Setup: finds robot r's IMUs, foot boards (by its file's devices) and cameras in the world.
+  void add_devices(std::size_t r);
   control::Outcome submit(Request request, std::chrono::milliseconds timeout);
   void apply(const Request& request) noexcept;
   void finish(uint64_t sequence, int status) noexcept;
@@ -102,6 +128,23 @@ class SimController final : public control::SimControl {
   physics::World* world_;
   std::vector<Robot> robots_;
   std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)
+  // Per robot (in the world): its IMUs, foot boards and cameras, found at setup.
+  template <typename Handle>
+  struct Sensor {
+    std::string name;
+    uint32_t bus = 0;
+    uint8_t id = 0;
+    Handle handle;
+  };
+  struct Camera {
+    std::string name;
+    std::size_t body = 0;
+    camera::CameraConfig config;  // its file's lens, size, noise and mount
+    std::array<std::array<double, 3>, 4> corner_rays{};
+  };
+  std::vector<std::vector<Sensor<physics::ImuHandle>>> imus_;
+  std::vector<std::vector<Sensor<physics::FootHandle>>> feet_;
+  std::vector<std::vector<Camera>> cameras_;
   double carpet_half_length_m_, carpet_half_width_m_;
 
   std::mutex submit_mutex_;  // request side only
@@ -114,8 +157,25 @@ class SimController final : public control::SimControl {
   concurrency::Snapshot<Sample> samples_;
   // Every visible shape, published every kSceneEveryTicks. Every slot is sized at setup
   // (World::fill_scene), so publishing allocates nothing.
+  // The scene and where every robot camera was when it was taken (for camera_still()).
+  struct ScenePublication {
+    physics::SceneView view;
+    std::array<std::array<Eigen::Isometry3d, kSimMaxCameras>, kSimMaxRobots> X_WC;
+  };
   std::mutex scene_mutex_;  // request side only
-  std::unique_ptr<concurrency::Snapshot<physics::SceneView>> scene_;  // null without a world
+  std::unique_ptr<concurrency::Snapshot<ScenePublication>> scene_;  // null without a world
+  // Camera stills (HTTP threads only, under stills_mutex_): per camera (cameras_ flattened), a
+  // renderer made on first use and the last PNG with its wall-clock time.
+  struct Still {
+    std::size_t robot = 0, camera = 0;
+    std::unique_ptr<camera::Renderer> renderer;
+    std::vector<uint8_t> rgb;
+    std::string png;
+    double sim_time_s = -1.0;
+    std::chrono::steady_clock::time_point taken{};
+  };
+  std::mutex stills_mutex_;
+  std::vector<Still> stills_;
 
   // Simulation thread.
   bool paused_ = false;

@@ -30,6 +30,9 @@ class RecordingControl final : public SimControl {
     a.name = "fumanoid-2011";
     a.simulated = true;
     a.joints = {{"neck", 0.25}};
+    a.imus = {{"IMU", 0, 200, 0.1, -0.2, {0.5, -0.6, 0.7}}};
+    a.feet = {{"FOOT_LEFT", 0, 111, {1.0, 2.0, 3.0, 4.5}}};
+    a.cameras = {{"head", {0.1, 0.0, 0.4}, {0.0, 0.0, 0.0, 1.0}, {{{-0.5, -0.4, 0.77}, {0.5, -0.4, 0.77}, {0.5, 0.4, 0.77}, {-0.5, 0.4, 0.77}}}}};
     RobotState b = a;
     b.name = "darwin-op";
     b.simulated = false;
@@ -71,7 +74,12 @@ class RecordingControl final : public SimControl {
     ServoRow p1{1, "HEAD_PITCH", "RX-28", true, 600, 598, 12, 40, 31, 148, -1};
     ServoRow p2{7, "HIP_PITCH", "XM430-W350", false, 2048, 2047, 0, -3, 35, 120, 0x20};
     bus.servos = {p1, p2};
+    bus.counters = {1200, 3, 1150, 2, 1, 4, 5, 250'000, 9600, 7200, true};
     return {bus};
+  }
+  CameraStill camera_still(const std::string& name) override {
+    if (name != "head") return {404, "no camera '" + name + "' (robot cameras: head)", "", 0.0};
+    return {200, "", std::string("\x89PNG\r\n\x1a\n", 8) + "pixels", 2.25};
   }
   std::vector<std::string> calls;
 
@@ -95,6 +103,23 @@ TEST(HttpApi, StateCarriesTimeRobotsJointsAndBall) {
   for (const char* key : {"x", "y", "z", "yaw"}) EXPECT_TRUE(answer.body["robots"][0]["pose"].contains(key)) << key;
   EXPECT_EQ(answer.body["robots"][0]["fallen"], false);
   EXPECT_DOUBLE_EQ(answer.body["ball"]["z"].get<double>(), 0.0335);
+  const auto& imu = answer.body["robots"][0]["imus"][0];
+  EXPECT_EQ(imu["name"], "IMU");
+  EXPECT_EQ(imu["id"], 200);
+  EXPECT_DOUBLE_EQ(imu["roll"].get<double>(), 0.1);
+  EXPECT_DOUBLE_EQ(imu["pitch"].get<double>(), -0.2);
+  EXPECT_EQ(imu["gyro"], (std::vector<double>{0.5, -0.6, 0.7}));
+  const auto& foot = answer.body["robots"][0]["feet"][0];
+  EXPECT_EQ(foot["name"], "FOOT_LEFT");
+  EXPECT_EQ(foot["id"], 111);
+  EXPECT_EQ(foot["cells"], (std::vector<double>{1.0, 2.0, 3.0, 4.5}));
+  EXPECT_DOUBLE_EQ(foot["total"].get<double>(), 10.5);
+  const auto& camera = answer.body["robots"][0]["cameras"][0];
+  EXPECT_EQ(camera["name"], "head");
+  EXPECT_EQ(camera["p"], (std::vector<double>{0.1, 0.0, 0.4}));
+  EXPECT_EQ(camera["q"], (std::vector<double>{0.0, 0.0, 0.0, 1.0}));
+  ASSERT_EQ(camera["corners"].size(), 4u);
+  EXPECT_EQ(camera["corners"][2], (std::vector<double>{0.5, 0.4, 0.77}));
 }
 
 TEST(HttpApi, GoodRequestsReachTheSimulationWithTheirValues) {
@@ -231,6 +256,18 @@ TEST(HttpApi, BusesCarryEveryServosRegistersAndNoErrorRegisterAsNull) {
   EXPECT_TRUE(p1["error"].is_null());  // Protocol 1.0: no error register
   EXPECT_EQ(bus["servos"][1]["error"], 0x20);
   EXPECT_EQ(bus["servos"][1]["present_load"], -3);
+  const auto& counters = bus["counters"];
+  EXPECT_EQ(counters["packets"], 1200);
+  EXPECT_EQ(counters["bad_checksums"], 3);
+  EXPECT_EQ(counters["replies"], 1150);
+  EXPECT_EQ(counters["collisions"], 2);
+  EXPECT_EQ(counters["dropped_replies"], 1);
+  EXPECT_EQ(counters["timeouts"], 4);
+  EXPECT_EQ(counters["late_deliveries"], 5);
+  EXPECT_DOUBLE_EQ(counters["max_lateness_us"].get<double>(), 250.0);
+  EXPECT_EQ(counters["bytes_in"], 9600);
+  EXPECT_EQ(counters["bytes_out"], 7200);
+  EXPECT_EQ(counters["connected"], true);
   EXPECT_EQ(handle(control, "POST", "/api/buses", "").status, 405);
 }
 
@@ -320,6 +357,25 @@ TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {
   }
   api.stop();
   EXPECT_TRUE(control.calls.empty());
+}
+
+TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
+  RecordingControl control;
+  HttpApi api(control, "127.0.0.1", 0);
+  api.start();
+  httplib::Client client("127.0.0.1", api.port());
+  const httplib::Result still = client.Get("/api/camera/head");
+  ASSERT_TRUE(still);
+  EXPECT_EQ(still->status, 200);
+  EXPECT_EQ(still->get_header_value("Content-Type"), "image/png");
+  EXPECT_EQ(still->get_header_value("Cache-Control"), "no-store");
+  EXPECT_EQ(still->body, std::string("\x89PNG\r\n\x1a\n", 8) + "pixels");
+  EXPECT_DOUBLE_EQ(std::stod(still->get_header_value("X-Sim-Time")), 2.25);
+  const httplib::Result unknown = client.Get("/api/camera/tail");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 404);
+  EXPECT_EQ(nlohmann::json::parse(unknown->body)["error"], "no camera 'tail' (robot cameras: head)");
+  api.stop();
 }
 
 }  // namespace

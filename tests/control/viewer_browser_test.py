@@ -5,7 +5,9 @@ Starts doppel with its viewer on a free port, opens the page, and checks: the 3D
 robot (the page's robot count, and the pixel under the robot's trunk is not carpet), the servo
 table lists the robot's servos, a click on Pause pauses the simulation (simulation time stands
 still), a shift-click on the carpet places the robot there, a click on Step while running shows
-the API's refusal, Resume lets simulation time run on; then it saves a screenshot.
+the API's refusal, Resume lets simulation time run on; the bus counters count the test's own PINGs,
+every IMU and foot-board plot has a line drawn, each camera of the robot has a frustum in the 3D
+view and the camera panel shows a still of the camera with carpet in it; then it saves a screenshot.
 
 Chromium is driven through its DevTools protocol over --remote-debugging-pipe (file descriptors
 3 and 4, JSON messages ended by NUL), so no websocket library or npm package is needed.
@@ -19,6 +21,7 @@ import base64
 import json
 import os
 import re
+import select
 import shutil
 import signal
 import subprocess
@@ -177,6 +180,32 @@ def wait_sim_time(url, seconds, what, timeout_s=60):
     raise Failure(f"simulation time did not advance by {seconds} s ({what})")
 
 
+def ping(link, servo_id, count):
+    """Sends `count` Protocol 1.0 PINGs to `servo_id` on the bus at `link`; returns how many were answered."""
+    import termios
+    import tty
+    fd = os.open(link, os.O_RDWR | os.O_NOCTTY)
+    try:
+        tty.setraw(fd)
+        attributes = termios.tcgetattr(fd)
+        attributes[4] = attributes[5] = termios.B1000000
+        termios.tcsetattr(fd, termios.TCSANOW, attributes)
+        answered = 0
+        for _ in range(count):
+            packet = bytes([0xFF, 0xFF, servo_id, 2, 0x01])
+            os.write(fd, packet + bytes([~(servo_id + 2 + 0x01) & 0xFF]))
+            reply = b""
+            deadline = time.monotonic() + 5
+            while len(reply) < 6 and time.monotonic() < deadline:
+                ready, _, _ = select.select([fd], [], [], 0.1)
+                if ready:
+                    reply += os.read(fd, 6 - len(reply))
+            answered += reply[:3] == bytes([0xFF, 0xFF, servo_id]) and len(reply) == 6
+        return answered
+    finally:
+        os.close(fd)
+
+
 def start_doppel(doppel, work):
     output_path = os.path.join(work, "doppel.txt")
     output = open(output_path, "wb")
@@ -236,6 +265,52 @@ def run(doppel, out_dir, chromium):
         first = browser.evaluate("document.querySelector('#buses table.servo-table tbody tr').innerText")
         check(str(buses[0]["servos"][0]["id"]) in first and buses[0]["servos"][0]["name"] in first,
               f"the first row '{first}' is not servo {buses[0]['servos'][0]}")
+
+        # Bus counters: the test's own PINGs on the bus are counted, and the page shows them.
+        link = buses[0]["link"]
+        servo_id = buses[0]["servos"][0]["id"]
+        before = browser.evaluate("window.doppelViewer.buses()")[0]["counters"]["packets"]
+        pings = ping(link, servo_id, 3)
+        check(pings == 3, f"servo {servo_id} on {link} answered {pings} of 3 PINGs")
+        shown = browser.wait_for(f"(() => {{ const c = window.doppelViewer.busCounters()[0]; "
+                                 f"return c && Number(c.packets) >= {before + 3} && Number(c.replies) >= 3 && c; }})()",
+                                 "the bus counters to count the test's PINGs")
+        check(shown["bad_checksums"] == "0" and shown["collisions"] == "0",
+              f"the bus counters show errors after three good PINGs: {shown}")
+
+        # Sensor plots: one for the IMU's angles, one for its gyro, one per foot board, each with a
+        # line drawn (pixels that are not the white background, below the legend).
+        state = get_state(url)["robots"][0]
+        check(len(state["imus"]) >= 1 and len(state["feet"]) >= 2,
+              f"the state lists {len(state['imus'])} IMUs and {len(state['feet'])} foot boards")
+        wanted = 2 * len(state["imus"]) + len(state["feet"])
+        ink = browser.wait_for(f"(() => {{ const ink = window.doppelViewer.plotInk(); "
+                               f"return ink.length === {wanted} && ink.every((n) => n > 100) && ink; }})()",
+                               "a line in every sensor plot")
+        titles = browser.evaluate("window.doppelViewer.plotTitles()")
+        for foot in state["feet"]:
+            check(any(t.startswith(foot["name"]) for t in titles), f"no plot for foot board {foot['name']}: {titles}")
+        # The held robot stands on its feet: the plotted totals carry its weight (> 0 N).
+        check(sum(f["total"] for f in state["feet"]) > 1.0, f"the feet carry nothing: {state['feet']}")
+        print(f"viewer test: plots {titles}, ink {ink}")
+
+        # Camera frustums: one per camera of the robot's figure, drawn at the camera's pose.
+        cameras = len(state["cameras"])
+        check(cameras >= 1, "the robot's figure has no camera in the state")
+        frustums = browser.wait_for("window.doppelViewer.frustumCount()", "the camera frustums")
+        check(frustums == cameras, f"the view draws {frustums} frustums for {cameras} cameras")
+
+        # The camera panel shows the first camera's still: a PNG of the camera's size with carpet in it.
+        image = browser.wait_for("window.doppelViewer.cameraImages() > 0 && window.doppelViewer.cameraImage()",
+                                 "the camera image")
+        with urllib.request.urlopen(url + "api/camera/" + state["cameras"][0]["name"], timeout=30) as answer:
+            png = answer.read()
+            check(answer.headers["Content-Type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n",
+                  f"/api/camera/{state['cameras'][0]['name']} is not a PNG ({answer.headers['Content-Type']})")
+        width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+        check((image["width"], image["height"]) == (width, height),
+              f"the page shows a {image['width']}x{image['height']} image, the camera's still is {width}x{height}")
+        check(image["green"] > 10, f"the camera image shows no carpet ({image['green']} of 192 samples green)")
 
         # Step while running: the API refuses it, the page says why.
         browser.click_element("#step")

@@ -139,6 +139,23 @@ TEST(ViewerApi, ServoTableListsTheBusServosAndFollowsWhatTheDriverWrites) {
     EXPECT_TRUE(servo["error"].is_null()) << "Protocol 1.0 servos have no error register";
     EXPECT_GT(servo["voltage"].get<int>(), 0);
   }
+  // The bus counters count the PINGs above: one packet and one reply each, no bad checksum.
+  const json counters = doppel.get("/api/buses")[0]["counters"];
+  EXPECT_GE(counters["packets"].get<uint64_t>(), servos.size()) << counters.dump();
+  EXPECT_GE(counters["replies"].get<uint64_t>(), servos.size()) << counters.dump();
+  EXPECT_EQ(counters["bad_checksums"], 0) << counters.dump();
+  EXPECT_EQ(counters["collisions"], 0) << counters.dump();
+  EXPECT_EQ(counters["connected"], true) << counters.dump();
+  EXPECT_GE(counters["bytes_out"].get<uint64_t>(), 6 * servos.size()) << counters.dump();
+  // A packet with a wrong checksum is counted as one.
+  std::vector<uint8_t> bad = p1_instruction(static_cast<uint8_t>(servos[0]["id"].get<int>()), kPing);
+  bad.back() ^= 0x55;
+  client.send(bad);
+  const auto counted_by = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (doppel.get("/api/buses")[0]["counters"]["bad_checksums"] != 1) {
+    ASSERT_LT(std::chrono::steady_clock::now(), counted_by) << "the bad checksum was not counted";
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
   // The driver turns servo 1 on and sends it to 600: the table shows it within its 100 ms period.
   const int id = servos[0]["id"].get<int>();
   client.send(p1_instruction(static_cast<uint8_t>(id), kWrite, {kGoalPosition, 600 & 0xFF, 600 >> 8}));

@@ -14,6 +14,10 @@ namespace doppel::camera {
 // path when the file cannot be written.
 void write_png_rgb(const std::string& path, const uint8_t* rgb, int width_px, int height_px);
 
+// The same image as PNG bytes in memory (e.g. for an HTTP answer). Throws std::runtime_error when
+// libpng fails.
+std::string encode_png_rgb(const uint8_t* rgb, int width_px, int height_px);
+
 // Reads a PNG written by write_png_rgb (8-bit RGB) back; throws std::runtime_error otherwise.
 void read_png_rgb(const std::string& path, std::string* rgb, int* width_px, int* height_px);
 

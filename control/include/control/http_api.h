@@ -10,7 +10,8 @@
 //   POST /api/push   {"robot": ..., "fx": 20, "fy": 0, "fz": 0, "ms": 100}
 //   POST /api/ball   {"x": 0.5, "y": 0}
 //   GET  /api/scene                                   -> every visible shape (scene_json)
-//   GET  /api/buses                                   -> every bus' servo table (buses_json)
+//   GET  /api/buses                                   -> every bus' servo table and counters (buses_json)
+//   GET  /api/camera/NAME                             -> robot camera NAME's latest still (image/png)
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 

@@ -16,6 +16,32 @@ struct JointState {
   double position_rad = 0.0;  // the link's angle (m for a prismatic link), 0 at the design pose
 };
 
+// What an IMU of the robot last measured (the physics world's readout the device reports).
+struct ImuReading {
+  std::string name;  // the robot file's device name
+  uint32_t bus = 0;
+  uint8_t id = 0;
+  double roll_rad = 0.0, pitch_rad = 0.0;  // + pitch = nose down
+  std::array<double, 3> gyro_rad_s{};     // angular velocity in the sensor frame: x, y, z
+};
+
+// What a foot board's four load cells last measured, N.
+struct FootReading {
+  std::string name;
+  uint32_t bus = 0;
+  uint8_t id = 0;
+  std::array<double, 4> force_n{};  // front-left, front-right, back-left, back-right
+};
+
+// A camera of the robot (a figure camera mount) where it is now, and its field of view as the rays
+// through its image's four corners (camera frame: x right, y down, z forward; unit length).
+struct CameraView {
+  std::string name;  // the name it streams under
+  std::array<double, 3> position{};                      // field frame, m
+  std::array<double, 4> quaternion{0.0, 0.0, 0.0, 1.0};  // camera frame orientation: x, y, z, w
+  std::array<std::array<double, 3>, 4> corner_rays{};    // top-left, top-right, bottom-right, bottom-left
+};
+
 struct RobotState {
   std::string name;        // the robot file's name; robots may share one, so requests also take an index
   bool simulated = false;  // has a body in the world (otherwise its joints move kinematically)
@@ -25,6 +51,9 @@ struct RobotState {
   bool fallen = false;     // tilt beyond kFallenTiltRad
   bool held = false;       // the handler still holds it (no Torque Enable yet)
   std::vector<JointState> joints;
+  std::vector<ImuReading> imus;     // in file order (bus by bus)
+  std::vector<FootReading> feet;    // in file order
+  std::vector<CameraView> cameras;  // in file order
 };
 
 struct SimState {
@@ -75,12 +104,35 @@ struct ServoRow {
   int64_t error = -1;         // Hardware Error Status (Protocol 2.0); -1: the model has no such register (P1)
 };
 
+// A bus' counters since doppel started (bus::BusDiagnostics, read lock-free when asked).
+struct BusCounters {
+  uint64_t packets = 0;          // instruction packets framed (good or bad checksum)
+  uint64_t bad_checksums = 0;    // of those, with a wrong checksum
+  uint64_t replies = 0;          // instructions that got a status packet
+  uint64_t collisions = 0;       // replies that collided on the wire (several devices answered at once)
+  uint64_t dropped_replies = 0;  // replies dropped because the client was not reading
+  uint64_t timeouts = 0;         // partial packets dropped by the inter-byte timeout
+  uint64_t late_deliveries = 0;  // status packets written later than the bus' late threshold
+  int64_t max_lateness_ns = 0;   // worst (written - due) of a status packet
+  uint64_t bytes_in = 0, bytes_out = 0;
+  bool connected = false;        // a client has the port open
+};
+
 struct BusTable {
   std::size_t robot = 0;
   std::string robot_name;
   std::size_t bus = 0;
   std::string link;        // the bus' pseudo-terminal link
   std::vector<ServoRow> servos;
+  BusCounters counters;
+};
+
+// The latest still of a camera: a PNG, or an HTTP status and a message naming the problem.
+struct CameraStill {
+  int status = 200;  // 200, 404 no such camera, 503 nothing to render yet
+  std::string error;
+  std::string png;          // the encoded image
+  double sim_time_s = 0.0;  // simulation time of the scene it shows
 };
 
 // A robot counts as fallen when its robot frame leans more than this from upright (trunk on the
@@ -120,6 +172,8 @@ class SimControl {
   virtual Scene scene() { return {}; }
   // Every bus' servo table (robot by robot, bus by bus).
   virtual std::vector<BusTable> buses() { return {}; }
+  // The latest image of robot camera `name` (as RobotState::cameras names it), a few per second.
+  virtual CameraStill camera_still(const std::string& name) { return {404, "no camera '" + name + "'", "", 0.0}; }
 };
 
 }  // namespace doppel::control
