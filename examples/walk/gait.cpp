@@ -1,0 +1,84 @@
+#include "gait.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace walk {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+}
+
+bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, LegAngles& out) {
+  // Vector from the hip (roll/pitch axes) to the ankle, in the pelvis frame; the ankle sits
+  // ankle_height_m above the flat sole.
+  const double dx0 = x;
+  const double dy0 = y;
+  const double dz = (z + leg.ankle_height_m) - leg.hip_height_m;  // negative: ankle below hip
+  // Hip yaw turns the roll/pitch chain: express the vector in the yawed frame.
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  const double dx = c * dx0 + s * dy0;
+  const double dy = -s * dx0 + c * dy0;
+  // Hip roll about x: a positive angle swings the foot towards +y.
+  const double roll = std::atan2(dy, -dz);
+  const double down = std::hypot(dy, dz);  // hip-to-ankle distance in the rolled sagittal plane, vertical part
+  double length = std::hypot(dx, down);
+  const double a = leg.thigh_m, b = leg.shank_m;
+  bool ok = true;
+  if (length > a + b - 1e-6) {
+    length = a + b - 1e-6;
+    ok = false;
+  }
+  // Knee: + bends (shank swings back); law of cosines.
+  const double cos_knee_inner = std::clamp((a * a + b * b - length * length) / (2 * a * b), -1.0, 1.0);
+  const double knee = kPi - std::acos(cos_knee_inner);
+  // Hip pitch: + swings the foot backwards. The thigh leans forward of the hip-ankle line by beta.
+  const double alpha = std::atan2(dx, down);  // hip-ankle line forward of vertical
+  const double cos_beta = std::clamp((a * a + length * length - b * b) / (2 * a * length), -1.0, 1.0);
+  const double beta = std::acos(cos_beta);
+  const double hip_pitch = -(alpha + beta);
+  out.hip_yaw = yaw;
+  out.hip_roll = roll;
+  out.hip_pitch = hip_pitch;
+  out.knee = knee;
+  out.ankle_pitch = -(hip_pitch + knee);  // sole parallel to the pelvis
+  out.ankle_roll = -roll;
+  return ok;
+}
+
+void Gait::step(double dt_s, double speed_m_s, double turn_rad_s, double amplitude, const ImuReading& imu) {
+  phase_ = std::fmod(phase_ + 2 * kPi * dt_s / p_.period_s, 2 * kPi);
+  const double ph = phase_;
+  // Per cycle the body travels speed x period; each foot sweeps that distance relative to the hips
+  // (forward while it swings, backward while it stands).
+  const double stride = amplitude * speed_m_s * p_.period_s;
+  const double turn = amplitude * turn_rad_s * p_.period_s;
+  const double lift = amplitude * p_.lift_m;
+  const double sway = amplitude * p_.sway_m * std::sin(ph + p_.sway_lead);
+  // Left foot swings for phase in (0, pi), right foot in (pi, 2 pi).
+  const double swing_left = std::max(0.0, std::sin(ph));
+  const double swing_right = std::max(0.0, -std::sin(ph));
+  const double x_left = -0.5 * stride * std::cos(ph);
+  const double x_right = 0.5 * stride * std::cos(ph);
+  const double yaw_left = -0.5 * turn * std::cos(ph);
+  const double yaw_right = 0.5 * turn * std::cos(ph);
+
+  LegAngles left, right;
+  const double z_left = leg_.hip_height_m - p_.hip_height_m + lift * swing_left;
+  const double z_right = leg_.hip_height_m - p_.hip_height_m + lift * swing_right;
+  // Sway: the hips move towards the standing foot, so both feet move the other way relative to them.
+  reachable_ = leg_ik(leg_, p_.foot_x_m + x_left, p_.foot_y_m + sway, z_left, yaw_left, left);
+  reachable_ = leg_ik(leg_, p_.foot_x_m + x_right, -p_.foot_y_m + sway, z_right, yaw_right, right) && reachable_;
+
+  // IMU feedback on the ankles (and hips for roll): a trunk pitching nose-down gets its feet'
+  // toes pushed down, which rights it; likewise for roll.
+  const double pitch_fb = p_.gyro_pitch_gain * imu.gyro_y + p_.tilt_pitch_gain * imu.pitch;
+  const double roll_fb = p_.gyro_roll_gain * imu.gyro_x;
+  const double hip_roll_fb = p_.tilt_roll_gain * imu.roll;
+  joints_ = {left.hip_yaw,  left.hip_roll + hip_roll_fb,  left.hip_pitch - p_.trunk_pitch_rad,  left.knee,
+             left.ankle_pitch + pitch_fb,  left.ankle_roll + roll_fb,
+             right.hip_yaw, right.hip_roll + hip_roll_fb, right.hip_pitch - p_.trunk_pitch_rad, right.knee,
+             right.ankle_pitch + pitch_fb, right.ankle_roll + roll_fb};
+}
+
+}  // namespace walk
