@@ -36,9 +36,9 @@ struct GaitParameters {
   double sway_lead = 0.3;       // sway phase lead (rad) over the lift
   double foot_x_m = 0.0;        // feet forward of the hips (shifts the centre of mass back)
   double foot_y_m = 0.0;        // extra foot spread either side
-  double trunk_pitch_rad = 0.05;   // forward lean of the trunk (added to both hip pitches)
-  double gyro_pitch_gain = 0.0;    // ankle pitch per rad/s of trunk pitch rate
-  double gyro_roll_gain = 0.0;     // ankle roll per rad/s of trunk roll rate
+  double trunk_pitch_rad = 0.0;    // forward lean of the trunk (added to both hip pitches)
+  double gyro_pitch_gain = 0.1;    // ankle pitch per rad/s of trunk pitch rate
+  double gyro_roll_gain = 0.1;     // ankle roll per rad/s of trunk roll rate
   double tilt_pitch_gain = 0.0;    // ankle pitch per rad of trunk pitch
   double tilt_roll_gain = 0.0;     // hip roll per rad of trunk roll
 };
