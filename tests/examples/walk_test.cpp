@@ -1,0 +1,121 @@
+// The reference walk: the leg inverse kinematics against the robot file's geometry, and doppel-walk
+// driving the default robot through its serial port on ODE and Bullet. Judged on simulation time
+// (doppel-walk's clock is the IMU Sample Counter; doppel-ctl state's sim_time_s) and on the pose
+// and `fallen` flag doppel-ctl reports, never on wall-clock time.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <regex>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "doppel_process.h"
+#include "gait.h"
+
+namespace doppel::testing {
+namespace {
+
+using nlohmann::json;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180;
+
+TEST(LegIk, TheDesignPoseIsAllZero) {
+  walk::LegAngles a;
+  ASSERT_FALSE(walk::leg_ik(walk::LegGeometry{}, 0, 0, 0, 0, a)) << "a straight leg is the edge of reach";
+  EXPECT_NEAR(a.hip_pitch, 0, 0.01);
+  EXPECT_NEAR(a.knee, 0, 0.02);
+  EXPECT_NEAR(a.hip_roll, 0, 1e-9);
+}
+
+TEST(LegIk, TheRobotFilesInitialPoseComesBack) {
+  // Initial pose hip -15, knee 30, ankle -15 deg: thigh and shank both 15 deg off vertical, the
+  // thigh forward and the shank back, so the ankle is 0.12 sin 15 - 0.11 sin 15 forward of the hip
+  // and (0.12 + 0.11) cos 15 below it.
+  const walk::LegGeometry leg;
+  const double x = (leg.thigh_m - leg.shank_m) * std::sin(15 * kDeg);
+  const double z = leg.hip_height_m - (leg.thigh_m + leg.shank_m) * std::cos(15 * kDeg) - leg.ankle_height_m;
+  walk::LegAngles a;
+  ASSERT_TRUE(walk::leg_ik(leg, x, 0, z, 0, a));
+  EXPECT_NEAR(a.hip_pitch, -15 * kDeg, 1e-6);
+  EXPECT_NEAR(a.knee, 30 * kDeg, 1e-6);
+  EXPECT_NEAR(a.ankle_pitch, -15 * kDeg, 1e-6);
+}
+
+TEST(LegIk, ASidewaysFootRollsHipAndAnkleOppositely) {
+  walk::LegAngles a;
+  ASSERT_TRUE(walk::leg_ik(walk::LegGeometry{}, 0, 0.02, 0.03, 0.1, a));
+  EXPECT_GT(a.hip_roll, 0) << "+ roll about x swings the foot to +y";
+  EXPECT_NEAR(a.ankle_roll, -a.hip_roll, 1e-12) << "the sole stays flat";
+  EXPECT_DOUBLE_EQ(a.hip_yaw, 0.1);
+}
+
+// doppel (default robot fumanoid-2011) with its control API on a free port.
+struct WalkingDoppel {
+  explicit WalkingDoppel(const std::string& engine)
+      : doppel({"--viewer", "0", "--timing", "fast", "--physics", engine}) {
+    const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");
+    std::smatch match;
+    if (!std::regex_search(output, match, std::regex(R"(simulation control on http://127\.0\.0\.1:(\d+))"))) {
+      throw std::runtime_error("doppel did not say where its control is: " + output);
+    }
+    url = "http://127.0.0.1:" + match[1].str();
+  }
+  json state() const {
+    const auto [code, output] = run_command(std::string(DOPPEL_CTL) + " --url " + url + " state");
+    EXPECT_EQ(code, 0) << output;
+    return json::parse(output);
+  }
+  std::pair<int, std::string> walk(const std::string& arguments) const {
+    return run_command(std::string(DOPPEL_WALK) + " --port " + doppel.link() + " " + arguments);
+  }
+  DoppelProcess doppel;
+  std::string url;
+};
+
+double wrap(double angle) { return std::remainder(angle, 2 * kPi); }
+
+class Walk : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Walk, ForwardAtLeastOneMetreInThirtySimulatedSecondsWithoutFalling) {
+  WalkingDoppel doppel(GetParam());
+  const json before = doppel.state();
+  const json start = before["robots"][0]["pose"];
+  const auto [code, output] = doppel.walk("--seconds 30 --speed 0.05");
+  EXPECT_EQ(code, 0) << output;
+  const json after = doppel.state();
+  const json end = after["robots"][0]["pose"];
+  EXPECT_GE(after["sim_time_s"].get<double>() - before["sim_time_s"].get<double>(), 30.0);
+  EXPECT_FALSE(after["robots"][0]["fallen"].get<bool>()) << output;
+  // Progress along the heading it started with.
+  const double yaw0 = start["yaw"].get<double>();
+  const double dx = end["x"].get<double>() - start["x"].get<double>();
+  const double dy = end["y"].get<double>() - start["y"].get<double>();
+  const double forward = dx * std::cos(yaw0) + dy * std::sin(yaw0);
+  EXPECT_GE(forward, 1.0) << "walked dx " << dx << " dy " << dy << " m; " << output;
+  std::printf("%s: forward %.2f m, sideways %.2f m, yaw %.2f rad in 30 s\n", GetParam().c_str(), forward,
+              -dx * std::sin(yaw0) + dy * std::cos(yaw0), wrap(end["yaw"].get<double>() - yaw0));
+}
+
+TEST_P(Walk, TurnsLeftInPlaceWithoutFalling) {
+  WalkingDoppel doppel(GetParam());
+  const json before = doppel.state();
+  const json start = before["robots"][0]["pose"];
+  // 5 s: 1 s stand-up, 1 s ramp in, 2 s turning, 1 s ramp out; short enough that the turn stays
+  // below pi and its sign is unambiguous.
+  const auto [code, output] = doppel.walk("--seconds 5 --speed 0 --turn 0.3");
+  EXPECT_EQ(code, 0) << output;
+  const json after = doppel.state();
+  const json end = after["robots"][0]["pose"];
+  EXPECT_FALSE(after["robots"][0]["fallen"].get<bool>()) << output;
+  const double turned = wrap(end["yaw"].get<double>() - start["yaw"].get<double>());
+  const double moved = std::hypot(end["x"].get<double>() - start["x"].get<double>(), end["y"].get<double>() - start["y"].get<double>());
+  EXPECT_GT(turned, 0.4) << "turned " << turned << " rad; " << output;
+  EXPECT_LT(moved, 0.15) << "in place: moved " << moved << " m";
+  std::printf("%s: turned %.2f rad, moved %.3f m in 5 s\n", GetParam().c_str(), turned, moved);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, Walk, ::testing::Values("ode", "bullet"));
+
+}  // namespace
+}  // namespace doppel::testing
