@@ -7,6 +7,8 @@
 #include <cmath>
 #include <regex>
 #include <string>
+#include <thread>
+#include <chrono>
 
 #include <nlohmann/json.hpp>
 
@@ -113,6 +115,23 @@ TEST_P(Walk, TurnsLeftInPlaceWithoutFalling) {
   EXPECT_GT(turned, 0.4) << "turned " << turned << " rad; " << output;
   EXPECT_LT(moved, 0.15) << "in place: moved " << moved << " m";
   std::printf("%s: turned %.2f rad, moved %.3f m in 5 s\n", GetParam().c_str(), turned, moved);
+}
+
+// docs/walk.md's push: 10 N sideways on the trunk for 100 ms (1 N s) at 8 s of simulation time,
+// while walking forward; the walk goes on and the robot is standing at the end.
+TEST_P(Walk, KeepsWalkingAfterASidewaysPush) {
+  WalkingDoppel doppel(GetParam());
+  const double t0 = doppel.state()["sim_time_s"].get<double>();
+  std::pair<int, std::string> walked;
+  std::thread walker([&] { walked = doppel.walk("--seconds 15 --speed 0.05"); });
+  while (doppel.state()["sim_time_s"].get<double>() < t0 + 8) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // polling pace; judged on sim time
+  }
+  const auto [push_code, push_output] = run_command(std::string(DOPPEL_CTL) + " --url " + doppel.url + " push 0 0 10 0 100");
+  EXPECT_EQ(push_code, 0) << push_output;
+  walker.join();
+  EXPECT_EQ(walked.first, 0) << walked.second;
+  EXPECT_FALSE(doppel.state()["robots"][0]["fallen"].get<bool>()) << walked.second;
 }
 
 INSTANTIATE_TEST_SUITE_P(Engines, Walk, ::testing::Values("ode", "bullet"));
