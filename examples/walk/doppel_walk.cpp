@@ -90,12 +90,13 @@ RobotConfig darwin_op() {
   r.centre_units = 2048;
   r.max_units = 4095;
   r.p_gain_address = 28;  // MX P Gain
-  // Walking.cpp's defaults as a start (period 600 ms, hip 20 mm below straight legs, Y swing 20 mm,
-  // foot lift 40 mm); tuned on the model, docs/walk.md.
+  // Walking.cpp's defaults (period 600 ms, hip 20 mm below straight legs, feet 5 mm wider); sway
+  // and lift smaller than its Y swing 20 / Z 40 mm, which rocked this gait's sinusoids over on
+  // the model (docs/walk.md).
   r.gait.period_s = 0.6;
   r.gait.hip_height_m = 0.1995;
-  r.gait.lift_m = 0.03;
-  r.gait.sway_m = 0.02;
+  r.gait.lift_m = 0.02;
+  r.gait.sway_m = 0.012;
   r.gait.foot_y_m = 0.005;
   return r;
 }
