@@ -197,6 +197,23 @@ TEST_P(DarwinWalk, TurnsLeftInPlaceWithoutFalling) {
   std::printf("darwin-op %s: turned %.2f rad, moved %.3f m in 5 s\n", GetParam().c_str(), turned, moved);
 }
 
+// The default robot's push scaled to the DARwIn-OP's mass (2.9 kg against 4.7 kg): 6 N sideways on
+// the trunk for 100 ms (0.6 N s) at 8 s of simulation time, while walking forward.
+TEST_P(DarwinWalk, KeepsWalkingAfterASidewaysPush) {
+  WalkingDoppel doppel(GetParam(), "darwin-op");
+  const double t0 = doppel.state()["sim_time_s"].get<double>();
+  std::pair<int, std::string> walked;
+  std::thread walker([&] { walked = doppel.walk("--seconds 15 --speed 0.05"); });
+  while (doppel.state()["sim_time_s"].get<double>() < t0 + 8) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));  // polling pace; judged on sim time
+  }
+  const auto [push_code, push_output] = run_command(std::string(DOPPEL_CTL) + " --url " + doppel.url + " push 0 0 6 0 100");
+  EXPECT_EQ(push_code, 0) << push_output;
+  walker.join();
+  EXPECT_EQ(walked.first, 0) << walked.second;
+  EXPECT_FALSE(doppel.state()["robots"][0]["fallen"].get<bool>()) << walked.second;
+}
+
 INSTANTIATE_TEST_SUITE_P(Engines, DarwinWalk, ::testing::Values("ode", "bullet"));
 
 }  // namespace
