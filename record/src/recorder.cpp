@@ -274,17 +274,14 @@ struct Recorder::Impl {
     using std::chrono::duration;
     auto period = [](double hz) { return std::chrono::duration_cast<Clock::duration>(duration<double>(1.0 / hz)); };
     const Clock::time_point begin = Clock::now();
-    Clock::time_point next_world = begin, next_servo = begin, next_scene = begin, next_camera = begin;
+    Clock::time_point next_servo = begin, next_scene = begin, next_camera = begin;
     Clock::time_point next_flush = begin + options.flush_every, next_progress = begin + std::chrono::seconds(1);
     while (!stop.load(std::memory_order_acquire)) {
       drain_taps();
       const Clock::time_point now = Clock::now();
       const int64_t now_ns = monotonic_now_ns();
       if (control != nullptr) {
-        if (options.world_hz > 0 && now >= next_world) {
-          sample_world(now_ns);
-          next_world = std::max(next_world + period(options.world_hz), now);
-        }
+        sample_world(now_ns);  // every state the simulation publishes (100 Hz of simulation time)
         if (options.servo_hz > 0 && now >= next_servo) {
           write("/doppel/servos", servo_tables(last_world_time_s, control->buses()), now_ns);
           next_servo = std::max(next_servo + period(options.servo_hz), now);

@@ -25,7 +25,6 @@ namespace doppel::record {
 struct RecorderOptions {
   std::string path;                     // the .mcap file (created or truncated)
   mcap::Compression compression = mcap::Compression::kZstd;
-  double world_hz = 100.0;              // /doppel/world
   double servo_hz = 10.0;               // /doppel/servos (the servo tables refresh every 100 ms)
   double scene_hz = 30.0;               // /doppel/scene_poses
   double camera_hz = 0.0;               // /doppel/camera/<name> stills; 0 = no camera images
