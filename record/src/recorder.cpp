@@ -3,6 +3,7 @@
 #include <google/protobuf/descriptor.pb.h>
 
 #include <cstdio>
+#include <iomanip>
 #include <map>
 #include <ostream>
 #include <set>
@@ -398,7 +399,7 @@ std::string Recorder::summary() const {
   const RecorderTotals t = totals();
   std::ostringstream out;
   out << "  recording " << impl_->options.path << ": " << t.messages << " messages (" << t.transactions
-      << " bus transactions), " << static_cast<double>(t.bytes) / 1e6 << " MB, " << t.dropped_bus_events
+      << " bus transactions), " << std::fixed << std::setprecision(1) << static_cast<double>(t.bytes) / 1e6 << " MB, " << t.dropped_bus_events
       << " bus events dropped\n";
   if (!impl_->error.empty()) out << "  recording FAILED: " << impl_->error << " (the file ends there)\n";
   return out.str();
