@@ -70,7 +70,10 @@ struct WalkingDoppel {
     return json::parse(output);
   }
   std::pair<int, std::string> walk(const std::string& arguments) const {
-    const std::string which = robot == "darwin-op" ? " --robot darwin-op" : "";
+    // DARwIn-OP: the framework's leg gain, P 32 (darwin_op_framework.h), which Doppel's MX PID scale
+    // (Rhoban's measurement, docs/devices.md "Servo gains") makes as stiff as P 64 was before it;
+    // doppel-walk's own default, 64, is now twice as stiff.
+    const std::string which = robot == "darwin-op" ? " --robot darwin-op --p-gain 32" : "";
     return run_command(std::string(DOPPEL_WALK) + " --port " + doppel.link() + which + " " + arguments);
   }
   DoppelProcess doppel;
