@@ -1,0 +1,226 @@
+#include "analyzer/what_if.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "transaction_builder.h"
+
+namespace doppel::analyzer {
+namespace {
+
+using testing::Bytes;
+using testing::p1_instruction;
+using testing::p1_status;
+using testing::p2_instruction;
+using testing::p2_status;
+using testing::StatusSpec;
+using testing::TransactionBuilder;
+
+constexpr uint32_t kFourMbps = 4'000'000;
+
+// The Bit-Bots cycle (docs/benchmarks.md): 20 XM430 at 4 Mbps, RDT 0; per cycle a SYNC WRITE of
+// Goal Position (116, 4 B each) and a SYNC READ of 126, 10 B each; recorded with 50 us firmware
+// time, the driver idling 500 us between cycles.
+struct BitBots {
+  recording::RunInfo run;
+  std::vector<recording::BusTransaction> transactions;
+  Bytes sync_write;
+  Bytes sync_read;
+  std::size_t status_bytes = 0;
+};
+
+BitBots bitbots(int cycles) {
+  BitBots b;
+  auto* info = b.run.add_buses();
+  info->set_robot(0);
+  info->set_bus(0);
+  info->set_link("ttyDXL0");
+  info->set_configured_baud_bps(kFourMbps);
+  info->set_processing_ns(50'000);
+  info->set_adapter("ftdi");
+  Bytes write_params{116, 0, 4, 0};
+  Bytes read_params{126, 0, 10, 0};
+  for (uint8_t id = 1; id <= 20; ++id) {
+    auto* d = info->add_devices();
+    d->set_id(id);
+    d->set_model("XM430-W350");
+    d->set_protocol(2);
+    d->set_return_delay_us(0);
+    write_params.insert(write_params.end(), {id, 0x00, 0x08, 0x00, 0x00});
+    read_params.push_back(id);
+  }
+  b.sync_write = p2_instruction(0xFE, 0x83, write_params);
+  b.sync_read = p2_instruction(0xFE, 0x82, read_params);
+  std::vector<StatusSpec> statuses;
+  for (uint8_t id = 1; id <= 20; ++id) {
+    statuses.push_back({id, p2_status(id, {1, 0, 2, 0, 0, 0, 0x10, 0x08, 0, 0}), 0});
+  }
+  b.status_bytes = statuses.front().bytes.size();
+  TransactionBuilder builder(0, 2, kFourMbps, 50'000);
+  int64_t t = 1'000'000;
+  for (int c = 0; c < cycles; ++c) {
+    builder.add(t, b.sync_write, {});
+    builder.add(t + 1000, b.sync_read, statuses, true);
+    t = builder.last_done_ns() + 500'000;
+  }
+  b.transactions = builder.transactions();
+  return b;
+}
+
+WhatIf run_scenario(const BitBots& b, const std::string& text) {
+  const Analysis analysis = analyze(b.run, b.transactions, 0);
+  return what_if(b.run, b.transactions, analysis, parse_scenario(text));
+}
+
+TEST(WhatIfTest, BitBotsPacketsHaveTheReferenceByteCounts) {
+  const BitBots b = bitbots(3);
+  // Reference §2.4: a packet is LEN + 7 bytes; SYNC WRITE LEN = 3 + 4 + 20 * (1 + 4), SYNC READ
+  // LEN = 3 + 4 + 20, a status with 10 data bytes LEN = 4 + 10.
+  EXPECT_EQ(b.sync_write.size(), 114u);
+  EXPECT_EQ(b.sync_read.size(), 34u);
+  EXPECT_EQ(b.status_bytes, 21u);
+}
+
+// Hand derivation, as docs/benchmarks.md: one bus carries 114 + 34 + 20 * 21 = 568 bytes a
+// cycle, 2.5 us each at 4 Mbps: 1420 us, 704 Hz; with 50 us firmware time per status 1420 +
+// 1000 = 2420 us, 413 Hz. Four buses of 5 servos: SYNC WRITE LEN 3 + 4 + 25 = 32 (39 B), SYNC
+// READ LEN 12 (19 B), 5 statuses of 21 B: 163 B = 407.5 us, 2454 Hz; + 250 us: 657.5 us, 1521 Hz.
+TEST(WhatIfTest, BitBotsCycleOnOneBusMatchesTheWireModelRates) {
+  const BitBots b = bitbots(50);
+  const double byte_us = 10.0 / 4.0;
+  const double one_bus_us = (114 + 34 + 20 * 21) * byte_us;
+  ASSERT_DOUBLE_EQ(one_bus_us, 1420.0);
+
+  const WhatIf wire = run_scenario(b, "fw=0");
+  EXPECT_EQ(wire.cycles, 49u);
+  EXPECT_NEAR(wire.rate_hz, 704.0, 704.0 * 0.02);
+  EXPECT_NEAR(wire.cycle.mean_ns, one_bus_us * 1000.0, 1.0);
+
+  const WhatIf firmware = run_scenario(b, "fw=50");
+  EXPECT_NEAR(firmware.rate_hz, 413.0, 413.0 * 0.02);
+  EXPECT_NEAR(firmware.cycle.mean_ns, (one_bus_us + 20 * 50.0) * 1000.0, 1.0);
+
+  // The recording's own settings (50 us) are the same as fw=50.
+  EXPECT_NEAR(run_scenario(b, "recorded").cycle.mean_ns, firmware.cycle.mean_ns, 1.0);
+}
+
+TEST(WhatIfTest, BitBotsCycleOnFourBusesMatchesTheWireModelRates) {
+  const BitBots b = bitbots(50);
+  const double four_bus_us = (39 + 19 + 5 * 21) * 2.5;
+  ASSERT_DOUBLE_EQ(four_bus_us, 407.5);
+
+  const WhatIf wire = run_scenario(b, "fw=0,buses=4");
+  EXPECT_EQ(wire.buses, 4u);
+  EXPECT_NEAR(wire.rate_hz, 2454.0, 2454.0 * 0.02);
+  EXPECT_NEAR(wire.cycle.mean_ns, four_bus_us * 1000.0, 1.0);
+
+  const WhatIf firmware = run_scenario(b, "fw=50,buses=4");
+  EXPECT_NEAR(firmware.rate_hz, 1521.0, 1521.0 * 0.02);
+  EXPECT_NEAR(firmware.cycle.mean_ns, (four_bus_us + 5 * 50.0) * 1000.0, 1.0);
+}
+
+TEST(WhatIfTest, UnevenSplitIsBoundByTheLargestGroup) {
+  const BitBots b = bitbots(10);
+  // 20 servos over 3 buses: groups of 6, 7, 7 (contiguous). The slowest bus has 7: SYNC WRITE
+  // LEN 3 + 4 + 35 = 42 (49 B), SYNC READ LEN 14 (21 B), 7 statuses of 21 B: 217 B = 542.5 us.
+  const WhatIf wire = run_scenario(b, "fw=0,buses=3");
+  EXPECT_NEAR(wire.cycle.mean_ns, 542'500.0, 1.0);
+}
+
+// One P1 READ of 2 bytes at 1 Mbps per cycle: READ 8 B (80 us), status 8 B (80 us).
+struct ReadLoop {
+  recording::RunInfo run;
+  std::vector<recording::BusTransaction> transactions;
+};
+
+ReadLoop read_loop(uint32_t rdt_us, uint32_t latency_ms, int cycles) {
+  ReadLoop r;
+  auto* info = r.run.add_buses();
+  info->set_bus(0);
+  info->set_processing_ns(50'000);
+  info->set_adapter_latency_ms(latency_ms);
+  info->set_adapter("ftdi");
+  auto* d = info->add_devices();
+  d->set_id(3);
+  d->set_protocol(1);
+  d->set_return_delay_us(rdt_us);
+  TransactionBuilder builder(0, 1, 1'000'000, 50'000);
+  const Bytes read = p1_instruction(3, 0x02, {36, 2});
+  int64_t t = 0;
+  for (int c = 0; c < cycles; ++c) {
+    auto& tr = builder.add(t, read, {{3, p1_status(3, {0x00, 0x02}), rdt_us}});
+    tr.set_adapter_latency_ms(latency_ms);
+    t += 10'000'000;
+  }
+  r.transactions = builder.transactions();
+  return r;
+}
+
+WhatIf run_scenario(const ReadLoop& r, const std::string& text) {
+  const Analysis analysis = analyze(r.run, r.transactions, 0);
+  return what_if(r.run, r.transactions, analysis, parse_scenario(text));
+}
+
+TEST(WhatIfTest, ReturnDelayTimeAndBaudRateChangeTheCycleAsTheWireModelSays) {
+  const ReadLoop r = read_loop(500, 0, 20);
+  // 80 us READ + 50 us firmware + 500 us RDT + 80 us status = 710 us.
+  EXPECT_NEAR(run_scenario(r, "recorded").cycle.mean_ns, 710'000.0, 1.0);
+  EXPECT_NEAR(run_scenario(r, "rdt=0").cycle.mean_ns, 210'000.0, 1.0);
+  // At 500 kbps every byte takes twice as long: 160 + 50 + 0 + 160.
+  EXPECT_NEAR(run_scenario(r, "rdt=0,baud=500000").cycle.mean_ns, 370'000.0, 1.0);
+}
+
+TEST(WhatIfTest, LatencyTimerHoldsShortRepliesUntilItsTick) {
+  const ReadLoop r = read_loop(0, 16, 40);
+  // A reply much shorter than 62 bytes waits for the timer's next tick: each cycle starts at a
+  // tick and ends at the next one, so the cycle is the latency period (after the first).
+  const WhatIf sixteen = run_scenario(r, "recorded");
+  EXPECT_NEAR(sixteen.cycle.p50_ns, 16e6, 1.0);
+  EXPECT_NEAR(run_scenario(r, "latency=1").cycle.p50_ns, 1e6, 1.0);
+  EXPECT_NEAR(run_scenario(r, "latency=0").cycle.p50_ns, 210'000.0, 1.0);
+}
+
+TEST(WhatIfTest, RecordedTimeoutCostsItsRecordedWait) {
+  ReadLoop r;
+  r.run.add_buses()->set_processing_ns(50'000);
+  TransactionBuilder builder(0, 1, 1'000'000, 50'000);
+  const Bytes read = p1_instruction(3, 0x02, {36, 2});
+  const Bytes missing = p1_instruction(9, 0x02, {36, 2});
+  int64_t t = 0;
+  for (int c = 0; c < 10; ++c) {
+    builder.add(t, read, {{3, p1_status(3, {0x00, 0x02}), 0}});
+    // ID 9 is missing: the driver waits 2 ms after the READ's last byte before going on.
+    builder.add(builder.last_done_ns(), missing, {});
+    t = builder.transactions().back().instruction_end_ns() + 2'000'000;
+  }
+  r.transactions = builder.transactions();
+  // 210 us for ID 3, 80 us for the READ to ID 9, then the recorded 2 ms.
+  EXPECT_NEAR(run_scenario(r, "recorded").cycle.mean_ns, 2'290'000.0, 1.0);
+}
+
+TEST(WhatIfTest, ScenarioTextRoundTripsAndBadPartsAreNamed) {
+  EXPECT_EQ(describe(parse_scenario("baud=3000000,rdt=0,latency=1,buses=4")), "baud=3000000,rdt=0,latency=1,buses=4");
+  EXPECT_EQ(describe(parse_scenario("")), "recorded");
+  EXPECT_EQ(describe(parse_scenario("adapter=usb2ax,fw=20")), "fw=20,adapter=usb2ax");
+  try {
+    parse_scenario("baud=fast");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("baud=fast"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(parse_scenario("buses=0"), std::invalid_argument);
+  EXPECT_THROW(parse_scenario("colour=red"), std::invalid_argument);
+  EXPECT_THROW(parse_scenario("latency=300"), std::invalid_argument);
+  EXPECT_THROW(parse_scenario("rdt"), std::invalid_argument);
+}
+
+TEST(WhatIfTest, NoCycleNoSimulation) {
+  const ReadLoop r = read_loop(0, 0, 2);
+  const WhatIf result = run_scenario(r, "recorded");
+  EXPECT_EQ(result.cycles, 0u);
+  EXPECT_FALSE(result.note.empty());
+}
+
+}  // namespace
+}  // namespace doppel::analyzer
