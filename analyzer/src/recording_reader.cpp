@@ -1,0 +1,132 @@
+#include "analyzer/recording_reader.h"
+
+#include <charconv>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+
+#include "mcap/mcap.h"
+
+namespace doppel::analyzer {
+
+namespace {
+
+constexpr const char* kTransactionSchema = "doppel.recording.BusTransaction";
+constexpr const char* kRunSchema = "doppel.recording.RunInfo";
+
+// "/doppel/bus/<robot>/<bus>/transactions" -> robot, bus.
+bool parse_transactions_topic(const std::string& topic, uint32_t& robot, uint32_t& bus) {
+  const std::string head = "/doppel/bus/";
+  const std::string tail = "/transactions";
+  if (topic.rfind(head, 0) != 0 || topic.size() <= head.size() + tail.size() ||
+      topic.compare(topic.size() - tail.size(), tail.size(), tail) != 0) {
+    return false;
+  }
+  const std::string middle = topic.substr(head.size(), topic.size() - head.size() - tail.size());
+  const std::size_t slash = middle.find('/');
+  if (slash == std::string::npos) return false;
+  const char* begin = middle.data();
+  const auto r1 = std::from_chars(begin, begin + slash, robot);
+  const auto r2 = std::from_chars(begin + slash + 1, begin + middle.size(), bus);
+  return r1.ec == std::errc() && r1.ptr == begin + slash && r2.ec == std::errc() && r2.ptr == begin + middle.size();
+}
+
+}  // namespace
+
+BusSelector parse_bus_selector(const std::string& text) {
+  BusSelector s;
+  const std::size_t slash = text.find('/');
+  const char* begin = text.data();
+  if (slash != std::string::npos) {
+    const auto r1 = std::from_chars(begin, begin + slash, s.robot);
+    const auto r2 = std::from_chars(begin + slash + 1, begin + text.size(), s.bus);
+    if (slash > 0 && r1.ec == std::errc() && r1.ptr == begin + slash && r2.ec == std::errc() &&
+        r2.ptr == begin + text.size() && slash + 1 < text.size()) {
+      return s;
+    }
+  }
+  throw std::invalid_argument("--bus '" + text + "': expected ROBOT/BUS, two numbers such as 0/1");
+}
+
+std::string transactions_topic(uint32_t robot, uint32_t bus) {
+  return "/doppel/bus/" + std::to_string(robot) + "/" + std::to_string(bus) + "/transactions";
+}
+
+Recording read_recording(const std::string& path, const std::optional<BusSelector>& only,
+                         const std::function<void(const ReadProgress&)>& progress) {
+  Recording out;
+  std::error_code error;
+  if (std::filesystem::is_directory(path, error)) throw std::runtime_error(path + ": is a directory, not a recording");
+  out.file_bytes = std::filesystem::file_size(path, error);
+  if (error) throw std::runtime_error(path + ": " + error.message());
+  try {
+    mcap::Reader reader(path);
+    out.recovery_note = reader.recovery_note();
+
+    // Which channels hold what; schemas are checked by name and encoding.
+    std::map<uint16_t, bool> channel_is_run;  // channel id -> run (true) or transactions (false)
+    mcap::ReadOptions options;
+    for (const auto& [id, channel] : reader.channels()) {
+      uint32_t robot = 0;
+      uint32_t bus = 0;
+      const bool is_run = channel.topic == kRunTopic;
+      const bool is_transactions = parse_transactions_topic(channel.topic, robot, bus);
+      if (!is_run && !is_transactions) continue;
+      if (is_transactions && only && (robot != only->robot || bus != only->bus)) continue;
+      const auto schema = reader.schemas().find(channel.schema_id);
+      const std::string expected = is_run ? kRunSchema : kTransactionSchema;
+      if (channel.message_encoding != "protobuf" || schema == reader.schemas().end() || schema->second.name != expected) {
+        throw std::runtime_error("channel " + channel.topic + " is not protobuf " + expected);
+      }
+      channel_is_run[id] = is_run;
+      options.topics.push_back(channel.topic);
+    }
+    bool any_transactions = false;
+    for (const auto& [id, is_run] : channel_is_run) any_transactions = any_transactions || !is_run;
+    if (!any_transactions) {
+      throw std::runtime_error(only ? "no transactions of bus " + std::to_string(only->robot) + "/" + std::to_string(only->bus) +
+                                          " (topic " + transactions_topic(only->robot, only->bus) + ")"
+                                    : "no bus transactions (no topic /doppel/bus/<robot>/<bus>/transactions): was "
+                                      "it recorded by doppel --record?");
+    }
+
+    ReadProgress p;
+    const mcap::Statistics statistics = reader.statistics();
+    for (const auto& [id, is_run] : channel_is_run) {
+      const auto it = statistics.channel_message_counts.find(id);
+      if (it != statistics.channel_message_counts.end()) p.total_messages += it->second;
+    }
+    reader.for_each_message(
+        [&](const mcap::Message& message) {
+          const auto kind = channel_is_run.find(message.channel_id);
+          if (kind == channel_is_run.end()) return true;
+          const int size = static_cast<int>(message.data.size());
+          if (kind->second) {
+            if (!out.run.ParseFromArray(message.data.data(), size)) {
+              throw std::runtime_error("the message on /doppel/run is not a " + std::string(kRunSchema));
+            }
+            out.have_run = true;
+          } else {
+            recording::BusTransaction& t = out.transactions.emplace_back();
+            if (!t.ParseFromArray(message.data.data(), size)) {
+              throw std::runtime_error("message " + std::to_string(p.messages) + " (log time " +
+                                       std::to_string(message.log_time_ns) + " ns) is not a " + kTransactionSchema);
+            }
+          }
+          ++p.messages;
+          p.message_bytes += message.data.size();
+          if (progress) progress(p);
+          return true;
+        },
+        options);
+    out.messages = p.messages;
+    out.message_bytes = p.message_bytes;
+  } catch (const std::exception& e) {
+    const std::string what = e.what();
+    // mcap::Reader names the file itself; everything else gets it in front.
+    throw std::runtime_error(what.find(path) != std::string::npos ? what : path + ": " + what);
+  }
+  return out;
+}
+
+}  // namespace doppel::analyzer
