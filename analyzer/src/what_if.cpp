@@ -52,6 +52,7 @@ struct SimTransaction {
   bool usb2ax = false;
   std::vector<SimStatus> statuses;
   int64_t timeout_wait_ns = -1;  // the recorded wait after a timeout (-1: none)
+  int64_t driver_ns = 0;         // the driver's own time before it sent this (driver=recorded)
   // USB2AX SYNC READ: the adapter reads every servo itself (READ of 8 B, answer of 6 + N B).
   std::vector<uint32_t> usb2ax_servo_rdt_us;
   uint16_t usb2ax_read_bytes = 0;
@@ -82,6 +83,11 @@ Scenario parse_scenario(const std::string& text) {
       s.latency_ms = parse_number<uint32_t>(key, value, 0, bus::AdapterLatency::kMaxLatencyMs);
     } else if (key == "buses") {
       s.buses = parse_number<uint32_t>(key, value, 1, 64);
+    } else if (key == "driver") {
+      if (value != "recorded" && value != "0") {
+        throw std::invalid_argument("what-if 'driver=" + value + "': expected recorded or 0");
+      }
+      s.driver_time = value == "recorded";
     } else if (key == "adapter") {
       if (value == "ftdi") {
         s.adapter = bus::AdapterProfile::kFtdi;
@@ -92,7 +98,7 @@ Scenario parse_scenario(const std::string& text) {
       }
     } else {
       throw std::invalid_argument("what-if '" + part + "': unknown key '" + key +
-                                  "' (known: baud, rdt, fw, latency, adapter, buses)");
+                                  "' (known: baud, rdt, fw, latency, adapter, buses, driver)");
     }
     at = comma + 1;
   }
@@ -108,11 +114,15 @@ std::string describe(const Scenario& s) {
   if (s.latency_ms) add("latency=" + std::to_string(*s.latency_ms));
   if (s.adapter) add(std::string("adapter=") + (*s.adapter == bus::AdapterProfile::kUsb2ax ? "usb2ax" : "ftdi"));
   if (s.buses) add("buses=" + std::to_string(*s.buses));
+  if (s.driver_time) add("driver=recorded");
   return out.empty() ? "recorded" : out;
 }
 
 std::vector<Scenario> default_scenarios(const recording::RunInfo& run, const Analysis& analysis) {
   std::vector<Scenario> out{Scenario{}};
+  Scenario driver;
+  driver.driver_time = true;
+  out.push_back(driver);
   bool slow_timer = false;
   bool rdt = false;
   std::size_t devices = 0;
@@ -213,9 +223,10 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
   }
 
   // One recorded transaction as the scenario's buses see it (one entry per bus it reaches).
-  auto convert = [&](const BusTransaction& t, std::vector<SimTransaction>& out) {
+  auto convert = [&](const BusTransaction& t, int64_t driver_ns, std::vector<SimTransaction>& out) {
     const Instruction in = decode_instruction(t.protocol(), bytes_of(t.instruction()));
     SimTransaction base;
+    base.driver_ns = scenario.driver_time ? driver_ns : 0;
     base.baud_bps = scenario.baud_bps ? *scenario.baud_bps : t.baud_bps();
     base.usb2ax = scenario.adapter ? *scenario.adapter == bus::AdapterProfile::kUsb2ax : t.adapter() == "usb2ax";
     base.latency_ms = base.usb2ax ? 0 : (scenario.latency_ms ? *scenario.latency_ms : t.adapter_latency_ms());
@@ -311,12 +322,23 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
   std::vector<SimTransaction> cycle;
   for (std::size_t k = 0; k + 1 < starts.size(); ++k) {
     cycle.clear();
-    while (next < order.size() && order[next]->first_seen_ns() < starts[k + 1]) convert(*order[next++], cycle);
+    // The driver's own time: from having the previous transaction of the bus (its reply, or its
+    // write returning) to writing this one; none after a timeout (the recorded wait has it).
+    std::map<uint32_t, int64_t> had_previous;
+    while (next < order.size() && order[next]->first_seen_ns() < starts[k + 1]) {
+      const BusTransaction& t = *order[next++];
+      const auto previous = had_previous.find(t.bus());
+      const int64_t driver_ns = previous == had_previous.end() ? 0 : std::max<int64_t>(0, t.first_seen_ns() - previous->second);
+      convert(t, driver_ns, cycle);
+      had_previous[t.bus()] = timeout_wait.count({t.bus(), t.sequence()}) != 0 ? INT64_MAX
+                                                                              : std::max(t.seen_ns(), t.written_ns());
+    }
     std::vector<int64_t> ready(buses, now);  // the driver can write the next instruction on the bus
     std::vector<int64_t> done(buses, now);
     for (const SimTransaction& sim : cycle) {
       bus::WireTiming& wire = wires[sim.bus];
       bus::AdapterLatency& adapter = adapters[sim.bus];
+      ready[sim.bus] += sim.driver_ns;
       const bus::WireSpan span = wire.host_bytes(ready[sim.bus], sim.instruction_bytes, sim.baud_bps);
       int64_t end = span.end_ns;
       if (!sim.usb2ax_servo_rdt_us.empty()) {

@@ -199,10 +199,79 @@ TEST(WhatIfTest, RecordedTimeoutCostsItsRecordedWait) {
   EXPECT_NEAR(run_scenario(r, "recorded").cycle.mean_ns, 2'290'000.0, 1.0);
 }
 
+TEST(WhatIfTest, DriverTimeIsKeptOnlyWhenAsked) {
+  ReadLoop r;
+  r.run.add_buses()->set_processing_ns(50'000);
+  TransactionBuilder builder(0, 1, 1'000'000, 50'000);
+  int64_t t = 0;
+  for (int c = 0; c < 10; ++c) {
+    builder.add(t, p1_instruction(1, 0x02, {36, 2}), {{1, p1_status(1, {0x00, 0x02}), 0}});
+    // The driver takes 100 us after the reply (the pty, its own code) before the next READ.
+    builder.add(builder.last_done_ns() + 100'000, p1_instruction(2, 0x02, {36, 2}), {{2, p1_status(2, {0x00, 0x02}), 0}});
+    t = builder.last_done_ns() + 3'000'000;
+  }
+  r.transactions = builder.transactions();
+  // Each READ: 80 us + 50 us firmware + 80 us status = 210 us; the 3 ms sleep before the next
+  // cycle is pacing, never driver time.
+  EXPECT_NEAR(run_scenario(r, "recorded").cycle.mean_ns, 420'000.0, 1.0);
+  EXPECT_NEAR(run_scenario(r, "driver=recorded").cycle.mean_ns, 520'000.0, 1.0);
+}
+
+// FAST SYNC READ of 4 servos, 4 B each, at 1 Mbps (10 us a byte): one combined status, the
+// 8-byte header (FF FF FD 00 FE LEN LEN 55) in front of the first block, each block ERR ID data
+// CRC = 8 B (reference §2.7). Instruction LEN 3 + 4 + 4 = 11 (18 B); status 8 + 4 * 8 = 40 B.
+TEST(WhatIfTest, FastSyncReadSplitGivesEachBusItsOwnHeader) {
+  ReadLoop r;
+  auto* info = r.run.add_buses();
+  info->set_processing_ns(0);
+  TransactionBuilder builder(0, 2, 1'000'000, 0);
+  const Bytes fast = p2_instruction(0xFE, 0x8A, {132, 0, 4, 0, 1, 2, 3, 4});
+  ASSERT_EQ(fast.size(), 18u);
+  std::vector<StatusSpec> blocks;
+  for (uint8_t id = 1; id <= 4; ++id) {
+    blocks.push_back({id, Bytes(id == 1 ? 16 : 8, 0x11), 0});
+    info->add_devices()->set_id(id);
+  }
+  int64_t t = 0;
+  for (int c = 0; c < 10; ++c) {
+    builder.add(t, fast, blocks, true);
+    t = builder.last_done_ns() + 1'000'000;
+  }
+  r.transactions = builder.transactions();
+  EXPECT_NEAR(run_scenario(r, "recorded").cycle.mean_ns, (18 + 40) * 10'000.0, 1.0);
+  // Two buses of 2: instruction LEN 3 + 4 + 2 = 9 (16 B), status 8 + 2 * 8 = 24 B.
+  EXPECT_NEAR(run_scenario(r, "buses=2").cycle.mean_ns, (16 + 24) * 10'000.0, 1.0);
+}
+
+// A USB2AX SYNC READ (0x84) of 3 servos, 2 B each, at 1 Mbps: the host's packet FF FF FD LEN 84
+// ADDR N ID ID ID CK (LEN 7, 11 B), then the adapter sends each servo a READ (8 B) and gets its
+// answer (6 + 2 B), then hands its status to the host after its send timeout ((4 + 1) x 20 us).
+TEST(WhatIfTest, Usb2axSyncReadIsReadServoByServo) {
+  ReadLoop r;
+  auto* info = r.run.add_buses();
+  info->set_processing_ns(50'000);
+  info->set_adapter("usb2ax");
+  for (uint8_t id = 1; id <= 3; ++id) info->add_devices()->set_id(id);
+  TransactionBuilder builder(0, 1, 1'000'000, 50'000);
+  const Bytes sync_read = p1_instruction(0xFD, 0x84, {36, 2, 1, 2, 3});
+  ASSERT_EQ(sync_read.size(), 11u);
+  int64_t t = 0;
+  for (int c = 0; c < 10; ++c) {
+    auto& x = builder.add(t, sync_read, {{0xFD, p1_status(0xFD, Bytes(6, 0)), 0}});
+    x.set_adapter("usb2ax");
+    t = builder.last_done_ns() + 1'000'000;
+  }
+  r.transactions = builder.transactions();
+  EXPECT_NEAR(run_scenario(r, "fw=0").cycle.mean_ns, 110'000.0 + 3 * (80'000.0 + 80'000.0) + 100'000.0, 1.0);
+  EXPECT_NEAR(run_scenario(r, "fw=50").cycle.mean_ns, 110'000.0 + 3 * (80'000.0 + 50'000.0 + 80'000.0) + 100'000.0, 1.0);
+}
+
 TEST(WhatIfTest, ScenarioTextRoundTripsAndBadPartsAreNamed) {
   EXPECT_EQ(describe(parse_scenario("baud=3000000,rdt=0,latency=1,buses=4")), "baud=3000000,rdt=0,latency=1,buses=4");
   EXPECT_EQ(describe(parse_scenario("")), "recorded");
   EXPECT_EQ(describe(parse_scenario("adapter=usb2ax,fw=20")), "fw=20,adapter=usb2ax");
+  EXPECT_EQ(describe(parse_scenario("driver=recorded")), "driver=recorded");
+  EXPECT_THROW(parse_scenario("driver=fast"), std::invalid_argument);
   try {
     parse_scenario("baud=fast");
     FAIL() << "no exception";

@@ -4,7 +4,8 @@
 // firmware time, USB latency timer, adapter, or the devices spread over N buses. The answer is the
 // cycle time the bus alone would allow, next to the recorded one. docs/analyzer.md lists the
 // assumptions; in short: the driver sends each instruction as soon as it has the previous one's
-// reply (and at once after an instruction without reply), buses run in parallel and a cycle ends
+// reply (and at once after an instruction without reply; driver=recorded adds the time it took in
+// the recording), buses run in parallel and a cycle ends
 // when the slowest is done, multi-device instructions are split per bus (never merged), and a
 // recorded timeout costs what it cost in the recording. Allocates: not for real-time threads.
 
@@ -28,17 +29,21 @@ struct Scenario {
   std::optional<uint32_t> latency_ms;       // latency=MS: FTDI latency timer (0: no adapter delay)
   std::optional<bus::AdapterProfile> adapter;  // adapter=ftdi|usb2ax
   std::optional<uint32_t> buses;            // buses=N: the robot's devices spread over N buses
+  bool driver_time = false;                 // driver=recorded: keep the driver's own time between a
+                                            // reply and its next instruction (default: none)
 };
 
-// Parses "baud=3000000,rdt=0,latency=1,buses=4" (keys baud, rdt, fw, latency, adapter, buses; ""
+// Parses "baud=3000000,rdt=0,latency=1,buses=4" (keys baud, rdt, fw, latency, adapter, buses,
+// driver=recorded|0; ""
 // and "recorded" are the recording's own settings). Throws std::invalid_argument with a sentence
 // naming the bad part.
 Scenario parse_scenario(const std::string& text);
 // The canonical text of a scenario ("recorded" when nothing is changed).
 std::string describe(const Scenario& scenario);
 
-// The scenarios a report shows when none is asked for: the recording's own settings, then the
-// usual remedies that differ from it (latency timer 1 ms, RDT 0, firmware 0 excluded, 2 and 4 buses).
+// The scenarios a report shows when none is asked for: the recording's own settings without and
+// with the driver's own time, then the usual remedies that differ from the recording (latency
+// timer 1 ms, RDT 0, 2 and 4 buses).
 std::vector<Scenario> default_scenarios(const recording::RunInfo& run, const Analysis& analysis);
 
 struct WhatIf {
