@@ -13,6 +13,9 @@ namespace {
 
 constexpr const char* kTransactionSchema = "doppel.recording.BusTransaction";
 constexpr const char* kRunSchema = "doppel.recording.RunInfo";
+constexpr const char* kSummarySchema = "doppel.recording.RecordingSummary";
+
+enum class Content : uint8_t { kRun, kTransactions, kSummary };
 
 // "/doppel/bus/<robot>/<bus>/transactions" -> robot, bus.
 bool parse_transactions_topic(const std::string& topic, uint32_t& robot, uint32_t& bus) {
@@ -64,25 +67,35 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
     out.recovery_note = reader.recovery_note();
 
     // Which channels hold what; schemas are checked by name and encoding.
-    std::map<uint16_t, bool> channel_is_run;  // channel id -> run (true) or transactions (false)
+    std::map<uint16_t, Content> content;  // channel id -> what it carries
     mcap::ReadOptions options;
     for (const auto& [id, channel] : reader.channels()) {
       uint32_t robot = 0;
       uint32_t bus = 0;
-      const bool is_run = channel.topic == kRunTopic;
-      const bool is_transactions = parse_transactions_topic(channel.topic, robot, bus);
-      if (!is_run && !is_transactions) continue;
-      if (is_transactions && only && (robot != only->robot || bus != only->bus)) continue;
+      Content c;
+      const char* expected = nullptr;
+      if (channel.topic == kRunTopic) {
+        c = Content::kRun;
+        expected = kRunSchema;
+      } else if (channel.topic == kSummaryTopic) {
+        c = Content::kSummary;
+        expected = kSummarySchema;
+      } else if (parse_transactions_topic(channel.topic, robot, bus)) {
+        if (only && (robot != only->robot || bus != only->bus)) continue;
+        c = Content::kTransactions;
+        expected = kTransactionSchema;
+      } else {
+        continue;
+      }
       const auto schema = reader.schemas().find(channel.schema_id);
-      const std::string expected = is_run ? kRunSchema : kTransactionSchema;
       if (channel.message_encoding != "protobuf" || schema == reader.schemas().end() || schema->second.name != expected) {
         throw std::runtime_error("channel " + channel.topic + " is not protobuf " + expected);
       }
-      channel_is_run[id] = is_run;
+      content[id] = c;
       options.topics.push_back(channel.topic);
     }
     bool any_transactions = false;
-    for (const auto& [id, is_run] : channel_is_run) any_transactions = any_transactions || !is_run;
+    for (const auto& [id, c] : content) any_transactions = any_transactions || c == Content::kTransactions;
     if (!any_transactions) {
       throw std::runtime_error(only ? "no transactions of bus " + std::to_string(only->robot) + "/" + std::to_string(only->bus) +
                                           " (topic " + transactions_topic(only->robot, only->bus) + ")"
@@ -92,20 +105,25 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
 
     ReadProgress p;
     const mcap::Statistics statistics = reader.statistics();
-    for (const auto& [id, is_run] : channel_is_run) {
+    for (const auto& [id, c] : content) {
       const auto it = statistics.channel_message_counts.find(id);
       if (it != statistics.channel_message_counts.end()) p.total_messages += it->second;
     }
     reader.for_each_message(
         [&](const mcap::Message& message) {
-          const auto kind = channel_is_run.find(message.channel_id);
-          if (kind == channel_is_run.end()) return true;
+          const auto kind = content.find(message.channel_id);
+          if (kind == content.end()) return true;
           const int size = static_cast<int>(message.data.size());
-          if (kind->second) {
+          if (kind->second == Content::kRun) {
             if (!out.run.ParseFromArray(message.data.data(), size)) {
               throw std::runtime_error("the message on /doppel/run is not a " + std::string(kRunSchema));
             }
             out.have_run = true;
+          } else if (kind->second == Content::kSummary) {
+            if (!out.summary.ParseFromArray(message.data.data(), size)) {
+              throw std::runtime_error("the message on /doppel/summary is not a " + std::string(kSummarySchema));
+            }
+            out.have_summary = true;
           } else {
             recording::BusTransaction& t = out.transactions.emplace_back();
             if (!t.ParseFromArray(message.data.data(), size)) {

@@ -40,7 +40,11 @@ struct Options {
 
 std::string megabytes(uint64_t bytes) {
   char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.1f MB", static_cast<double>(bytes) / 1e6);
+  if (bytes < 1'000'000) {
+    std::snprintf(buffer, sizeof buffer, "%.1f kB", static_cast<double>(bytes) / 1e3);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "%.1f MB", static_cast<double>(bytes) / 1e6);
+  }
   return buffer;
 }
 
@@ -118,10 +122,20 @@ int report(const Options& options) {
     }
   }
 
-  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-  std::cerr << "doppel-bus: read " << recording.messages << " messages (" << megabytes(recording.message_bytes) << " of "
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%.2f", std::chrono::duration<double>(Clock::now() - start).count());
+  std::cerr << "doppel-bus: read " << recording.messages << " messages (" << megabytes(recording.message_bytes) << " of a "
             << megabytes(recording.file_bytes) << " file) in " << seconds << " s: " << recording.transactions.size()
             << " transactions on " << buses.size() << " bus(es) of " << robots.size() << " robot(s)";
+  uint64_t missing = 0;
+  for (const Report& r : reports) {
+    for (const BusStats& b : r.analysis.buses) missing += b.missing_transactions;
+  }
+  std::cerr << "; " << missing << " transactions missing (sequence gaps)";
+  if (recording.have_summary) {
+    std::cerr << "; the recorder dropped " << recording.summary.dropped_messages() << " messages and "
+              << recording.summary.dropped_bus_events() << " bus events";
+  }
   if (!plots.empty()) std::cerr << "; " << plots.size() << " plots in " << options.png_dir;
   std::cerr << "\n";
   return 0;

@@ -1,7 +1,8 @@
 #pragma once
 // Reads what the analyzer needs from a recording (doppel --record, docs/recording.md) through
-// mcap::Reader: the run info (topic /doppel/run) and the bus transactions (topics
-// /doppel/bus/<robot>/<bus>/transactions), both protobuf messages of proto/recording.proto.
+// mcap::Reader: the run info (topic /doppel/run), the bus transactions (topics
+// /doppel/bus/<robot>/<bus>/transactions) and what the recorder lost (/doppel/summary), all
+// protobuf messages of proto/recording.proto.
 // A recording cut off by a kill is read as far as its finished chunks go (the reader's recovery
 // note says so). Allocates and reads files: not for real-time threads.
 
@@ -26,6 +27,8 @@ BusSelector parse_bus_selector(const std::string& text);
 struct Recording {
   recording::RunInfo run;                          // empty when the file has no /doppel/run
   bool have_run = false;
+  recording::RecordingSummary summary;             // the recorder's losses (empty when not written)
+  bool have_summary = false;
   std::vector<recording::BusTransaction> transactions;  // in log-time order
   uint64_t messages = 0;                           // messages read (all selected topics)
   uint64_t message_bytes = 0;                      // their payload bytes
@@ -50,5 +53,6 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
 // The topic of one bus' transactions.
 std::string transactions_topic(uint32_t robot, uint32_t bus);
 inline constexpr const char* kRunTopic = "/doppel/run";
+inline constexpr const char* kSummaryTopic = "/doppel/summary";
 
 }  // namespace doppel::analyzer
