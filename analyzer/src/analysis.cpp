@@ -209,7 +209,7 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
       b.busy_ns += wire;
       if (b.cycle.found && t.first_seen_ns() >= b.cycle.first_start_ns && t.first_seen_ns() < b.cycle.last_start_ns) loop_busy += wire;
 
-      // Time split of this transaction.
+      // Its kind; timeouts (an expected status missing) and retries (the same bytes right after).
       const Instruction in = decode_instruction(t.protocol(), bytes_of(t.instruction()));
       const std::string kind = in.framed ? kind_name(t.protocol(), in.code) : "P" + std::to_string(t.protocol()) + " unframed";
       KindStats& k = kinds[kind];
@@ -217,27 +217,10 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
       k.kind = kind;
       ++k.count;
       if (!t.checksum_ok()) ++k.bad_checksums;
-      p.host_write.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
       if (t.statuses_size() > 0) {
         ++k.answered;
         k.statuses += static_cast<uint64_t>(t.statuses_size());
-        const auto& first_status = t.statuses(0);
-        const auto& last_status = t.statuses(t.statuses_size() - 1);
-        int64_t status_wire = 0;
-        for (const auto& s : t.statuses()) status_wire += s.end_ns() - s.start_ns();
-        p.return_delay.push_back(static_cast<double>(first_status.start_ns() - t.instruction_end_ns()));
-        p.status_wire.push_back(static_cast<double>(status_wire));
-        p.status_gaps.push_back(static_cast<double>(last_status.end_ns() - first_status.start_ns() - status_wire));
-        if (t.due_ns() != 0) p.adapter.push_back(static_cast<double>(t.due_ns() - last_status.end_ns()));
-        if (t.due_ns() != 0 && t.written_ns() != 0) p.lateness.push_back(static_cast<double>(t.written_ns() - t.due_ns()));
-        const int64_t end = t.written_ns() != 0 ? t.written_ns() : t.due_ns();
-        if (end != 0) p.total.push_back(static_cast<double>(end - t.first_seen_ns()));
-      } else {
-        p.total.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
       }
-
-      // Timeouts: an expected status missing; retries: the same bytes right after.
-      if (t.reply_dropped()) continue;
       const uint32_t bus = t.bus();
       const std::vector<uint8_t> expected =
           expected_status_ids(t, [&](uint8_t id) { return answers_writes.count({bus, id}) != 0; });
@@ -246,25 +229,45 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
         const bool got = std::any_of(t.statuses().begin(), t.statuses().end(), [&](const auto& s) { return s.id() == id; });
         if (!got) e.missing_ids.push_back(id);
       }
-      if (e.missing_ids.empty()) continue;
-      e.bus = bus;
-      e.sequence = t.sequence();
-      e.time_ns = t.first_seen_ns();
-      e.kind = kind;
-      if (i + 1 < list.size()) {
-        const BusTransaction& next = *list[i + 1];
-        e.wait_ns = next.first_seen_ns() - std::max(t.instruction_end_ns(), t.due_ns());
-        e.retried = next.instruction() == t.instruction();
-        waits.push_back(static_cast<double>(e.wait_ns));
+      if (!e.missing_ids.empty() && !t.reply_dropped()) {
+        e.bus = bus;
+        e.sequence = t.sequence();
+        e.time_ns = t.first_seen_ns();
+        e.kind = kind;
+        if (i + 1 < list.size()) {
+          const BusTransaction& next = *list[i + 1];
+          e.wait_ns = next.first_seen_ns() - std::max(t.instruction_end_ns(), t.due_ns());
+          e.retried = next.instruction() == t.instruction();
+          waits.push_back(static_cast<double>(e.wait_ns));
+        }
+        ++k.timeouts;
+        ++b.timeouts;
+        if (e.retried) {
+          ++k.retries;
+          ++b.retries;
+          ++a.retries;
+        }
+        a.timeouts.push_back(std::move(e));
+        continue;  // its time is its wait (TimeoutEvent), not part of the split
       }
-      ++k.timeouts;
-      ++b.timeouts;
-      if (e.retried) {
-        ++b.retries;
-        ++kinds[kind].retries;
-        ++a.retries;
+
+      // Time split of this transaction.
+      p.host_write.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
+      if (t.statuses_size() == 0) {
+        p.total.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
+        continue;
       }
-      a.timeouts.push_back(std::move(e));
+      const auto& first_status = t.statuses(0);
+      const auto& last_status = t.statuses(t.statuses_size() - 1);
+      int64_t status_wire = 0;
+      for (const auto& s : t.statuses()) status_wire += s.end_ns() - s.start_ns();
+      p.return_delay.push_back(static_cast<double>(first_status.start_ns() - t.instruction_end_ns()));
+      p.status_wire.push_back(static_cast<double>(status_wire));
+      p.status_gaps.push_back(static_cast<double>(last_status.end_ns() - first_status.start_ns() - status_wire));
+      if (t.due_ns() != 0) p.adapter.push_back(static_cast<double>(t.due_ns() - last_status.end_ns()));
+      if (t.due_ns() != 0 && t.written_ns() != 0) p.lateness.push_back(static_cast<double>(t.written_ns() - t.due_ns()));
+      const int64_t end = t.written_ns() != 0 ? t.written_ns() : t.due_ns();
+      if (end != 0) p.total.push_back(static_cast<double>(end - t.first_seen_ns()));
     }
     if (!list.empty() && last > first) {
       b.span_ns = last - first;

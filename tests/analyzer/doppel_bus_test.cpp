@@ -120,6 +120,116 @@ TEST(DoppelBusTest, ReportsTheBitBotsWhatIfFromARecording) {
   EXPECT_NE(r.err.find("the recorder dropped 3 messages"), std::string::npos) << r.err;
 }
 
+// A DynamixelSDK-style loop on a Protocol 1.0 bus at 1 Mbps behind an FTDI adapter with its
+// default 16 ms latency timer: 12 MX-28 with Return Delay Time 250 us. Start-up: PING 1..13 (13
+// is missing: two retries), a READ of each model number; then a 50 Hz loop (the driver sleeps
+// until its next 20 ms tick, waking up to 1 ms late) of SYNC WRITE (goal positions, 2 B each) +
+// BULK READ (present positions, 2 B each), the driver taking 150 us after each reply.
+std::pair<recording::RunInfo, std::vector<recording::BusTransaction>> sdk_style_loop(int cycles) {
+  using testing::Bytes;
+  using testing::p1_instruction;
+  using testing::p1_status;
+  constexpr int64_t kLatencyNs = 16'000'000;
+  recording::RunInfo run;
+  run.set_timing_mode("wire");
+  auto* info = run.add_buses();
+  info->set_robot_name("sdk-loop");
+  info->set_link("ttyDXL0");
+  info->set_configured_baud_bps(1'000'000);
+  info->set_adapter_latency_ms(16);
+  info->set_adapter("ftdi");
+  info->set_processing_ns(50'000);
+  for (uint8_t id = 1; id <= 12; ++id) {
+    auto* d = info->add_devices();
+    d->set_id(id);
+    d->set_model("MX-28");
+    d->set_protocol(1);
+    d->set_return_delay_us(250);
+  }
+  testing::TransactionBuilder builder(0, 1, 1'000'000, 50'000);
+  // The FTDI timer ticks every 16 ms: a short reply waits for the next tick.
+  auto adapter_ns = [&](int64_t written_ns, std::size_t instruction_bytes, int64_t reply_ns) {
+    const int64_t end = written_ns + builder.byte_ns(instruction_bytes) + reply_ns;
+    return (end / kLatencyNs + 1) * kLatencyNs - end;
+  };
+  auto add = [&](int64_t t, const Bytes& instruction, std::vector<testing::StatusSpec> statuses, bool chained = false) {
+    int64_t reply = 0;
+    for (std::size_t i = 0; i < statuses.size(); ++i) reply += 50'000 + 250'000 + builder.byte_ns(statuses[i].bytes.size());
+    builder.add(t, instruction, statuses, chained, statuses.empty() ? 0 : adapter_ns(t, instruction.size(), reply), 20'000)
+        .set_adapter_latency_ms(16);
+  };
+  int64_t t = 1'000'000;
+  for (uint8_t id = 1; id <= 13; ++id) {
+    for (int attempt = 0; attempt < (id == 13 ? 3 : 1); ++attempt) {
+      if (id == 13) {
+        builder.add(t, p1_instruction(id, 0x01, {}), {}).set_adapter_latency_ms(16);
+        t = builder.transactions().back().instruction_end_ns() + 34'000'000;  // the SDK's ping timeout
+      } else {
+        add(t, p1_instruction(id, 0x01, {}), {{id, p1_status(id, {}), 250}});
+        t = builder.last_done_ns() + 150'000;
+      }
+    }
+  }
+  for (uint8_t id = 1; id <= 12; ++id) {
+    add(t, p1_instruction(id, 0x02, {0, 2}), {{id, p1_status(id, {29, 0}), 250}});
+    t = builder.last_done_ns() + 150'000;
+  }
+  Bytes sync_write{30, 2};
+  Bytes bulk_read{0x00};
+  std::vector<testing::StatusSpec> positions;
+  for (uint8_t id = 1; id <= 12; ++id) {
+    sync_write.insert(sync_write.end(), {id, 0x00, 0x08});
+    bulk_read.insert(bulk_read.end(), {2, id, 36});
+    positions.push_back({id, p1_status(id, {0x00, 0x08}), 250});
+  }
+  const int64_t loop_start = (t / 20'000'000 + 1) * 20'000'000;
+  uint32_t noise = 12345;
+  for (int c = 0; c < cycles; ++c) {
+    noise = noise * 1103515245u + 12345u;
+    const int64_t wake = loop_start + int64_t{c} * 20'000'000 + (noise >> 8) % 1'000'000;
+    builder.add(wake, p1_instruction(0xFE, 0x83, sync_write), {}).set_adapter_latency_ms(16);
+    add(wake + 30'000, p1_instruction(0xFE, 0x92, bulk_read), positions, true);
+  }
+  return {run, builder.transactions()};
+}
+
+TEST(DoppelBusTest, SdkStyleLoopBehindA16msLatencyTimer) {
+  TempDirectory dir;
+  const auto [run, transactions] = sdk_style_loop(500);
+  std::string file = (dir / "sdk_loop.mcap").string();
+  // DOPPEL_BUS_TEST_KEEP=DIR keeps the recording (docs/analyzer.md's example is this file).
+  if (const char* keep = std::getenv("DOPPEL_BUS_TEST_KEEP")) file = (fs::path(keep) / "sdk_loop.mcap").string();
+  write_recording(file, run, transactions);
+  const ToolRun r = run_tool("report " + file + " --json", dir);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const auto report = nlohmann::json::parse(r.out).at("reports").at(0);
+  const auto& cycle = report.at("cycle");
+  EXPECT_EQ(cycle.at("opener_kind"), "P1 SYNC WRITE");
+  EXPECT_EQ(cycle.at("startup_transactions"), 12 + 3 + 12);
+  EXPECT_EQ(cycle.at("cycles"), 500);
+  EXPECT_NEAR(cycle.at("period").at("mean_us").get<double>(), 20'000.0, 20.0);
+  EXPECT_EQ(report.at("timeouts").size(), 3u);
+  EXPECT_EQ(report.at("retries"), 2);
+  // The BULK READ's reply waits for the adapter's tick: on average far more than its wire time.
+  for (const auto& kind : report.at("kinds")) {
+    if (kind.at("kind") == "P1 BULK READ") {
+      EXPECT_GT(kind.at("adapter").at("mean_us").get<double>(), 1000.0);
+    }
+  }
+  // The default scenarios: recorded settings, with driver time, latency 1 ms, RDT 0, 2 and 4 buses.
+  const auto& what_if = report.at("what_if");
+  ASSERT_EQ(what_if.size(), 6u);
+  EXPECT_EQ(what_if.at(2).at("scenario"), "latency=1");
+  // 16 ms timer: about one tick a cycle; 1 ms: the wire's 5.4 ms rounded up to the next tick.
+  EXPECT_LT(what_if.at(0).at("rate_hz").get<double>(), 70.0);
+  EXPECT_GT(what_if.at(2).at("rate_hz").get<double>(), 2 * what_if.at(0).at("rate_hz").get<double>());
+  EXPECT_EQ(what_if.at(3).at("scenario"), "rdt=0");
+  // More buses do not help while every reply waits for a 16 ms tick: 62.5 Hz.
+  EXPECT_EQ(what_if.at(4).at("scenario"), "buses=2");
+  EXPECT_NEAR(what_if.at(4).at("rate_hz").get<double>(), 62.5, 0.1);
+  EXPECT_NEAR(what_if.at(5).at("rate_hz").get<double>(), 62.5, 0.1);
+}
+
 TEST(DoppelBusTest, TextReportAndPlots) {
   TempDirectory dir;
   const auto b = testing::bitbots(30);

@@ -45,9 +45,10 @@ struct CycleStats {
   std::vector<int64_t> starts_ns; // every cycle start (for plots and the what-if)
 };
 
-// The time split of one kind of transaction (protocol + instruction), over all its transactions.
-// The parts add up: host write + return delay + status wire + status gaps + adapter + lateness =
-// total (for transactions whose statuses were delivered).
+// The time split of one kind of transaction (protocol + instruction), over its transactions that
+// did not time out (a timeout's cost is its wait, TimeoutEvent). The parts add up: host write +
+// return delay + status wire + status gaps + adapter + lateness = total (for each transaction
+// whose statuses were delivered; means add up too when every one of the kind was).
 struct KindStats {
   std::string kind;             // "P2 SYNC READ"
   uint64_t count = 0;           // transactions
