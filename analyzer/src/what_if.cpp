@@ -134,22 +134,21 @@ std::vector<Scenario> default_scenarios(const recording::RunInfo& run, const Ana
       if (d.return_delay_us() > 0) rdt = true;
     }
   }
+  // Each remedy on top of the previous ones.
+  Scenario cumulative;
   if (slow_timer) {
-    Scenario s;
-    s.latency_ms = 1;
-    out.push_back(s);
+    cumulative.latency_ms = 1;
+    out.push_back(cumulative);
   }
   if (rdt) {
-    Scenario s;
-    s.return_delay_us = 0;
-    out.push_back(s);
+    cumulative.return_delay_us = 0;
+    out.push_back(cumulative);
   }
   const std::size_t buses = std::max<std::size_t>(1, analysis.buses.size());
   for (uint32_t n : {2u, 4u}) {
     if (n > buses && (devices == 0 || devices >= n)) {
-      Scenario s;
-      s.buses = n;
-      out.push_back(s);
+      cumulative.buses = n;
+      out.push_back(cumulative);
     }
   }
   return out;
