@@ -265,3 +265,58 @@ TEST(AnalysisTest, SeveralBusesHaveTheirOwnAndACombinedCycle) {
 
 }  // namespace
 }  // namespace doppel::analyzer
+
+namespace doppel::analyzer {
+namespace {
+
+// Recordings are input: transactions with garbage bytes, times out of order, empty or huge fields
+// must give a report, never a crash or a hang.
+TEST(AnalysisTest, GarbageTransactionsGiveAReport) {
+  uint64_t state = 42;
+  auto next = [&](uint64_t range) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return range == 0 ? 0 : (state >> 33) % range;
+  };
+  std::vector<recording::BusTransaction> list;
+  const Bytes templates[] = {p2_instruction(0xFE, 0x82, {132, 0, 4, 0, 1, 2, 3}), p1_instruction(0xFE, 0x92, {0, 2, 1, 36}),
+                             p2_instruction(0xFE, 0x8A, {132, 0, 4, 0, 1, 2}), p1_instruction(0xFD, 0x84, {36, 2, 1, 2})};
+  for (int i = 0; i < 3000; ++i) {
+    recording::BusTransaction t;
+    t.set_robot(static_cast<uint32_t>(next(2)));
+    t.set_bus(static_cast<uint32_t>(next(3)));
+    t.set_sequence(next(5000));
+    t.set_protocol(static_cast<uint32_t>(next(4)));
+    Bytes bytes = templates[next(4)];
+    for (uint64_t k = next(4); k > 0; --k) bytes[next(bytes.size())] = static_cast<uint8_t>(next(256));
+    if (next(5) == 0) bytes.resize(next(bytes.size() + 1));
+    t.set_instruction(std::string(bytes.begin(), bytes.end()));
+    t.set_checksum_ok(next(10) != 0);
+    t.set_baud_bps(static_cast<uint32_t>(next(3) == 0 ? 0 : next(5'000'000)));
+    t.set_first_seen_ns(static_cast<int64_t>(next(1'000'000'000)));
+    t.set_seen_ns(static_cast<int64_t>(next(1'000'000'000)));
+    t.set_instruction_start_ns(static_cast<int64_t>(next(1'000'000'000)));
+    t.set_instruction_end_ns(static_cast<int64_t>(next(1'000'000'000)));
+    for (uint64_t k = next(4); k > 0; --k) {
+      auto* s = t.add_statuses();
+      s->set_id(static_cast<uint32_t>(next(300)));
+      s->set_bytes(std::string(next(40), '\xFF'));
+      s->set_start_ns(static_cast<int64_t>(next(1'000'000'000)));
+      s->set_end_ns(static_cast<int64_t>(next(1'000'000'000)));
+      s->set_return_delay_us(static_cast<uint32_t>(next(100'000)));
+    }
+    t.set_due_ns(static_cast<int64_t>(next(1'000'000'000)));
+    t.set_written_ns(static_cast<int64_t>(next(1'000'000'000)));
+    t.set_adapter_latency_ms(static_cast<uint32_t>(next(400)));
+    t.set_adapter(next(2) ? "usb2ax" : "ftdi");
+    t.set_reply_dropped(next(10) == 0);
+    list.push_back(t);
+  }
+  for (uint32_t robot = 0; robot < 2; ++robot) {
+    const Analysis a = analyze(recording::RunInfo(), list, robot);
+    EXPECT_GT(a.transactions, 0u);
+    EXPECT_FALSE(a.kinds.empty());
+  }
+}
+
+}  // namespace
+}  // namespace doppel::analyzer

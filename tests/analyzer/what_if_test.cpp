@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 
 #include "bitbots_cycle.h"
@@ -241,6 +242,33 @@ TEST(WhatIfTest, NoCycleNoSimulation) {
   const WhatIf result = run_scenario(r, "recorded");
   EXPECT_EQ(result.cycles, 0u);
   EXPECT_FALSE(result.note.empty());
+}
+
+}  // namespace
+}  // namespace doppel::analyzer
+
+namespace doppel::analyzer {
+namespace {
+
+// The Bit-Bots traffic with garbage in its recorded fields still gives a finite what-if.
+TEST(WhatIfTest, GarbageFieldsGiveAFiniteAnswer) {
+  BitBots b = bitbots(20);
+  int k = 0;
+  for (auto& t : b.transactions) {
+    ++k;
+    if (k % 3 == 0) t.set_baud_bps(0);
+    if (k % 4 == 0) t.set_adapter_latency_ms(100'000);
+    if (k % 5 == 0) t.set_instruction(t.instruction().substr(0, 9));
+    for (auto& s : *t.mutable_statuses()) {
+      if (k % 7 == 0) s.set_start_ns(-s.start_ns());
+      if (k % 2 == 0) s.set_return_delay_us(4'000'000'000u);
+    }
+  }
+  for (const char* s : {"recorded", "buses=4", "buses=64,driver=recorded", "adapter=usb2ax,buses=3", "latency=255,baud=9600"}) {
+    const Analysis analysis = analyze(b.run, b.transactions, 0);
+    const WhatIf result = what_if(b.run, b.transactions, analysis, parse_scenario(s));
+    EXPECT_TRUE(std::isfinite(result.rate_hz)) << s;
+  }
 }
 
 }  // namespace
