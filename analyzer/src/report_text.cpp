@@ -133,6 +133,10 @@ std::string format_text(const Report& report, std::size_t max_timeouts) {
   if (a.cycle.found) {
     w.add({"measured (recorded periods)", std::to_string(a.buses.size()), std::to_string(a.cycle.cycles ? a.cycle.cycles - 1 : 0),
            us(a.cycle.period.mean_ns), us(a.cycle.period.p50_ns), us(a.cycle.period.p99_ns), fixed(a.cycle.rate_hz)});
+    // The traffic part of each cycle: what the model's cycle compares with when the loop sleeps.
+    w.add({"measured (recorded busy time)", std::to_string(a.buses.size()),
+           std::to_string(a.cycle.cycles ? a.cycle.cycles - 1 : 0), us(a.cycle.busy.mean_ns), us(a.cycle.busy.p50_ns),
+           us(a.cycle.busy.p99_ns), a.cycle.busy.mean_ns > 0 ? fixed(1e9 / a.cycle.busy.mean_ns) : "-"});
   }
   for (const WhatIf& x : report.what_ifs) {
     if (x.cycles == 0) {
