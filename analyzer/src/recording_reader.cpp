@@ -97,10 +97,12 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
     bool any_transactions = false;
     for (const auto& [id, c] : content) any_transactions = any_transactions || c == Content::kTransactions;
     if (!any_transactions) {
-      throw std::runtime_error(only ? "no transactions of bus " + std::to_string(only->robot) + "/" + std::to_string(only->bus) +
-                                          " (topic " + transactions_topic(only->robot, only->bus) + ")"
-                                    : "no bus transactions (no topic /doppel/bus/<robot>/<bus>/transactions): was "
-                                      "it recorded by doppel --record?");
+      std::string message = only ? "no transactions of bus " + std::to_string(only->robot) + "/" + std::to_string(only->bus) +
+                                       " (topic " + transactions_topic(only->robot, only->bus) + ")"
+                                 : "no bus transactions (no topic /doppel/bus/<robot>/<bus>/transactions): was it "
+                                   "recorded by doppel --record?";
+      if (!out.recovery_note.empty()) message += " The file is incomplete: " + out.recovery_note;
+      throw std::runtime_error(message);
     }
 
     ReadProgress p;
