@@ -12,7 +12,7 @@
 namespace doppel::analyzer {
 
 namespace ins = dynamixel::instruction;
-using recording::BusTransaction;
+
 
 namespace {
 
@@ -21,8 +21,8 @@ std::span<const uint8_t> bytes_of(const std::string& s) {
 }
 
 // When the driver had everything of this transaction it was going to get.
-int64_t done_ns(const BusTransaction& t) {
-  return std::max({t.seen_ns(), t.instruction_end_ns(), t.due_ns(), t.written_ns()});
+int64_t done_ns(const Transaction& t) {
+  return std::max({t.seen_ns, t.instruction_end_ns, t.due_ns, t.written_ns});
 }
 
 double median(std::vector<double> v) {
@@ -55,7 +55,7 @@ Distribution summarize(std::vector<double> values) {
   return d;
 }
 
-CycleStats find_cycle(std::span<const BusTransaction* const> transactions, bool with_bus) {
+CycleStats find_cycle(std::span<const Transaction* const> transactions, bool with_bus) {
   CycleStats cycle;
   struct Candidate {
     std::vector<std::size_t> at;  // indexes into transactions
@@ -65,12 +65,12 @@ CycleStats find_cycle(std::span<const BusTransaction* const> transactions, bool 
   std::vector<std::string> signatures(transactions.size());
   int64_t previous_done = INT64_MIN;
   for (std::size_t i = 0; i < transactions.size(); ++i) {
-    const BusTransaction& t = *transactions[i];
-    std::string s = signature(decode_instruction(t.protocol(), bytes_of(t.instruction())));
-    if (with_bus) s = "bus " + std::to_string(t.bus()) + ": " + s;
+    const Transaction& t = *transactions[i];
+    std::string s = signature(decode_instruction(t.protocol, bytes_of(t.instruction)));
+    if (with_bus) s = "bus " + std::to_string(t.bus) + ": " + s;
     Candidate& c = by_signature[s];
     c.at.push_back(i);
-    if (previous_done != INT64_MIN) c.idle_ns.push_back(static_cast<double>(std::max<int64_t>(0, t.first_seen_ns() - previous_done)));
+    if (previous_done != INT64_MIN) c.idle_ns.push_back(static_cast<double>(std::max<int64_t>(0, t.first_seen_ns - previous_done)));
     previous_done = std::max(previous_done, done_ns(t));
     signatures[i] = std::move(s);
   }
@@ -99,14 +99,14 @@ CycleStats find_cycle(std::span<const BusTransaction* const> transactions, bool 
     }
   }
   const std::vector<std::size_t>& at = chosen->candidate->at;
-  const BusTransaction& opener = *transactions[at.front()];
+  const Transaction& opener = *transactions[at.front()];
   cycle.found = true;
-  cycle.opener_kind = kind_name(opener.protocol(), decode_instruction(opener.protocol(), bytes_of(opener.instruction())).code);
+  cycle.opener_kind = kind_name(opener.protocol, decode_instruction(opener.protocol, bytes_of(opener.instruction)).code);
   cycle.opener_signature = *chosen->signature;
-  cycle.opener_bus = opener.bus();
+  cycle.opener_bus = opener.bus;
   cycle.cycles = at.size();
   cycle.startup_transactions = at.front();
-  for (std::size_t k : at) cycle.starts_ns.push_back(transactions[k]->first_seen_ns());
+  for (std::size_t k : at) cycle.starts_ns.push_back(transactions[k]->first_seen_ns);
   cycle.first_start_ns = cycle.starts_ns.front();
   cycle.last_start_ns = cycle.starts_ns.back();
   std::vector<double> periods;
@@ -123,10 +123,10 @@ CycleStats find_cycle(std::span<const BusTransaction* const> transactions, bool 
   return cycle;
 }
 
-std::vector<uint8_t> expected_status_ids(const BusTransaction& t, const std::function<bool(uint8_t)>& answers_writes) {
+std::vector<uint8_t> expected_status_ids(const Transaction& t, const std::function<bool(uint8_t)>& answers_writes) {
   std::vector<uint8_t> ids;
-  if (!t.checksum_ok()) return ids;
-  const Instruction in = decode_instruction(t.protocol(), bytes_of(t.instruction()));
+  if (!t.checksum_ok) return ids;
+  const Instruction in = decode_instruction(t.protocol, bytes_of(t.instruction));
   if (!in.framed) return ids;
   if (in.protocol == 1 && in.code == kUsb2axSyncRead) {
     ids.push_back(0xFD);  // the adapter answers with one status of its own
@@ -142,18 +142,23 @@ std::vector<uint8_t> expected_status_ids(const BusTransaction& t, const std::fun
   return ids;
 }
 
-Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> all, uint32_t robot) {
+Analysis analyze(const recording::RunInfo& run, std::span<const recording::BusTransaction> messages, uint32_t robot) {
+  const std::vector<Transaction> transactions = compact(messages);
+  return analyze(run, transactions, robot);
+}
+
+Analysis analyze(const recording::RunInfo& run, std::span<const Transaction> all, uint32_t robot) {
   Analysis a;
   a.robot = robot;
   a.timing_mode = run.timing_mode();
-  std::vector<const BusTransaction*> order;
-  for (const BusTransaction& t : all) {
-    if (t.robot() == robot) order.push_back(&t);
+  std::vector<const Transaction*> order;
+  for (const Transaction& t : all) {
+    if (t.robot == robot) order.push_back(&t);
   }
-  std::stable_sort(order.begin(), order.end(), [](const BusTransaction* x, const BusTransaction* y) {
-    if (x->first_seen_ns() != y->first_seen_ns()) return x->first_seen_ns() < y->first_seen_ns();
-    if (x->bus() != y->bus()) return x->bus() < y->bus();
-    return x->sequence() < y->sequence();
+  std::stable_sort(order.begin(), order.end(), [](const Transaction* x, const Transaction* y) {
+    if (x->first_seen_ns != y->first_seen_ns) return x->first_seen_ns < y->first_seen_ns;
+    if (x->bus != y->bus) return x->bus < y->bus;
+    return x->sequence < y->sequence;
   });
   a.transactions = order.size();
   for (const auto& info : run.buses()) {
@@ -161,16 +166,16 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
   }
 
   // Per bus, in wire order.
-  std::map<uint32_t, std::vector<const BusTransaction*>> by_bus;
-  for (const BusTransaction* t : order) by_bus[t->bus()].push_back(t);
+  std::map<uint32_t, std::vector<const Transaction*>> by_bus;
+  for (const Transaction* t : order) by_bus[t->bus].push_back(t);
 
   // Which devices answer non-read instructions (Status Return Level 2): learned from the recording.
   std::set<std::pair<uint32_t, uint8_t>> answers_writes;
-  for (const BusTransaction* t : order) {
-    const Instruction in = decode_instruction(t->protocol(), bytes_of(t->instruction()));
+  for (const Transaction* t : order) {
+    const Instruction in = decode_instruction(t->protocol, bytes_of(t->instruction));
     if (in.framed && in.id != dynamixel::kBroadcastId && !is_read(in.protocol, in.code) && !is_multi_device(in.protocol, in.code)) {
-      for (const auto& s : t->statuses()) {
-        if (s.id() == in.id) answers_writes.insert({t->bus(), in.id});
+      for (const auto& s : t->statuses) {
+        if (s.id == in.id) answers_writes.insert({t->bus, in.id});
       }
     }
   }
@@ -195,49 +200,49 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
     int64_t loop_busy = 0;
     std::vector<double> waits;
     for (std::size_t i = 0; i < list.size(); ++i) {
-      const BusTransaction& t = *list[i];
-      if (i > 0 && t.sequence() > list[i - 1]->sequence() + 1) b.missing_transactions += t.sequence() - list[i - 1]->sequence() - 1;
-      if (t.reply_dropped()) ++b.dropped_replies;
-      b.baud_bps = t.baud_bps();
-      int64_t wire = t.instruction_end_ns() - t.instruction_start_ns();
-      first = std::min(first, t.instruction_start_ns());
-      last = std::max(last, t.instruction_end_ns());
-      for (const auto& s : t.statuses()) {
-        wire += s.end_ns() - s.start_ns();
-        last = std::max(last, s.end_ns());
+      const Transaction& t = *list[i];
+      if (i > 0 && t.sequence > list[i - 1]->sequence + 1) b.missing_transactions += t.sequence - list[i - 1]->sequence - 1;
+      if (t.reply_dropped) ++b.dropped_replies;
+      b.baud_bps = t.baud_bps;
+      int64_t wire = t.instruction_end_ns - t.instruction_start_ns;
+      first = std::min(first, t.instruction_start_ns);
+      last = std::max(last, t.instruction_end_ns);
+      for (const auto& s : t.statuses) {
+        wire += s.end_ns - s.start_ns;
+        last = std::max(last, s.end_ns);
       }
       b.busy_ns += wire;
-      if (b.cycle.found && t.first_seen_ns() >= b.cycle.first_start_ns && t.first_seen_ns() < b.cycle.last_start_ns) loop_busy += wire;
+      if (b.cycle.found && t.first_seen_ns >= b.cycle.first_start_ns && t.first_seen_ns < b.cycle.last_start_ns) loop_busy += wire;
 
       // Its kind; timeouts (an expected status missing) and retries (the same bytes right after).
-      const Instruction in = decode_instruction(t.protocol(), bytes_of(t.instruction()));
-      const std::string kind = in.framed ? kind_name(t.protocol(), in.code) : "P" + std::to_string(t.protocol()) + " unframed";
+      const Instruction in = decode_instruction(t.protocol, bytes_of(t.instruction));
+      const std::string kind = in.framed ? kind_name(t.protocol, in.code) : "P" + std::to_string(t.protocol) + " unframed";
       KindStats& k = kinds[kind];
       Parts& p = parts[kind];
       k.kind = kind;
       ++k.count;
-      if (!t.checksum_ok()) ++k.bad_checksums;
-      if (t.statuses_size() > 0) {
+      if (!t.checksum_ok) ++k.bad_checksums;
+      if (t.statuses.size() > 0) {
         ++k.answered;
-        k.statuses += static_cast<uint64_t>(t.statuses_size());
+        k.statuses += static_cast<uint64_t>(t.statuses.size());
       }
-      const uint32_t bus = t.bus();
+      const uint32_t bus = t.bus;
       const std::vector<uint8_t> expected =
           expected_status_ids(t, [&](uint8_t id) { return answers_writes.count({bus, id}) != 0; });
       TimeoutEvent e;
       for (uint8_t id : expected) {
-        const bool got = std::any_of(t.statuses().begin(), t.statuses().end(), [&](const auto& s) { return s.id() == id; });
+        const bool got = std::any_of(t.statuses.begin(), t.statuses.end(), [&](const auto& s) { return s.id == id; });
         if (!got) e.missing_ids.push_back(id);
       }
-      if (!e.missing_ids.empty() && !t.reply_dropped()) {
+      if (!e.missing_ids.empty() && !t.reply_dropped) {
         e.bus = bus;
-        e.sequence = t.sequence();
-        e.time_ns = t.first_seen_ns();
+        e.sequence = t.sequence;
+        e.time_ns = t.first_seen_ns;
         e.kind = kind;
         if (i + 1 < list.size()) {
-          const BusTransaction& next = *list[i + 1];
-          e.wait_ns = next.first_seen_ns() - std::max(t.instruction_end_ns(), t.due_ns());
-          e.retried = next.instruction() == t.instruction();
+          const Transaction& next = *list[i + 1];
+          e.wait_ns = next.first_seen_ns - std::max(t.instruction_end_ns, t.due_ns);
+          e.retried = next.instruction == t.instruction;
           waits.push_back(static_cast<double>(e.wait_ns));
         }
         ++k.timeouts;
@@ -252,22 +257,22 @@ Analysis analyze(const recording::RunInfo& run, std::span<const BusTransaction> 
       }
 
       // Time split of this transaction.
-      p.host_write.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
-      if (t.statuses_size() == 0) {
-        p.total.push_back(static_cast<double>(t.instruction_end_ns() - t.first_seen_ns()));
+      p.host_write.push_back(static_cast<double>(t.instruction_end_ns - t.first_seen_ns));
+      if (t.statuses.size() == 0) {
+        p.total.push_back(static_cast<double>(t.instruction_end_ns - t.first_seen_ns));
         continue;
       }
-      const auto& first_status = t.statuses(0);
-      const auto& last_status = t.statuses(t.statuses_size() - 1);
+      const auto& first_status = t.statuses[0];
+      const auto& last_status = t.statuses[t.statuses.size() - 1];
       int64_t status_wire = 0;
-      for (const auto& s : t.statuses()) status_wire += s.end_ns() - s.start_ns();
-      p.return_delay.push_back(static_cast<double>(first_status.start_ns() - t.instruction_end_ns()));
+      for (const auto& s : t.statuses) status_wire += s.end_ns - s.start_ns;
+      p.return_delay.push_back(static_cast<double>(first_status.start_ns - t.instruction_end_ns));
       p.status_wire.push_back(static_cast<double>(status_wire));
-      p.status_gaps.push_back(static_cast<double>(last_status.end_ns() - first_status.start_ns() - status_wire));
-      if (t.due_ns() != 0) p.adapter.push_back(static_cast<double>(t.due_ns() - last_status.end_ns()));
-      if (t.due_ns() != 0 && t.written_ns() != 0) p.lateness.push_back(static_cast<double>(t.written_ns() - t.due_ns()));
-      const int64_t end = t.written_ns() != 0 ? t.written_ns() : t.due_ns();
-      if (end != 0) p.total.push_back(static_cast<double>(end - t.first_seen_ns()));
+      p.status_gaps.push_back(static_cast<double>(last_status.end_ns - first_status.start_ns - status_wire));
+      if (t.due_ns != 0) p.adapter.push_back(static_cast<double>(t.due_ns - last_status.end_ns));
+      if (t.due_ns != 0 && t.written_ns != 0) p.lateness.push_back(static_cast<double>(t.written_ns - t.due_ns));
+      const int64_t end = t.written_ns != 0 ? t.written_ns : t.due_ns;
+      if (end != 0) p.total.push_back(static_cast<double>(end - t.first_seen_ns));
     }
     if (!list.empty() && last > first) {
       b.span_ns = last - first;

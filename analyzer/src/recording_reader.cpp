@@ -111,6 +111,7 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
       const auto it = statistics.channel_message_counts.find(id);
       if (it != statistics.channel_message_counts.end()) p.total_messages += it->second;
     }
+    recording::BusTransaction parsed;  // reused: only the compact copies are kept
     reader.for_each_message(
         [&](const mcap::Message& message) {
           const auto kind = content.find(message.channel_id);
@@ -127,11 +128,11 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
             }
             out.have_summary = true;
           } else {
-            recording::BusTransaction& t = out.transactions.emplace_back();
-            if (!t.ParseFromArray(message.data.data(), size)) {
+            if (!parsed.ParseFromArray(message.data.data(), size)) {
               throw std::runtime_error("message " + std::to_string(p.messages) + " (log time " +
                                        std::to_string(message.log_time_ns) + " ns) is not a " + kTransactionSchema);
             }
+            out.transactions.push_back(compact(parsed));
           }
           ++p.messages;
           p.message_bytes += message.data.size();

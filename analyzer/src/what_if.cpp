@@ -15,7 +15,7 @@
 namespace doppel::analyzer {
 
 namespace ins = dynamixel::instruction;
-using recording::BusTransaction;
+
 
 namespace {
 
@@ -154,7 +154,13 @@ std::vector<Scenario> default_scenarios(const recording::RunInfo& run, const Ana
   return out;
 }
 
-WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> all, const Analysis& analysis,
+WhatIf what_if(const recording::RunInfo& run, std::span<const recording::BusTransaction> messages,
+               const Analysis& analysis, const Scenario& scenario) {
+  const std::vector<Transaction> transactions = compact(messages);
+  return what_if(run, transactions, analysis, scenario);
+}
+
+WhatIf what_if(const recording::RunInfo& run, std::span<const Transaction> all, const Analysis& analysis,
                const Scenario& scenario) {
   WhatIf result;
   result.scenario = scenario;
@@ -164,14 +170,14 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
     return result;
   }
 
-  std::vector<const BusTransaction*> order;
-  for (const BusTransaction& t : all) {
-    if (t.robot() == analysis.robot) order.push_back(&t);
+  std::vector<const Transaction*> order;
+  for (const Transaction& t : all) {
+    if (t.robot == analysis.robot) order.push_back(&t);
   }
-  std::stable_sort(order.begin(), order.end(), [](const BusTransaction* x, const BusTransaction* y) {
-    if (x->first_seen_ns() != y->first_seen_ns()) return x->first_seen_ns() < y->first_seen_ns();
-    if (x->bus() != y->bus()) return x->bus() < y->bus();
-    return x->sequence() < y->sequence();
+  std::stable_sort(order.begin(), order.end(), [](const Transaction* x, const Transaction* y) {
+    if (x->first_seen_ns != y->first_seen_ns) return x->first_seen_ns < y->first_seen_ns;
+    if (x->bus != y->bus) return x->bus < y->bus;
+    return x->sequence < y->sequence;
   });
 
   // The robot's devices (run info and traffic), their Return Delay Times, the buses and their firmware time.
@@ -184,10 +190,10 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
     processing_ns[b.bus()] = b.processing_ns();
     for (const auto& d : b.devices()) rdt_us[{b.bus(), static_cast<uint8_t>(d.id())}] = d.return_delay_us();
   }
-  for (const BusTransaction* t : order) {
-    recorded_buses.insert(t->bus());
-    for (const auto& s : t->statuses()) {
-      if (s.id() < dynamixel::kBroadcastId - 1) rdt_us.try_emplace({t->bus(), static_cast<uint8_t>(s.id())}, s.return_delay_us());
+  for (const Transaction* t : order) {
+    recorded_buses.insert(t->bus);
+    for (const auto& s : t->statuses) {
+      if (s.id < dynamixel::kBroadcastId - 1) rdt_us.try_emplace({t->bus, static_cast<uint8_t>(s.id)}, s.return_delay_us);
     }
   }
   auto recorded_processing = [&](uint32_t bus) {
@@ -222,19 +228,19 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
   }
 
   // One recorded transaction as the scenario's buses see it (one entry per bus it reaches).
-  auto convert = [&](const BusTransaction& t, int64_t driver_ns, std::vector<SimTransaction>& out) {
-    const Instruction in = decode_instruction(t.protocol(), bytes_of(t.instruction()));
+  auto convert = [&](const Transaction& t, int64_t driver_ns, std::vector<SimTransaction>& out) {
+    const Instruction in = decode_instruction(t.protocol, bytes_of(t.instruction));
     SimTransaction base;
     base.driver_ns = scenario.driver_time ? driver_ns : 0;
-    base.baud_bps = scenario.baud_bps ? *scenario.baud_bps : t.baud_bps();
-    base.usb2ax = scenario.adapter ? *scenario.adapter == bus::AdapterProfile::kUsb2ax : t.adapter() == "usb2ax";
-    base.latency_ms = base.usb2ax ? 0 : (scenario.latency_ms ? *scenario.latency_ms : t.adapter_latency_ms());
-    const auto wait = timeout_wait.find({t.bus(), t.sequence()});
+    base.baud_bps = scenario.baud_bps ? *scenario.baud_bps : t.baud_bps;
+    base.usb2ax = scenario.adapter ? *scenario.adapter == bus::AdapterProfile::kUsb2ax : t.usb2ax;
+    base.latency_ms = base.usb2ax ? 0 : (scenario.latency_ms ? *scenario.latency_ms : t.adapter_latency_ms);
+    const auto wait = timeout_wait.find({t.bus, t.sequence});
     if (wait != timeout_wait.end()) base.timeout_wait_ns = wait->second;
     const bool fast = in.framed && is_fast_read(in.protocol, in.code);
     const bool chained = in.framed && (is_multi_device(in.protocol, in.code) ||
                                       (in.protocol == 2 && in.code == ins::kPing && in.id == dynamixel::kBroadcastId));
-    const int64_t recorded_fw = recorded_processing(t.bus());
+    const int64_t recorded_fw = recorded_processing(t.bus);
 
     // The recorded statuses with what placed them, before any splitting.
     struct Recorded {
@@ -242,21 +248,21 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
       SimStatus status;
     };
     std::vector<Recorded> statuses;
-    int64_t previous_end = t.instruction_end_ns();
-    for (int i = 0; i < t.statuses_size(); ++i) {
-      const auto& s = t.statuses(i);
+    int64_t previous_end = t.instruction_end_ns;
+    for (std::size_t i = 0; i < t.statuses.size(); ++i) {
+      const auto& s = t.statuses[i];
       SimStatus sim;
-      sim.bytes = s.bytes().size();
-      sim.return_delay_us = scenario.return_delay_us ? *scenario.return_delay_us : s.return_delay_us();
+      sim.bytes = s.bytes;
+      sim.return_delay_us = scenario.return_delay_us ? *scenario.return_delay_us : s.return_delay_us;
       sim.after_previous = chained && i > 0;
       sim.continues_previous = fast && i > 0;
       if (!sim.continues_previous) {
         // Whatever the model added beyond firmware time and RDT (P2 broadcast PING slots) stays.
-        const int64_t origin = sim.after_previous ? previous_end : t.instruction_end_ns();
-        sim.extra_delay_ns = std::max<int64_t>(0, s.start_ns() - origin - recorded_fw - int64_t{s.return_delay_us()} * 1000);
+        const int64_t origin = sim.after_previous ? previous_end : t.instruction_end_ns;
+        sim.extra_delay_ns = std::max<int64_t>(0, s.start_ns - origin - recorded_fw - int64_t{s.return_delay_us} * 1000);
       }
-      previous_end = s.end_ns();
-      statuses.push_back({static_cast<uint8_t>(s.id()), sim});
+      previous_end = s.end_ns;
+      statuses.push_back({static_cast<uint8_t>(s.id), sim});
     }
 
     const bool usb2ax_sync_read = in.framed && in.protocol == 1 && in.code == kUsb2axSyncRead;
@@ -266,22 +272,22 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
     if (split || broadcast) {
       for (std::size_t b = 0; b < buses; ++b) targets.push_back(b);
     } else {
-      targets.push_back(in.framed ? place(t.bus(), in.id) : bus_slot[t.bus()] % buses);
+      targets.push_back(in.framed ? place(t.bus, in.id) : bus_slot[t.bus] % buses);
     }
     for (std::size_t b : targets) {
       SimTransaction sim = base;
       sim.bus = b;
-      auto on_bus = [&](uint8_t id) { return place(t.bus(), id) == b; };
+      auto on_bus = [&](uint8_t id) { return place(t.bus, id) == b; };
       if (split) {
         sim.instruction_bytes = encode_subset(in, on_bus).size();
         if (sim.instruction_bytes == 0) continue;
       } else {
-        sim.instruction_bytes = t.instruction().size();
+        sim.instruction_bytes = t.instruction.size();
       }
       if (usb2ax_sync_read) {
         for (const Addressed& a : addressed_devices(in)) {
           if (split && !on_bus(a.id)) continue;
-          const auto it = rdt_us.find({t.bus(), a.id});
+          const auto it = rdt_us.find({t.bus, a.id});
           sim.usb2ax_servo_rdt_us.push_back(scenario.return_delay_us ? *scenario.return_delay_us
                                                                      : (it == rdt_us.end() ? 0 : it->second));
           sim.usb2ax_read_bytes = a.read_bytes;
@@ -316,7 +322,7 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
   const auto& starts = analysis.cycle.starts_ns;
   std::vector<double> cycle_ns;
   std::size_t next = 0;
-  while (next < order.size() && order[next]->first_seen_ns() < starts.front()) ++next;
+  while (next < order.size() && order[next]->first_seen_ns < starts.front()) ++next;
   int64_t now = 0;
   std::vector<SimTransaction> cycle;
   for (std::size_t k = 0; k + 1 < starts.size(); ++k) {
@@ -324,13 +330,13 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const BusTransaction> al
     // The driver's own time: from having the previous transaction of the bus (its reply, or its
     // write returning) to writing this one; none after a timeout (the recorded wait has it).
     std::map<uint32_t, int64_t> had_previous;
-    while (next < order.size() && order[next]->first_seen_ns() < starts[k + 1]) {
-      const BusTransaction& t = *order[next++];
-      const auto previous = had_previous.find(t.bus());
-      const int64_t driver_ns = previous == had_previous.end() ? 0 : std::max<int64_t>(0, t.first_seen_ns() - previous->second);
+    while (next < order.size() && order[next]->first_seen_ns < starts[k + 1]) {
+      const Transaction& t = *order[next++];
+      const auto previous = had_previous.find(t.bus);
+      const int64_t driver_ns = previous == had_previous.end() ? 0 : std::max<int64_t>(0, t.first_seen_ns - previous->second);
       convert(t, driver_ns, cycle);
-      had_previous[t.bus()] = timeout_wait.count({t.bus(), t.sequence()}) != 0 ? INT64_MAX
-                                                                              : std::max(t.seen_ns(), t.written_ns());
+      had_previous[t.bus] = timeout_wait.count({t.bus, t.sequence}) != 0 ? INT64_MAX
+                                                                              : std::max(t.seen_ns, t.written_ns);
     }
     std::vector<int64_t> ready(buses, now);  // the driver can write the next instruction on the bus
     std::vector<int64_t> done(buses, now);

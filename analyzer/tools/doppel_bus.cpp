@@ -86,8 +86,8 @@ int report(const Options& options) {
   std::set<uint32_t> robots;
   std::set<std::pair<uint32_t, uint32_t>> buses;
   for (const auto& t : recording.transactions) {
-    robots.insert(t.robot());
-    buses.insert({t.robot(), t.bus()});
+    robots.insert(t.robot);
+    buses.insert({t.robot, t.bus});
   }
   std::vector<Report> reports;
   for (uint32_t robot : robots) {

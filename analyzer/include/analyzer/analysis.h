@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "analyzer/transaction.h"
 #include "proto/recording.pb.h"
 
 namespace doppel::analyzer {
@@ -114,16 +115,18 @@ struct Analysis {
 // A driver that sleeps until its next tick has its opener right after the sleep; one that runs
 // flat out gets its coarsest repeating request. Start-up traffic (pings, table reads) is seen only
 // once or twice and never opens a cycle. `with_bus` puts the bus into the signature (several buses).
-CycleStats find_cycle(std::span<const recording::BusTransaction* const> transactions, bool with_bus);
+CycleStats find_cycle(std::span<const Transaction* const> transactions, bool with_bus);
 
 // Analyses the transactions of one robot (any order, any of its buses). `run` supplies the bus
 // links, device lists and timing mode (an empty RunInfo is fine: those fields stay empty).
+Analysis analyze(const recording::RunInfo& run, std::span<const Transaction> transactions, uint32_t robot);
+// The same on the messages as recorded (compacted first).
 Analysis analyze(const recording::RunInfo& run, std::span<const recording::BusTransaction> transactions,
                  uint32_t robot);
 
 // Statuses the transaction should have had, by device ID; `answers_writes(id)` says whether that
 // device answers non-read instructions (its Status Return Level, as learned from the recording).
-std::vector<uint8_t> expected_status_ids(const recording::BusTransaction& transaction,
+std::vector<uint8_t> expected_status_ids(const Transaction& transaction,
                                          const std::function<bool(uint8_t)>& answers_writes);
 
 }  // namespace doppel::analyzer

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "analyzer/transaction.h"
 #include "proto/recording.pb.h"
 
 namespace doppel::analyzer {
@@ -29,7 +30,7 @@ struct Recording {
   bool have_run = false;
   recording::RecordingSummary summary;             // the recorder's losses (empty when not written)
   bool have_summary = false;
-  std::vector<recording::BusTransaction> transactions;  // in log-time order
+  std::vector<Transaction> transactions;           // in log-time order
   uint64_t messages = 0;                           // messages read (all selected topics)
   uint64_t message_bytes = 0;                      // their payload bytes
   uint64_t file_bytes = 0;                         // size of the file

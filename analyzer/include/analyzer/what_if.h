@@ -59,6 +59,9 @@ struct WhatIf {
 // Simulates every recorded cycle of `analysis.cycle` (from one cycle start to the next, all buses
 // of `analysis.robot`) under `scenario`, back to back from t = 0. `transactions` are the same the
 // analysis was made from.
+WhatIf what_if(const recording::RunInfo& run, std::span<const Transaction> transactions, const Analysis& analysis,
+               const Scenario& scenario);
+// The same on the messages as recorded (compacted first).
 WhatIf what_if(const recording::RunInfo& run, std::span<const recording::BusTransaction> transactions,
                const Analysis& analysis, const Scenario& scenario);
 
