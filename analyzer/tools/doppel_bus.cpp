@@ -153,6 +153,7 @@ int main(int argc, char** argv) {
   cmd->add_flag("--json", options.json, "print JSON instead of the text summary");
   cmd->add_option("--what-if", options.what_if,
                   "scenario key=value[,key=value...]: baud, rdt (us), fw (us), latency (ms), adapter (ftdi|usb2ax), "
+                  "driver=recorded, "
                   "buses; repeat for several (default: a few usual remedies)")
       ->check(CLI::Validator(
           [](std::string& text) {
