@@ -63,15 +63,20 @@ CycleStats find_cycle(std::span<const Transaction* const> transactions, bool wit
   };
   std::unordered_map<std::string, Candidate> by_signature;
   std::vector<std::string> signatures(transactions.size());
-  int64_t previous_done = INT64_MIN;
+  std::map<uint32_t, int64_t> previous_done;  // per bus: a driver's thread per bus idles on its own
   for (std::size_t i = 0; i < transactions.size(); ++i) {
     const Transaction& t = *transactions[i];
     std::string s = signature(decode_instruction(t.protocol, bytes_of(t.instruction)));
     if (with_bus) s = "bus " + std::to_string(t.bus) + ": " + s;
     Candidate& c = by_signature[s];
     c.at.push_back(i);
-    if (previous_done != INT64_MIN) c.idle_ns.push_back(static_cast<double>(std::max<int64_t>(0, t.first_seen_ns - previous_done)));
-    previous_done = std::max(previous_done, done_ns(t));
+    const auto previous = previous_done.find(t.bus);
+    if (previous != previous_done.end()) {
+      c.idle_ns.push_back(static_cast<double>(std::max<int64_t>(0, t.first_seen_ns - previous->second)));
+      previous->second = std::max(previous->second, done_ns(t));
+    } else {
+      previous_done[t.bus] = done_ns(t);
+    }
     signatures[i] = std::move(s);
   }
   std::size_t most = 0;
@@ -104,23 +109,48 @@ CycleStats find_cycle(std::span<const Transaction* const> transactions, bool wit
   cycle.opener_kind = kind_name(opener.protocol, decode_instruction(opener.protocol, bytes_of(opener.instruction)).code);
   cycle.opener_signature = *chosen->signature;
   cycle.opener_bus = opener.bus;
-  cycle.cycles = at.size();
-  cycle.startup_transactions = at.front();
-  for (std::size_t k : at) cycle.starts_ns.push_back(transactions[k]->first_seen_ns);
-  cycle.first_start_ns = cycle.starts_ns.front();
-  cycle.last_start_ns = cycle.starts_ns.back();
+  std::vector<int64_t> starts;
+  for (std::size_t k : at) starts.push_back(transactions[k]->first_seen_ns);
+  set_cycle_starts(cycle, transactions, std::move(starts));
+  return cycle;
+}
+
+void set_cycle_starts(CycleStats& cycle, std::span<const Transaction* const> transactions, std::vector<int64_t> starts) {
+  std::sort(starts.begin(), starts.end());
+  cycle.starts_ns = std::move(starts);
+  const auto& st = cycle.starts_ns;
+  cycle.cycles = st.size();
+  if (st.empty()) return;
+  cycle.first_start_ns = st.front();
+  cycle.last_start_ns = st.back();
+  std::vector<int64_t> end(st.begin(), st.end());
+  cycle.startup_transactions = 0;
+  for (const Transaction* t : transactions) {
+    const auto next = std::upper_bound(st.begin(), st.end(), t->first_seen_ns);
+    if (next == st.begin()) {
+      ++cycle.startup_transactions;
+      continue;
+    }
+    int64_t& e = end[static_cast<std::size_t>(next - st.begin()) - 1];
+    e = std::max(e, done_ns(*t));
+  }
   std::vector<double> periods;
   std::vector<double> busy;
-  for (std::size_t k = 1; k < at.size(); ++k) {
-    periods.push_back(static_cast<double>(cycle.starts_ns[k] - cycle.starts_ns[k - 1]));
-    int64_t end = cycle.starts_ns[k - 1];
-    for (std::size_t i = at[k - 1]; i < at[k]; ++i) end = std::max(end, done_ns(*transactions[i]));
-    busy.push_back(static_cast<double>(end - cycle.starts_ns[k - 1]));
+  for (std::size_t k = 1; k < st.size(); ++k) {
+    periods.push_back(static_cast<double>(st[k] - st[k - 1]));
+    busy.push_back(static_cast<double>(end[k - 1] - st[k - 1]));
   }
   cycle.period = summarize(std::move(periods));
   cycle.busy = summarize(std::move(busy));
   cycle.rate_hz = cycle.period.mean_ns > 0 ? 1e9 / cycle.period.mean_ns : 0.0;
-  return cycle;
+}
+
+std::size_t nearest_start(std::span<const int64_t> starts, int64_t t_ns) {
+  const auto it = std::lower_bound(starts.begin(), starts.end(), t_ns);
+  if (it == starts.begin()) return 0;
+  if (it == starts.end()) return starts.size() - 1;
+  const auto k = static_cast<std::size_t>(it - starts.begin());
+  return (t_ns - starts[k - 1] <= starts[k] - t_ns) ? k - 1 : k;
 }
 
 std::vector<uint8_t> expected_status_ids(const Transaction& t, const std::function<bool(uint8_t)>& answers_writes) {
@@ -299,7 +329,24 @@ Analysis analyze(const recording::RunInfo& run, std::span<const Transaction> all
   }
   std::stable_sort(a.kinds.begin(), a.kinds.end(), [](const KindStats& x, const KindStats& y) { return x.count > y.count; });
 
-  a.cycle = a.buses.size() == 1 ? a.buses.front().cycle : find_cycle(order, true);
+  if (a.buses.size() == 1) {
+    a.cycle = a.buses.front().cycle;
+  } else {
+    a.cycle = find_cycle(order, true);
+    // Each cycle starts when its first bus starts it (a driver's threads start in any order).
+    if (a.cycle.found) {
+      std::vector<int64_t> starts = a.cycle.starts_ns;
+      const double half_ns = a.cycle.period.p50_ns / 2;
+      for (const BusStats& b : a.buses) {
+        if (!b.cycle.found) continue;
+        for (int64_t s : b.cycle.starts_ns) {
+          const std::size_t k = nearest_start(a.cycle.starts_ns, s);
+          if (std::abs(static_cast<double>(s - a.cycle.starts_ns[k])) <= half_ns) starts[k] = std::min(starts[k], s);
+        }
+      }
+      set_cycle_starts(a.cycle, order, std::move(starts));
+    }
+  }
   return a;
 }
 

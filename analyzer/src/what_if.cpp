@@ -319,10 +319,37 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const Transaction> all, 
   for (std::size_t b = 0; b < buses; ++b) wires.emplace_back(bus::TimingMode::kWire, bus_processing);
   const int64_t usb2ax_host_delay_ns = dynamixel::Usb2axFirmware().send_timeout_ns();
 
+  // Which recorded cycle each transaction belongs to. With several buses a bus that has its own
+  // cycle is cut at its own cycle starts, each matched to the nearest combined one: a driver's
+  // threads start a cycle in any order.
   const auto& starts = analysis.cycle.starts_ns;
+  std::vector<std::vector<const Transaction*>> by_cycle(starts.size() - 1);
+  std::map<uint32_t, const std::vector<int64_t>*> bus_starts;
+  if (analysis.buses.size() > 1) {
+    for (const BusStats& b : analysis.buses) {
+      if (b.cycle.found) bus_starts[b.bus] = &b.cycle.starts_ns;
+    }
+  }
+  const double half_period_ns = analysis.cycle.period.p50_ns / 2;
+  for (const Transaction* t : order) {
+    std::size_t k = 0;
+    const auto own = bus_starts.find(t->bus);
+    if (own != bus_starts.end()) {
+      const std::vector<int64_t>& bus = *own->second;
+      const auto after = std::upper_bound(bus.begin(), bus.end(), t->first_seen_ns);
+      if (after == bus.begin() || after == bus.end()) continue;  // start-up, or after the bus' last cycle start
+      const int64_t window_ns = *(after - 1);
+      k = nearest_start(starts, window_ns);
+      if (std::abs(static_cast<double>(window_ns - starts[k])) > half_period_ns) continue;
+    } else {
+      const auto after = std::upper_bound(starts.begin(), starts.end(), t->first_seen_ns);
+      if (after == starts.begin()) continue;
+      k = static_cast<std::size_t>(after - starts.begin()) - 1;
+    }
+    if (k + 1 < starts.size()) by_cycle[k].push_back(t);
+  }
+
   std::vector<double> cycle_ns;
-  std::size_t next = 0;
-  while (next < order.size() && order[next]->first_seen_ns < starts.front()) ++next;
   int64_t now = 0;
   std::vector<SimTransaction> cycle;
   for (std::size_t k = 0; k + 1 < starts.size(); ++k) {
@@ -330,13 +357,12 @@ WhatIf what_if(const recording::RunInfo& run, std::span<const Transaction> all, 
     // The driver's own time: from having the previous transaction of the bus (its reply, or its
     // write returning) to writing this one; none after a timeout (the recorded wait has it).
     std::map<uint32_t, int64_t> had_previous;
-    while (next < order.size() && order[next]->first_seen_ns < starts[k + 1]) {
-      const Transaction& t = *order[next++];
+    for (const Transaction* recorded : by_cycle[k]) {
+      const Transaction& t = *recorded;
       const auto previous = had_previous.find(t.bus);
       const int64_t driver_ns = previous == had_previous.end() ? 0 : std::max<int64_t>(0, t.first_seen_ns - previous->second);
       convert(t, driver_ns, cycle);
-      had_previous[t.bus] = timeout_wait.count({t.bus, t.sequence}) != 0 ? INT64_MAX
-                                                                              : std::max(t.seen_ns, t.written_ns);
+      had_previous[t.bus] = timeout_wait.count({t.bus, t.sequence}) != 0 ? INT64_MAX : std::max(t.seen_ns, t.written_ns);
     }
     std::vector<int64_t> ready(buses, now);  // the driver can write the next instruction on the bus
     std::vector<int64_t> done(buses, now);

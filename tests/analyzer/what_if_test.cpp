@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -269,6 +270,68 @@ TEST(WhatIfTest, GarbageFieldsGiveAFiniteAnswer) {
     const WhatIf result = what_if(b.run, b.transactions, analysis, parse_scenario(s));
     EXPECT_TRUE(std::isfinite(result.rate_hz)) << s;
   }
+}
+
+}  // namespace
+}  // namespace doppel::analyzer
+
+namespace doppel::analyzer {
+namespace {
+
+// The Bit-Bots cycle as p2_bitbots_cycle --buses 4 runs it: one client thread per bus, released
+// together by a barrier every 2 ms, starting in a different order each cycle. The combined cycle
+// and the what-if must not depend on which thread went first.
+TEST(WhatIfTest, FourBusThreadsInChangingOrder) {
+  recording::RunInfo run;
+  std::vector<recording::BusTransaction> list;
+  std::vector<TransactionBuilder> builders;
+  std::vector<Bytes> writes(4), reads(4);
+  std::vector<std::vector<StatusSpec>> statuses(4);
+  for (uint32_t bus = 0; bus < 4; ++bus) {
+    auto* info = run.add_buses();
+    info->set_bus(bus);
+    info->set_processing_ns(0);
+    builders.emplace_back(bus, 2, testing::kFourMbps, 0);
+    writes[bus] = {116, 0, 4, 0};
+    reads[bus] = {126, 0, 10, 0};
+    for (uint8_t k = 1; k <= 5; ++k) {
+      const auto id = static_cast<uint8_t>(bus * 5 + k);
+      info->add_devices()->set_id(id);
+      writes[bus].insert(writes[bus].end(), {id, 0, 8, 0, 0});
+      reads[bus].push_back(id);
+      statuses[bus].push_back({id, p2_status(id, {1, 0, 2, 0, 0, 0, 0x10, 0x08, 0, 0}), 0});
+    }
+  }
+  uint32_t noise = 99;
+  constexpr int kCycles = 200;
+  for (int c = 0; c < kCycles; ++c) {
+    std::array<uint32_t, 4> order{0, 1, 2, 3};
+    for (std::size_t i = 3; i > 0; --i) {
+      noise = noise * 1103515245u + 12345u;
+      std::swap(order[i], order[(noise >> 8) % (i + 1)]);
+    }
+    const int64_t release = 1'000'000 + int64_t{c} * 2'000'000;
+    for (std::size_t rank = 0; rank < 4; ++rank) {
+      TransactionBuilder& b = builders[order[rank]];
+      const int64_t t = release + static_cast<int64_t>(rank) * 15'000;
+      b.add(t, p2_instruction(0xFE, 0x83, writes[order[rank]]), {});
+      b.add(t + 2'000, p2_instruction(0xFE, 0x82, reads[order[rank]]), statuses[order[rank]], true);
+    }
+  }
+  for (auto& b : builders) {
+    for (auto& t : b.transactions()) list.push_back(t);
+  }
+  const Analysis analysis = analyze(run, list, 0);
+  ASSERT_TRUE(analysis.cycle.found);
+  EXPECT_EQ(analysis.cycle.cycles, static_cast<uint64_t>(kCycles));
+  // Every cycle starts when the first thread writes, exactly at each 2 ms release.
+  EXPECT_EQ(analysis.cycle.first_start_ns, 1'000'000);
+  EXPECT_DOUBLE_EQ(analysis.cycle.period.min_ns, 2e6);
+  EXPECT_DOUBLE_EQ(analysis.cycle.period.max_ns, 2e6);
+  // Each bus alone: 39 + 19 + 5 x 21 bytes at 2.5 us = 407.5 us (what_if_test's derivation).
+  const WhatIf wire = what_if(run, list, analysis, Scenario{});
+  EXPECT_NEAR(wire.cycle.p50_ns, 407'500.0, 1.0);
+  EXPECT_NEAR(wire.rate_hz, 2454.0, 2454.0 * 0.02);
 }
 
 }  // namespace

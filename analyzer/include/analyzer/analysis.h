@@ -102,7 +102,8 @@ struct Analysis {
   std::string timing_mode;          // RunInfo: "wire" or "fast" (fast: no wire times, see docs)
   uint64_t transactions = 0;
   std::vector<BusStats> buses;      // by bus index
-  CycleStats cycle;                 // all buses of the robot together
+  CycleStats cycle;                 // all buses together: the opener of one bus, each cycle
+                                    // starting when the first bus starts it (that bus' opener)
   std::vector<KindStats> kinds;     // by count, most frequent first
   std::vector<TimeoutEvent> timeouts;  // in time order
   uint64_t retries = 0;
@@ -114,8 +115,16 @@ struct Analysis {
 // largest such median; of these the least frequent (the longest repetition), then the earliest.
 // A driver that sleeps until its next tick has its opener right after the sleep; one that runs
 // flat out gets its coarsest repeating request. Start-up traffic (pings, table reads) is seen only
-// once or twice and never opens a cycle. `with_bus` puts the bus into the signature (several buses).
+// once or twice and never opens a cycle. Idle times are per bus (a driver may run a thread per
+// bus). `with_bus` puts the bus into the signature (several buses).
 CycleStats find_cycle(std::span<const Transaction* const> transactions, bool with_bus);
+
+// Sets the cycle starts (sorted here) and everything computed from them: counts, period, busy
+// time, start-up transactions. `transactions` in time order.
+void set_cycle_starts(CycleStats& cycle, std::span<const Transaction* const> transactions, std::vector<int64_t> starts_ns);
+
+// Index of the start nearest to t_ns (starts sorted, not empty).
+std::size_t nearest_start(std::span<const int64_t> starts_ns, int64_t t_ns);
 
 // Analyses the transactions of one robot (any order, any of its buses). `run` supplies the bus
 // links, device lists and timing mode (an empty RunInfo is fine: those fields stay empty).
