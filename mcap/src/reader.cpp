@@ -562,6 +562,13 @@ bool Reader::for_each_message(const std::function<bool(const Message&)>& visit, 
     chunks.push_back(&c);
   }
   std::sort(chunks.begin(), chunks.end(), [](const ChunkRef* a, const ChunkRef* b) {
+    return std::tie(a->offset, a->start_time) < std::tie(b->offset, b->start_time);
+  });
+  // A chunk indexed twice (a corrupt summary) is read once.
+  chunks.erase(std::unique(chunks.begin(), chunks.end(),
+                           [](const ChunkRef* a, const ChunkRef* b) { return a->offset == b->offset; }),
+               chunks.end());
+  std::stable_sort(chunks.begin(), chunks.end(), [](const ChunkRef* a, const ChunkRef* b) {
     return std::tie(a->start_time, a->offset) < std::tie(b->start_time, b->offset);
   });
 
