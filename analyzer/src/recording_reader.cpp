@@ -142,6 +142,11 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
         options);
     out.messages = p.messages;
     out.message_bytes = p.message_bytes;
+    if (out.transactions.empty()) {
+      std::string message = "the transaction topics hold no message";
+      if (!out.recovery_note.empty()) message += ". The file is incomplete: " + out.recovery_note;
+      throw std::runtime_error(message);
+    }
   } catch (const std::exception& e) {
     const std::string what = e.what();
     // mcap::Reader names the file itself; everything else gets it in front.

@@ -276,6 +276,19 @@ TEST(DoppelBusTest, BadFilesAreNamedWithExitCode2) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("no bus transactions"), std::string::npos) << r.err;
 
+  // Channels but no message (the writer was killed before its first chunk was finished).
+  const std::string no_messages = (dir / "no_messages.mcap").string();
+  {
+    mcap::Writer writer(no_messages);
+    writer.add_channel(writer.add_schema("doppel.recording.BusTransaction", "protobuf",
+                                         descriptor_set(recording::BusTransaction::descriptor())),
+                       "/doppel/bus/0/0/transactions", "protobuf");
+    writer.close();
+  }
+  r = run_tool("report " + no_messages, dir);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("hold no message"), std::string::npos) << r.err;
+
   // A bus that is not in the file.
   const auto b = testing::bitbots(5);
   const std::string file = (dir / "bitbots.mcap").string();
