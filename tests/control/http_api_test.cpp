@@ -177,6 +177,16 @@ TEST(HttpApi, BadRequestsAreRefusedWithTheReasonAndReachNothing) {
   }
 }
 
+TEST(HttpApi, ALiveSimulationIsNoReplay) {
+  RecordingControl control;
+  for (const char* method : {"GET", "POST"}) {
+    const Answer answer = handle(control, method, "/api/replay", R"({"playing": true})");
+    EXPECT_EQ(answer.status, 404) << method;
+    EXPECT_NE(answer.body["error"].get<std::string>().find("not a replay"), std::string::npos) << answer.body.dump();
+  }
+  EXPECT_TRUE(control.calls.empty());
+}
+
 TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
   class Twins final : public SimControl {
    public:
