@@ -27,12 +27,6 @@ int64_t monotonic_ns() {
   return static_cast<int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
 }
 
-void sleep_until(int64_t t_ns) {
-  timespec until{static_cast<time_t>(t_ns / 1'000'000'000), static_cast<long>(t_ns % 1'000'000'000)};
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr) == EINTR) {
-  }
-}
-
 std::string hex(uint8_t byte) {
   static constexpr char kDigits[] = "0123456789ABCDEF";
   return std::string("0x") + kDigits[byte >> 4] + kDigits[byte & 15];
@@ -347,7 +341,14 @@ std::vector<TransactionResult> BusReplayer::run(const std::vector<recording::Bus
   for (std::size_t i = 0; i < transactions.size(); ++i) {
     const recording::BusTransaction& t = transactions[i];
     const int64_t target = t0 + static_cast<int64_t>(static_cast<double>(t.first_seen_ns() - first_seen0) / options_.speed);
-    read_until(target, [] { return false; });  // late bytes of the previous transaction still count for it
+    // Bytes until the next instruction belong to the previous one; behind schedule (a missing
+    // status waited for its timeout), it still gets its recorded gap to the next one.
+    int64_t listen_until = target;
+    if (pending) {
+      const int64_t gap = t.first_seen_ns() - transactions[*pending].first_seen_ns();
+      listen_until = std::max(target, pending_write_ns + static_cast<int64_t>(static_cast<double>(gap) / options_.speed));
+    }
+    read_until(listen_until, [] { return false; });
     finish();
     if (t.baud_bps() != 0 && t.baud_bps() != baud_bps_) {
       struct termios2 tio {};
@@ -374,7 +375,7 @@ std::vector<TransactionResult> BusReplayer::run(const std::vector<recording::Bus
     }
     pending = i;
     pending_write_ns = write_ns;
-    pending_late_ns = std::max<int64_t>(0, write_ns - target);
+    pending_late_ns = std::max<int64_t>(0, write_ns - target);  // behind the recorded schedule
     // Wait for as many status packets as were recorded (as the driver did), up to the recorded
     // reply time plus the timeout; the rest of the gap to the next instruction is read above.
     const std::size_t statuses = static_cast<std::size_t>(t.statuses_size());

@@ -86,7 +86,11 @@ void write_recording_fixture(const std::string& path, const RecordingFixture& f)
     s->set_colour(rgb);
   };
   shape("box", "carpet", 0, 0, 0, -0.005, 10.4, 7.4, 0.01, std::string("\x20\x80\x20", 3));
-  for (int i = 0; i < f.field_shapes; ++i) shape("box", "line", 1, -4.5 + 0.1 * i, 0, 0.001, 0.05, 6.0, 0.002, "\xff\xff\xff");
+  // Field shapes as short marks along the two side lines (y = +-3 m), out of the robot's way.
+  for (int i = 0; i < f.field_shapes; ++i) {
+    const double x = -4.5 + 9.0 * (i / 2) / std::max(1, f.field_shapes / 2);
+    shape("box", "line", 1, x, i % 2 == 0 ? 3.0 : -3.0, 0.001, 0.1, 0.05, 0.002, "\xff\xff\xff");
+  }
   shape("box", "robot", 100, 0, 0, 0.4, 0.1, 0.16, 0.2, std::string("\x30\x30\xa0", 3));
   shape("box", "robot", 100, 0, 0, 0.55, 0.06, 0.09, 0.06, std::string("\xa0\x30\x30", 3));
   add(0, "/doppel/scene", "Scene", scene);
@@ -136,11 +140,12 @@ void write_recording_fixture(const std::string& path, const RecordingFixture& f)
     world.mutable_ball()->set_z(0.0335);
     add(t, "/doppel/world", "WorldState", world);
   }
-  // Scene poses at 30 Hz: the trunk falls forward about the feet while the robot moves along x.
+  // Scene poses at 30 Hz: the trunk falls forward about the feet while the robot moves along x at
+  // 0.1 m/s (as the world state's x).
   for (int64_t& k = k_poses; k * 33'333'333 < until; ++k) {
     const int64_t t = k * 33'333'333;
     const double t_s = static_cast<double>(t) * 1e-9;
-    const double x = 0.5 * t_s, tilt = fixture_tilt_rad(t_s, f.seconds);
+    const double x = 0.1 * t_s, tilt = fixture_tilt_rad(t_s, f.seconds);
     recording::ScenePoses poses;
     poses.set_sim_time_s(t_s);
     for (int i = 0; i < shapes; ++i) {

@@ -2,7 +2,8 @@
 // A recording in the format of proto/recording.proto, written with mcap::Writer as doppel --record
 // would write it, with values that name their own time so a test can tell which message it got:
 // world state k (every 10 ms from 5 ms) has robot x = 0.001 k m and sim time 0.005 + 0.01 k s; the
-// robot's trunk falls over (tilt from 0 to 90 degrees over the recording) while it moves along x;
+// robot's trunk falls over (tilt from 0 to 90 degrees over the recording) while it moves along x
+// at 0.1 m/s (scene poses k every 33.333 ms: trunk at x = 0.1 t + 0.4 sin(tilt));
 // servo table k (every 100 ms from 0) has Present Position k; camera still k (every 500 ms from
 // 250 ms) is the bytes "still k". Used by the replay tests, the browser test and the memory
 // measurement of docs/replay.md (a 10-minute recording of realistic size).

@@ -89,7 +89,6 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
               f"/api/replay says {replay}, the recording is {SECONDS} s and doppel-replay started --paused")
         before = trunk(browser.evaluate("window.doppelViewer.scene()"))
         check(abs(before["p"][0]) < 0.01, f"the trunk starts at x {before['p'][0]:.3f}, recorded at 0")
-        carpet_before = browser.evaluate(PIXEL_AT + "(2.0, 0.0, 0.3)")
 
         # Scrub: a click at three quarters of the slider seeks there.
         box = browser.evaluate("(() => { const r = document.getElementById('replay-slider').getBoundingClientRect();"
@@ -103,23 +102,37 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
             time.sleep(0.1)
         check(0.65 * SECONDS < position < 0.85 * SECONDS,
               f"a click at three quarters of the slider put the replay at {position:.3f} s of {SECONDS} s")
-        # The page draws the trunk where the recording had it then: x = 0.5 t + 0.4 sin(tilt).
+        # The page draws the trunk where the recording had it then: x = 0.1 t + 0.4 sin(tilt).
         poses_t = math.floor(position / (1 / 30) + 1e-9) * (1 / 30)
         tilt = math.pi / 2 * min(1.0, poses_t / SECONDS)
-        want_x = 0.5 * poses_t + 0.4 * math.sin(tilt)
+        want_x = 0.1 * poses_t + 0.4 * math.sin(tilt)
         moved = browser.wait_for(f"(() => {{ const s = window.doppelViewer.scene(); const t = s && s.shapes.find((x) => x.kind === 'robot');"
                                  f" return t && Math.abs(t.p[0] - {want_x}) < 0.02 && t; }})()",
                                  f"the trunk drawn at its recorded x {want_x:.3f} m")
         check(moved["q"][1] > 0.5, f"the trunk is not tilted at {position:.2f} s: q {moved['q']}")
         time.sleep(0.3)  # a few frames drawn
-        at_trunk = browser.evaluate(PIXEL_AT + f"({moved['p'][0]}, {moved['p'][1]}, {moved['p'][2]})")
-        difference = sum(abs(a - b) for a, b in zip(at_trunk, carpet_before))
-        check(difference > 30, f"the pixel at the scrubbed trunk {at_trunk} looks like the carpet {carpet_before}")
+        where = f"({moved['p'][0]}, {moved['p'][1]}, {moved['p'][2]})"
+        inside = browser.evaluate(f"(() => {{ const p = window.doppelViewer.pageXY{where};"
+                                  " const r = document.getElementById('canvas').getBoundingClientRect();"
+                                  " return p.x > r.left && p.x < r.right && p.y > r.top && p.y < r.bottom; })()")
+        check(inside, f"the scrubbed trunk at {where} is outside the 3D view")
+        at_trunk = browser.evaluate(PIXEL_AT + where)
         state = get(url, "api/state")
         check(state["paused"] and state["robots"][0]["fallen"], f"at {position:.2f} s the state is {state['robots'][0]}")
         shot = os.path.join(out_dir, "replay.png")
         browser.screenshot(shot)
         check(os.path.getsize(shot) > 10000, f"the screenshot {shot} is nearly empty")
+        # The same pixel at the start of the recording (the robot stands 0.37 m further back): carpet.
+        browser.click_element("#reset")
+        browser.wait_for("(() => { const s = window.doppelViewer.scene(); const t = s && s.shapes.find((x) => x.kind === 'robot');"
+                         " return t && Math.abs(t.p[0]) < 0.01; })()", "the trunk back at its start")
+        time.sleep(0.3)
+        at_start = browser.evaluate(PIXEL_AT + where)
+        difference = sum(abs(a - b) for a, b in zip(at_trunk, at_start))
+        check(difference > 30, f"the pixel at the scrubbed trunk {at_trunk} looks as it does without the robot {at_start}")
+        check(at_start[1] > at_start[0] + 20 and at_start[1] > at_start[2] + 20,
+              f"without the robot the pixel {at_start} is not carpet green")
+        browser.evaluate(f"fetch('/api/replay', {{method: 'POST', body: JSON.stringify({{position_s: {position}}})}})")
 
         # Play runs on, Pause stops.
         browser.click_element("#replay-play")

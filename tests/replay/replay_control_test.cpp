@@ -146,7 +146,7 @@ TEST_F(ReplayControlTest, SceneIsTheRecordedShapesAtTheirLatestPoses) {
   EXPECT_EQ(scene.shapes[3].object_id, 100);
   const double t = 30 * 33'333'333e-9, tilt = testing::fixture_tilt_rad(t, 2.0);
   EXPECT_NEAR(scene.sim_time_s, t, 1e-12);
-  EXPECT_NEAR(scene.shapes[3].position[0], 0.5 * t + 0.4 * std::sin(tilt), 1e-12);
+  EXPECT_NEAR(scene.shapes[3].position[0], 0.1 * t + 0.4 * std::sin(tilt), 1e-12);
   EXPECT_NEAR(scene.shapes[3].quaternion[1], std::sin(tilt / 2), 1e-12);
   EXPECT_EQ(scene.shapes[0].colour[1], 0x80);
 }
