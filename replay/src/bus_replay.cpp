@@ -308,8 +308,9 @@ std::vector<TransactionResult> BusReplayer::run(const std::vector<recording::Bus
       const int64_t now = monotonic_ns();
       if (now >= deadline_ns) return;
       pollfd p{fd_, POLLIN, 0};
-      const int wait_ms = static_cast<int>(std::min<int64_t>((deadline_ns - now + 999'999) / 1'000'000, 1000));
-      const int ready = ::poll(&p, 1, wait_ms);
+      const int64_t wait_ns = std::min<int64_t>(deadline_ns - now, 1'000'000'000);  // ns: poll's ms would overshoot
+      const timespec wait{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
+      const int ready = ::ppoll(&p, 1, &wait, nullptr);
       if (ready < 0 && errno != EINTR) throw std::runtime_error(std::string("poll on the bus port failed: ") + std::strerror(errno));
       if (ready <= 0) continue;
       if ((p.revents & (POLLHUP | POLLERR)) != 0 && (p.revents & POLLIN) == 0) {
@@ -326,30 +327,42 @@ std::vector<TransactionResult> BusReplayer::run(const std::vector<recording::Bus
   };
   const int64_t t0 = monotonic_ns();
   const int64_t first_seen0 = transactions.front().first_seen_ns();
+  int64_t shift_ns = 0;  // how far the schedule has slipped behind the recording (waiting for answers)
   std::optional<std::size_t> pending;  // the transaction whose answer is still being collected
-  int64_t pending_write_ns = 0, pending_late_ns = 0;
+  int64_t pending_write_ns = 0, pending_late_ns = 0, pending_slip_ns = 0;
   auto finish = [&]() {
     if (!pending) return;
     TransactionResult result = compare_transaction(transactions[*pending], received, names_);
     if (!received.empty() && !frame_statuses(received).empty()) result.replayed_reply_ns = last_byte_ns - pending_write_ns;
     result.send_late_ns = pending_late_ns;
+    result.schedule_slip_ns = pending_slip_ns;
     results.push_back(std::move(result));
     received.clear();
     pending.reset();
     if (progress) progress(results.size(), transactions.size());
   };
+  auto scaled = [&](int64_t recorded_ns) { return static_cast<int64_t>(static_cast<double>(recorded_ns) / options_.speed); };
   for (std::size_t i = 0; i < transactions.size(); ++i) {
     const recording::BusTransaction& t = transactions[i];
-    const int64_t target = t0 + static_cast<int64_t>(static_cast<double>(t.first_seen_ns() - first_seen0) / options_.speed);
-    // Bytes until the next instruction belong to the previous one; behind schedule (a missing
-    // status waited for its timeout), it still gets its recorded gap to the next one.
+    int64_t target = t0 + shift_ns + scaled(t.first_seen_ns() - first_seen0);
+    // Bytes until the next instruction belong to the previous one. One that expected no answer
+    // still listens for a short while even when the schedule says go (an answer where none was
+    // recorded is what it is there to find); the schedule slips by that much.
     int64_t listen_until = target;
-    if (pending) {
-      const int64_t gap = t.first_seen_ns() - transactions[*pending].first_seen_ns();
-      listen_until = std::max(target, pending_write_ns + static_cast<int64_t>(static_cast<double>(gap) / options_.speed));
+    if (pending && transactions[*pending].statuses_size() == 0) {
+      const int64_t gap = scaled(t.first_seen_ns() - transactions[*pending].first_seen_ns());
+      listen_until = std::max(target, pending_write_ns + std::min(gap, kMinListenNs));
     }
     read_until(listen_until, [] { return false; });
     finish();
+    // Behind the schedule by more than timer jitter (an answer came late or never): the rest of
+    // the recording keeps its recorded gaps from here, it does not hurry to catch up.
+    int64_t slip = 0;
+    if (const int64_t behind = monotonic_ns() - target; behind > kSlipThresholdNs) {
+      slip = behind;
+      shift_ns += behind;
+      target += behind;
+    }
     if (t.baud_bps() != 0 && t.baud_bps() != baud_bps_) {
       struct termios2 tio {};
       if (::ioctl(fd_, TCGETS2, &tio) == 0) {
@@ -375,7 +388,8 @@ std::vector<TransactionResult> BusReplayer::run(const std::vector<recording::Bus
     }
     pending = i;
     pending_write_ns = write_ns;
-    pending_late_ns = std::max<int64_t>(0, write_ns - target);  // behind the recorded schedule
+    pending_late_ns = std::max<int64_t>(0, write_ns - target);
+    pending_slip_ns = slip;
     // Wait for as many status packets as were recorded (as the driver did), up to the recorded
     // reply time plus the timeout; the rest of the gap to the next instruction is read above.
     const std::size_t statuses = static_cast<std::size_t>(t.statuses_size());
@@ -395,6 +409,7 @@ BusReplaySummary summarize(const std::vector<TransactionResult>& results) {
   std::vector<int64_t> recorded, replayed, late;
   for (const TransactionResult& r : results) {
     ++summary.verdicts[r.verdict];
+    summary.schedule_slip_ns += r.schedule_slip_ns;
     if (r.recorded_reply_ns >= 0 && r.replayed_reply_ns >= 0) {
       recorded.push_back(r.recorded_reply_ns);
       replayed.push_back(r.replayed_reply_ns);
@@ -435,7 +450,8 @@ std::string format_report(const std::vector<TransactionResult>& results, const B
   auto us = [](int64_t ns) { return std::to_string(ns / 1000); };
   out << "reply time recorded p50 " << us(summary.recorded_p50_ns) << " us, p99 " << us(summary.recorded_p99_ns)
       << " us; replayed p50 " << us(summary.replayed_p50_ns) << " us, p99 " << us(summary.replayed_p99_ns)
-      << " us; instructions sent late p99 " << us(summary.send_late_p99_ns) << " us\n";
+      << " us\ninstructions sent late p99 " << us(summary.send_late_p99_ns) << " us; the schedule slipped "
+      << us(summary.schedule_slip_ns) << " us in all waiting for answers\n";
   if (!summary.differing_registers.empty()) {
     out << "registers that differed (transactions):";
     for (const auto& [name, n] : summary.differing_registers) out << " " << name << " (" << n << ")";

@@ -1,5 +1,7 @@
 #include "replay/recording.h"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <charconv>
 #include <stdexcept>
@@ -9,9 +11,13 @@
 namespace doppel::replay {
 
 void Track::add(int64_t time_ns, std::span<const uint8_t> bytes) {
+  if (blocks_.empty() || blocks_.back().size() + bytes.size() > blocks_.back().capacity()) {
+    blocks_.emplace_back().reserve(std::max(kBlockBytes, bytes.size()));
+  }
+  std::string& block = blocks_.back();
+  where_.push_back({static_cast<uint32_t>(blocks_.size() - 1), static_cast<uint32_t>(bytes.size()), block.size()});
+  block.append(reinterpret_cast<const char*>(bytes.data()), bytes.size());
   times_ns_.push_back(time_ns);
-  data_.append(reinterpret_cast<const char*>(bytes.data()), bytes.size());
-  ends_.push_back(data_.size());
 }
 
 std::optional<std::size_t> Track::at_or_before(int64_t time_ns) const noexcept {
@@ -21,18 +27,20 @@ std::optional<std::size_t> Track::at_or_before(int64_t time_ns) const noexcept {
 }
 
 std::string_view Track::bytes(std::size_t i) const noexcept {
-  const std::size_t begin = i == 0 ? 0 : ends_[i - 1];
-  return std::string_view(data_).substr(begin, ends_[i] - begin);
+  const Where& w = where_[i];
+  return std::string_view(blocks_[w.block]).substr(w.offset, w.size);
 }
 
 void Track::shrink() {
   times_ns_.shrink_to_fit();
-  ends_.shrink_to_fit();
-  data_.shrink_to_fit();
+  where_.shrink_to_fit();
+  if (!blocks_.empty()) blocks_.back().shrink_to_fit();  // the last block is the only part-filled one worth it
 }
 
 std::size_t Track::held_bytes() const noexcept {
-  return data_.capacity() + times_ns_.capacity() * sizeof(int64_t) + ends_.capacity() * sizeof(std::size_t);
+  std::size_t bytes = times_ns_.capacity() * sizeof(int64_t) + where_.capacity() * sizeof(Where);
+  for (const std::string& block : blocks_) bytes += block.capacity();
+  return bytes;
 }
 
 std::optional<BusTopic> parse_bus_topic(std::string_view topic) {
@@ -209,6 +217,7 @@ Recording::Recording(const std::string& path) : path_(path) {
   });
   for (Track* track : {&world_, &scene_, &scene_poses_, &servos_}) track->shrink();
   for (auto& [name, track] : cameras_) track.shrink();
+  malloc_trim(0);  // the reader's chunk buffers, freed between the kept blocks: back to the system
   if (undecodable > 0) {
     warnings_.push_back(std::to_string(undecodable) + " messages could not be decoded as their recording.proto type: skipped");
   }

@@ -57,6 +57,15 @@ long peak_rss_kib() {
   return usage.ru_maxrss;
 }
 
+long rss_kib() {
+  long pages = 0, resident = 0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+    std::fclose(f);
+  }
+  return resident * (sysconf(_SC_PAGESIZE) / 1024);
+}
+
 int info(const Options& options) {
   const int64_t t0 = now_ms();
   const replay::Recording recording(options.file);
@@ -78,8 +87,14 @@ int info(const Options& options) {
   }
   if (!recording.recovery_note().empty()) std::printf("note: %s\n", recording.recovery_note().c_str());
   for (const std::string& warning : recording.warnings()) std::printf("warning: %s\n", warning.c_str());
-  std::printf("loaded in %lld ms; held for replay: %.1f MiB; peak resident memory %.1f MiB\n", static_cast<long long>(load_ms),
-              static_cast<double>(recording.held_bytes()) / (1024.0 * 1024.0), static_cast<double>(peak_rss_kib()) / 1024.0);
+  auto mib = [](std::size_t bytes) { return static_cast<double>(bytes) / (1024.0 * 1024.0); };
+  std::size_t cameras = 0;
+  for (const auto& [name, track] : recording.cameras()) cameras += track.held_bytes();
+  std::printf("loaded in %lld ms; held for replay: %.1f MiB (world %.1f, scene poses %.1f, servo tables %.1f, cameras %.1f)\n",
+              static_cast<long long>(load_ms), mib(recording.held_bytes()), mib(recording.world().held_bytes()),
+              mib(recording.scene_poses().held_bytes()), mib(recording.servos().held_bytes()), mib(cameras));
+  std::printf("resident memory now %.1f MiB, at most %.1f MiB while loading\n", static_cast<double>(rss_kib()) / 1024.0,
+              static_cast<double>(peak_rss_kib()) / 1024.0);
   return 0;
 }
 
@@ -150,8 +165,18 @@ class StartedDoppel {
       std::perror("exec doppel");
       _exit(127);
     }
+    // Ready once it says it runs (every port served), not when the link appears: a bus answering
+    // its first packets while the rest still starts would put a slip into the replay's schedule.
     const int64_t deadline = now_ms() + 60'000;
-    while (!std::filesystem::exists(link_)) {
+    auto ready = [&] {
+      std::FILE* f = std::fopen(log.c_str(), "r");
+      if (f == nullptr) return false;
+      std::string text(1 << 16, '\0');
+      text.resize(std::fread(text.data(), 1, text.size(), f));
+      std::fclose(f);
+      return text.find("running until") != std::string::npos && std::filesystem::exists(link_);
+    };
+    while (!ready()) {
       int status = 0;
       if (waitpid(pid_, &status, WNOHANG) == pid_) {
         pid_ = -1;

@@ -99,7 +99,8 @@ struct TransactionResult {
   std::vector<RegisterDifference> differences;
   int64_t recorded_reply_ns = -1;  // written_ns - first_seen_ns of the recording; -1 no status
   int64_t replayed_reply_ns = -1;  // write() to the last status byte read; -1 none
-  int64_t send_late_ns = 0;        // how much later than its recorded offset the instruction went out
+  int64_t send_late_ns = 0;        // how much later than scheduled the instruction went out (timer jitter)
+  int64_t schedule_slip_ns = 0;    // the schedule slipped by this before it (the previous answer came late)
 };
 
 // Compares the statuses that came back (`replayed`, the raw bytes read) with the recorded ones.
@@ -115,7 +116,17 @@ struct BusReplayOptions {
 // at `baud_bps` (termios2 BOTHER). Throws std::runtime_error naming the link and the reason.
 int open_bus_port(const std::string& link, uint32_t baud_bps);
 
-// Replays `transactions` (one bus, in recording order) on `fd`, an open, raw pty of a doppel.
+// An instruction that got no status in the recording still listens this long before the next
+// one goes (when the recorded gap is longer), to see an answer where none was recorded.
+inline constexpr int64_t kMinListenNs = 2'000'000;
+// Later than its schedule by more than this (not timer jitter): the schedule slips, keeping the
+// recorded gaps from there on rather than hurrying to catch up.
+inline constexpr int64_t kSlipThresholdNs = 1'000'000;
+
+// Replays `transactions` (one bus, in recording order) on `fd`, an open, raw pty of a doppel: each
+// instruction at its recorded offset from the first (first_seen_ns) divided by the speed, after
+// waiting for as many status packets as were recorded (up to the recorded reply time plus the
+// timeout), as the driver did.
 // Sets the line rate to each transaction's baud_bps (termios2 BOTHER) when it changes. Throws
 // std::runtime_error when the port fails (write error, hang-up).
 class BusReplayer {
@@ -137,6 +148,7 @@ struct BusReplaySummary {
   // Reply times (transactions with a status both times), ns.
   int64_t recorded_p50_ns = 0, recorded_p99_ns = 0, replayed_p50_ns = 0, replayed_p99_ns = 0;
   int64_t send_late_p99_ns = 0;
+  int64_t schedule_slip_ns = 0;  // in all
   std::map<std::string, uint64_t> differing_registers;  // "ID 3 Present Position" -> transactions
 };
 BusReplaySummary summarize(const std::vector<TransactionResult>& results);

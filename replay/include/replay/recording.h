@@ -34,15 +34,25 @@ class Track {
   std::optional<std::size_t> at_or_before(int64_t time_ns) const noexcept;
   int64_t time_ns(std::size_t i) const noexcept { return times_ns_[i]; }
   std::string_view bytes(std::size_t i) const noexcept;
-  // Gives back the spare capacity of growing (called once loading is done).
+  // Gives back the index' spare capacity (called once loading is done).
   void shrink();
   // Memory this track holds: message bytes plus the index.
   std::size_t held_bytes() const noexcept;
 
+  // Messages are packed into blocks of this size (a larger message gets a block of its own), so
+  // loading never copies what it has already stored, as one growing buffer would (twice the
+  // memory at each doubling).
+  static constexpr std::size_t kBlockBytes = std::size_t{1} << 20;
+
  private:
+  struct Where {
+    uint32_t block;
+    uint32_t size;
+    std::size_t offset;
+  };
   std::vector<int64_t> times_ns_;
-  std::vector<std::size_t> ends_;  // end offset of message i in data_
-  std::string data_;
+  std::vector<Where> where_;
+  std::vector<std::string> blocks_;
 };
 
 // A bus' counters as of `time_ns` (cumulative from the start of the recording).
