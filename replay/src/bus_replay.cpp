@@ -428,18 +428,25 @@ BusReplaySummary summarize(const std::vector<TransactionResult>& results) {
 std::string format_report(const std::vector<TransactionResult>& results, const BusReplaySummary& summary,
                           std::size_t max_lines) {
   std::ostringstream out;
-  std::size_t lines = 0, not_shown = 0;
-  for (const TransactionResult& r : results) {
-    if (r.verdict == Verdict::kMatched) continue;
-    if (lines++ >= max_lines) {
-      ++not_shown;
-      continue;
-    }
+  // What should have matched first (differed, missing, unexpected), then a few transactions whose
+  // RAM values differ (the summary's register list says which and how often).
+  std::size_t lines = 0, not_shown = 0, values_shown = 0, values_not_shown = 0;
+  auto line = [&](const TransactionResult& r) {
     out << "#" << r.sequence << " " << r.instruction << ": " << verdict_name(r.verdict);
     if (!r.note.empty()) out << ": " << r.note;
     out << "\n";
+  };
+  for (const TransactionResult& r : results) {
+    if (r.verdict == Verdict::kMatched || r.verdict == Verdict::kValues) continue;
+    if (lines++ < max_lines) line(r); else ++not_shown;
   }
-  if (not_shown > 0) out << "(" << not_shown << " more transactions did not match)\n";
+  if (not_shown > 0) out << "(" << not_shown << " more transactions differed, were missing or unexpected)\n";
+  const std::size_t value_lines = std::min<std::size_t>(3, max_lines);
+  for (const TransactionResult& r : results) {
+    if (r.verdict != Verdict::kValues) continue;
+    if (values_shown++ < value_lines) line(r); else ++values_not_shown;
+  }
+  if (values_not_shown > 0) out << "(" << values_not_shown << " more transactions with RAM values that differ)\n";
   auto count = [&](Verdict v) {
     const auto found = summary.verdicts.find(v);
     return found == summary.verdicts.end() ? uint64_t{0} : found->second;

@@ -133,7 +133,8 @@ int serve(const Options& options) {
 // A doppel started for the replay, stopped (SIGTERM) when this ends.
 class StartedDoppel {
  public:
-  StartedDoppel(const Options& options, const replay::RecordedBus& bus, const std::string& timing) {
+  StartedDoppel(const Options& options, const replay::RecordedBus& bus, const recording::RunInfo& run) {
+    const std::string& timing = run.timing_mode();
     char pattern[] = "/tmp/doppel-replay-XXXXXX";
     if (mkdtemp(pattern) == nullptr) throw std::runtime_error("cannot make a temporary folder for --start-doppel");
     dir_ = pattern;
@@ -141,6 +142,8 @@ class StartedDoppel {
                                      "--state-dir", dir_ + "/state"};
     if (!bus.info->robot_name().empty()) args.insert(args.end(), {"--robot", bus.info->robot_name()});
     if (timing == "wire" || timing == "fast") args.insert(args.end(), {"--timing", timing});
+    if (run.physics_engine() == "ode" || run.physics_engine() == "bullet") args.insert(args.end(), {"--physics", run.physics_engine()});
+    if (bus.info->adapter_latency_ms() != 0) args.insert(args.end(), {"--latency-timer", std::to_string(bus.info->adapter_latency_ms())});
     std::string extra = options.doppel_args;
     for (std::size_t at = 0; at < extra.size();) {
       const std::size_t space = extra.find(' ', at);
@@ -228,7 +231,7 @@ int replay_bus(const Options& options) {
   if (o.start_doppel) {
     if (!recorded.info) throw std::runtime_error(o.file + " has no /doppel/run bus list: --start-doppel cannot tell which robot; start doppel yourself and give --port");
     replay::Recording run_only(o.file);
-    started = std::make_unique<StartedDoppel>(o, recorded, run_only.run().timing_mode());
+    started = std::make_unique<StartedDoppel>(o, recorded, run_only.run());
     link = started->link();
   }
   if (link.empty()) {

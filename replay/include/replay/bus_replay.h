@@ -152,7 +152,8 @@ struct BusReplaySummary {
   std::map<std::string, uint64_t> differing_registers;  // "ID 3 Present Position" -> transactions
 };
 BusReplaySummary summarize(const std::vector<TransactionResult>& results);
-// A text report: one line per transaction that did not match (at most `max_lines`), then the summary.
+// A text report: one line per transaction that differed, was missing or unexpected (at most
+// `max_lines`), three whose RAM values differ, then the summary.
 std::string format_report(const std::vector<TransactionResult>& results, const BusReplaySummary& summary,
                           std::size_t max_lines = 50);
 
