@@ -110,110 +110,110 @@ void write_recording_fixture(const std::string& path, const RecordingFixture& f)
   };
   flush();
   for (int64_t window = 1'000'000'000;; window += 1'000'000'000) {
-  const int64_t until = std::min(window, end_ns + 1);
-  // World state at 100 Hz from 5 ms.
-  for (int64_t& k = k_world; 5'000'000 + k * 10'000'000 < until; ++k) {
-    const int64_t t = 5'000'000 + k * 10'000'000;
-    recording::WorldState world;
-    world.set_sim_time_s(0.005 + 0.01 * static_cast<double>(k));
-    world.set_missed_ticks(static_cast<uint64_t>(k / 100));
-    recording::RobotState* robot = world.add_robots();
-    robot->set_name("fumanoid-2011");
-    robot->set_x_m(fixture_x_m(k));
-    robot->set_z_m(0.0);
-    robot->set_tilt_rad(fixture_tilt_rad(static_cast<double>(t) * 1e-9, f.seconds));
-    robot->set_fallen(robot->tilt_rad() > 0.7853981633974483);
-    for (int j = 0; j < f.joints; ++j) {
-      recording::Joint* joint = robot->add_joints();
-      joint->set_name("JOINT_" + std::to_string(j) + "_PITCH");
-      joint->set_position_rad(0.01 * static_cast<double>(j));
+    const int64_t until = std::min(window, end_ns + 1);
+    // World state at 100 Hz from 5 ms.
+    for (int64_t& k = k_world; 5'000'000 + k * 10'000'000 < until; ++k) {
+      const int64_t t = 5'000'000 + k * 10'000'000;
+      recording::WorldState world;
+      world.set_sim_time_s(0.005 + 0.01 * static_cast<double>(k));
+      world.set_missed_ticks(static_cast<uint64_t>(k / 100));
+      recording::RobotState* robot = world.add_robots();
+      robot->set_name("fumanoid-2011");
+      robot->set_x_m(fixture_x_m(k));
+      robot->set_z_m(0.0);
+      robot->set_tilt_rad(fixture_tilt_rad(static_cast<double>(t) * 1e-9, f.seconds));
+      robot->set_fallen(robot->tilt_rad() > 0.7853981633974483);
+      for (int j = 0; j < f.joints; ++j) {
+        recording::Joint* joint = robot->add_joints();
+        joint->set_name("JOINT_" + std::to_string(j) + "_PITCH");
+        joint->set_position_rad(0.01 * static_cast<double>(j));
+      }
+      recording::Imu* imu = robot->add_imus();
+      imu->set_name("IMU");
+      imu->set_id(100);
+      imu->set_pitch_rad(robot->tilt_rad());
+      for (const char* name : {"FOOT_LEFT", "FOOT_RIGHT"}) {
+        recording::Foot* foot = robot->add_feet();
+        foot->set_name(name);
+        for (int c = 0; c < 4; ++c) foot->add_force_n(5.0);
+      }
+      world.mutable_ball()->set_z(0.0335);
+      add(t, "/doppel/world", "WorldState", world);
     }
-    recording::Imu* imu = robot->add_imus();
-    imu->set_name("IMU");
-    imu->set_id(100);
-    imu->set_pitch_rad(robot->tilt_rad());
-    for (const char* name : {"FOOT_LEFT", "FOOT_RIGHT"}) {
-      recording::Foot* foot = robot->add_feet();
-      foot->set_name(name);
-      for (int c = 0; c < 4; ++c) foot->add_force_n(5.0);
+    // Scene poses at 30 Hz: the trunk falls forward about the feet while the robot moves along x at
+    // 0.1 m/s (as the world state's x).
+    for (int64_t& k = k_poses; k * 33'333'333 < until; ++k) {
+      const int64_t t = k * 33'333'333;
+      const double t_s = static_cast<double>(t) * 1e-9;
+      const double x = 0.1 * t_s, tilt = fixture_tilt_rad(t_s, f.seconds);
+      recording::ScenePoses poses;
+      poses.set_sim_time_s(t_s);
+      for (int i = 0; i < shapes; ++i) {
+        recording::Vector3* p = poses.add_positions();
+        *poses.add_orientations() = scene.shapes(i).orientation();
+        *p = scene.shapes(i).position();
+        if (scene.shapes(i).kind() == "robot") {
+          const double height = scene.shapes(i).position().z();
+          p->set_x(x + height * std::sin(tilt));
+          p->set_z(height * std::cos(tilt) + 0.08 * std::sin(tilt));
+          *poses.mutable_orientations(i) = about_y(tilt);
+        }
+      }
+      add(t, "/doppel/scene_poses", "ScenePoses", poses);
     }
-    world.mutable_ball()->set_z(0.0335);
-    add(t, "/doppel/world", "WorldState", world);
-  }
-  // Scene poses at 30 Hz: the trunk falls forward about the feet while the robot moves along x at
-  // 0.1 m/s (as the world state's x).
-  for (int64_t& k = k_poses; k * 33'333'333 < until; ++k) {
-    const int64_t t = k * 33'333'333;
-    const double t_s = static_cast<double>(t) * 1e-9;
-    const double x = 0.1 * t_s, tilt = fixture_tilt_rad(t_s, f.seconds);
-    recording::ScenePoses poses;
-    poses.set_sim_time_s(t_s);
-    for (int i = 0; i < shapes; ++i) {
-      recording::Vector3* p = poses.add_positions();
-      *poses.add_orientations() = scene.shapes(i).orientation();
-      *p = scene.shapes(i).position();
-      if (scene.shapes(i).kind() == "robot") {
-        const double height = scene.shapes(i).position().z();
-        p->set_x(x + height * std::sin(tilt));
-        p->set_z(height * std::cos(tilt) + 0.08 * std::sin(tilt));
-        *poses.mutable_orientations(i) = about_y(tilt);
+    // Servo tables at 10 Hz.
+    for (int64_t& k = k_servos; k * 100'000'000 < until; ++k) {
+      recording::ServoTables tables;
+      tables.set_sim_time_s(0.1 * static_cast<double>(k));
+      recording::ServoTable* table = tables.add_buses();
+      table->set_robot_name("fumanoid-2011");
+      table->set_link("/tmp/links/ttyDXL0");
+      for (uint32_t id = 1; id <= static_cast<uint32_t>(std::max(1, f.joints)); ++id) {
+        recording::ServoRow* row = table->add_servos();
+        row->set_id(id);
+        row->set_name("JOINT_" + std::to_string(id));
+        row->set_model("RX-28");
+        row->set_torque(true);
+        row->set_present_position(k);
+        row->set_error(-1);
+      }
+      add(k * 100'000'000, "/doppel/servos", "ServoTables", tables);
+    }
+    if (f.camera) {
+      for (int64_t& k = k_camera; 250'000'000 + k * 500'000'000 < until; ++k) {
+        recording::CameraImage image;
+        image.set_camera("HEAD_CAMERA");
+        image.set_format("png");
+        image.set_data("still " + std::to_string(k));
+        add(250'000'000 + k * 500'000'000, "/doppel/camera/HEAD_CAMERA", "CameraImage", image);
       }
     }
-    add(t, "/doppel/scene_poses", "ScenePoses", poses);
-  }
-  // Servo tables at 10 Hz.
-  for (int64_t& k = k_servos; k * 100'000'000 < until; ++k) {
-    recording::ServoTables tables;
-    tables.set_sim_time_s(0.1 * static_cast<double>(k));
-    recording::ServoTable* table = tables.add_buses();
-    table->set_robot_name("fumanoid-2011");
-    table->set_link("/tmp/links/ttyDXL0");
-    for (uint32_t id = 1; id <= static_cast<uint32_t>(std::max(1, f.joints)); ++id) {
-      recording::ServoRow* row = table->add_servos();
-      row->set_id(id);
-      row->set_name("JOINT_" + std::to_string(id));
-      row->set_model("RX-28");
-      row->set_torque(true);
-      row->set_present_position(k);
-      row->set_error(-1);
+    // Bus transactions: a READ of ID 1's Present Position (P1: FF FF 01 04 02 24 02 CHK) answered
+    // with position 512 (FF FF 01 04 00 00 02 CHK).
+    if (f.transactions_per_s > 0) {
+      const auto period = static_cast<int64_t>(1e9 / f.transactions_per_s);
+      const std::string read("\xFF\xFF\x01\x04\x02\x24\x02\xD2", 8);
+      const std::string status("\xFF\xFF\x01\x04\x00\x00\x02\xF8", 8);
+      recording::BusTransaction transaction;
+      transaction.set_protocol(1);
+      transaction.set_instruction(read);
+      transaction.set_checksum_ok(true);
+      transaction.set_baud_bps(1'000'000);
+      recording::Status* s = transaction.add_statuses();
+      s->set_id(1);
+      s->set_bytes(status);
+      for (int64_t& k = k_bus; 1'000'000 + k * period < until; ++k) {
+        const int64_t t = 1'000'000 + k * period;
+        transaction.set_sequence(static_cast<uint64_t>(k));
+        transaction.set_first_seen_ns(kFixtureOriginNs + t);
+        transaction.set_seen_ns(kFixtureOriginNs + t + 70'000);
+        transaction.set_due_ns(kFixtureOriginNs + t + 250'000);
+        transaction.set_written_ns(kFixtureOriginNs + t + 260'000);
+        add(t, "/doppel/bus/0/0/transactions", "BusTransaction", transaction);
+      }
     }
-    add(k * 100'000'000, "/doppel/servos", "ServoTables", tables);
-  }
-  if (f.camera) {
-    for (int64_t& k = k_camera; 250'000'000 + k * 500'000'000 < until; ++k) {
-      recording::CameraImage image;
-      image.set_camera("HEAD_CAMERA");
-      image.set_format("png");
-      image.set_data("still " + std::to_string(k));
-      add(250'000'000 + k * 500'000'000, "/doppel/camera/HEAD_CAMERA", "CameraImage", image);
-    }
-  }
-  // Bus transactions: a READ of ID 1's Present Position (P1: FF FF 01 04 02 24 02 CHK) answered
-  // with position 512 (FF FF 01 04 00 00 02 CHK).
-  if (f.transactions_per_s > 0) {
-    const auto period = static_cast<int64_t>(1e9 / f.transactions_per_s);
-    const std::string read("\xFF\xFF\x01\x04\x02\x24\x02\xD2", 8);
-    const std::string status("\xFF\xFF\x01\x04\x00\x00\x02\xF8", 8);
-    recording::BusTransaction transaction;
-    transaction.set_protocol(1);
-    transaction.set_instruction(read);
-    transaction.set_checksum_ok(true);
-    transaction.set_baud_bps(1'000'000);
-    recording::Status* s = transaction.add_statuses();
-    s->set_id(1);
-    s->set_bytes(status);
-    for (int64_t& k = k_bus; 1'000'000 + k * period < until; ++k) {
-      const int64_t t = 1'000'000 + k * period;
-      transaction.set_sequence(static_cast<uint64_t>(k));
-      transaction.set_first_seen_ns(kFixtureOriginNs + t);
-      transaction.set_seen_ns(kFixtureOriginNs + t + 70'000);
-      transaction.set_due_ns(kFixtureOriginNs + t + 250'000);
-      transaction.set_written_ns(kFixtureOriginNs + t + 260'000);
-      add(t, "/doppel/bus/0/0/transactions", "BusTransaction", transaction);
-    }
-  }
-  flush();
-  if (until > end_ns) break;
+    flush();
+    if (until > end_ns) break;
   }
   writer.close();
 }
