@@ -426,7 +426,7 @@ BusReplaySummary summarize(const std::vector<TransactionResult>& results) {
 }
 
 std::string format_report(const std::vector<TransactionResult>& results, const BusReplaySummary& summary,
-                          std::size_t max_lines) {
+                          std::size_t max_lines, bool every) {
   std::ostringstream out;
   // What should have matched first (differed, missing, unexpected), then a few transactions whose
   // RAM values differ (the summary's register list says which and how often).
@@ -436,14 +436,23 @@ std::string format_report(const std::vector<TransactionResult>& results, const B
     if (!r.note.empty()) out << ": " << r.note;
     out << "\n";
   };
+  if (every) {
+    for (const TransactionResult& r : results) {
+      out << "#" << r.sequence << " " << r.instruction << ": " << verdict_name(r.verdict) << ", reply "
+          << (r.recorded_reply_ns >= 0 ? std::to_string(r.recorded_reply_ns / 1000) + " us" : std::string("none")) << " recorded, "
+          << (r.replayed_reply_ns >= 0 ? std::to_string(r.replayed_reply_ns / 1000) + " us" : std::string("none")) << " now";
+      if (!r.note.empty()) out << ": " << r.note;
+      out << "\n";
+    }
+  }
   for (const TransactionResult& r : results) {
-    if (r.verdict == Verdict::kMatched || r.verdict == Verdict::kValues) continue;
+    if (every || r.verdict == Verdict::kMatched || r.verdict == Verdict::kValues) continue;
     if (lines++ < max_lines) line(r); else ++not_shown;
   }
   if (not_shown > 0) out << "(" << not_shown << " more transactions differed, were missing or unexpected)\n";
   const std::size_t value_lines = std::min<std::size_t>(3, max_lines);
   for (const TransactionResult& r : results) {
-    if (r.verdict != Verdict::kValues) continue;
+    if (every || r.verdict != Verdict::kValues) continue;
     if (values_shown++ < value_lines) line(r); else ++values_not_shown;
   }
   if (values_not_shown > 0) out << "(" << values_not_shown << " more transactions with RAM values that differ)\n";

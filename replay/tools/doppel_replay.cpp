@@ -45,6 +45,7 @@ struct Options {
   std::string doppel_args;
   uint32_t timeout_ms = 100;
   std::size_t report_lines = 50;
+  bool every = false;
 };
 
 int64_t now_ms() {
@@ -258,7 +259,7 @@ int replay_bus(const Options& options) {
   close(fd);
   const replay::BusReplaySummary summary = replay::summarize(results);
   std::printf("robot %u bus %u of %s against %s\n%s", o.robot, o.bus, o.file.c_str(), link.c_str(),
-              replay::format_report(results, summary, o.report_lines).c_str());
+              replay::format_report(results, summary, o.report_lines, o.every).c_str());
   const auto differed = summary.verdicts.find(replay::Verdict::kDiffered);
   const auto missing = summary.verdicts.find(replay::Verdict::kMissing);
   const bool clean = (differed == summary.verdicts.end() || differed->second == 0) &&
@@ -298,6 +299,7 @@ int main(int argc, char** argv) {
   app.add_option("--timeout-ms", options.timeout_ms, "--bus: how long beyond the recorded reply time to wait for a status")
       ->capture_default_str()->transform(number_in<uint32_t>(1, 10'000));
   app.add_option("--report-lines", options.report_lines, "--bus: most transactions listed")->capture_default_str();
+  app.add_flag("--every", options.every, "--bus: one line per transaction, matched ones included");
   CLI11_PARSE(app, argc, argv);
   options.bus_mode = app.count("--bus") > 0;
   if (!bus_value.empty()) {

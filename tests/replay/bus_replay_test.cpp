@@ -168,14 +168,16 @@ TEST(BusReplayEndToEnd, AHandBuiltRecordingAgainstTheDefaultRobot) {
     d->set_model("RX-28");
     d->set_protocol(1);
     write(writer, run_channel, t0, run);
+    // 20 ms apart: the unexpected answer to the PING of ID 2 must arrive before the next instruction
+    // goes (2 ms of listening at least) also on a loaded machine.
     const std::vector<recording::BusTransaction> transactions = {
         transaction(0, t0 + 1'000'000, p1(1, 0x01), {{1, p1(1, 0)}}),                                  // PING ID 1
-        transaction(1, t0 + 3'000'000, p1(1, 0x02, {0, 2}), {{1, p1(1, 0, {28, 0})}}),                  // Model Number 28
-        transaction(2, t0 + 5'000'000, p1(1, 0x02, {36, 2}), {{1, p1(1, 0, {0, 0})}}),                  // Present Position 0
-        transaction(3, t0 + 7'000'000, p1(1, 0x02, {0, 2}), {{1, p1(1, 0, {64, 0})}}),                  // recorded as 64
-        transaction(4, t0 + 9'000'000, p1(77, 0x01), {{77, p1(77, 0)}}),                                // nobody has ID 77
-        transaction(5, t0 + 11'000'000, p1(2, 0x01), {}),                                               // ID 2 does answer
-        transaction(6, t0 + 13'000'000, p1(0xFE, 0x03, {25, 1}), {}),                                   // broadcast LED on
+        transaction(1, t0 + 21'000'000, p1(1, 0x02, {0, 2}), {{1, p1(1, 0, {28, 0})}}),                  // Model Number 28
+        transaction(2, t0 + 41'000'000, p1(1, 0x02, {36, 2}), {{1, p1(1, 0, {0, 0})}}),                  // Present Position 0
+        transaction(3, t0 + 61'000'000, p1(1, 0x02, {0, 2}), {{1, p1(1, 0, {64, 0})}}),                  // recorded as 64
+        transaction(4, t0 + 81'000'000, p1(77, 0x01), {{77, p1(77, 0)}}),                                // nobody has ID 77
+        transaction(5, t0 + 101'000'000, p1(2, 0x01), {}),                                               // ID 2 does answer
+        transaction(6, t0 + 121'000'000, p1(0xFE, 0x03, {25, 1}), {}),                                   // broadcast LED on
     };
     for (const auto& t : transactions) write(writer, bus_channel, static_cast<uint64_t>(t.first_seen_ns()), t);
     writer.close();
@@ -212,6 +214,12 @@ TEST(BusReplayEndToEnd, AHandBuiltRecordingAgainstTheDefaultRobot) {
             std::string::npos)
       << output;
   EXPECT_NE(output.find("#2 READ ID 1: values differ (RAM registers): ID 1 Present Position 0 -> "), std::string::npos) << output;
+  // --every: a line per transaction, the matched PING with its recorded reply time.
+  const auto [every_code, every] =
+      testing::run_command(std::string(DOPPEL_REPLAY_EXECUTABLE) + " --bus " + path + " --port " + doppel.link() + " --every");
+  EXPECT_EQ(every_code, 3) << every;
+  EXPECT_NE(every.find("#0 PING ID 1: matched, reply 300 us recorded, "), std::string::npos) << every;
+  EXPECT_NE(every.find("#6 WRITE ID 254: matched, reply none recorded, none now"), std::string::npos) << every;
   std::filesystem::remove(path);
 }
 

@@ -153,9 +153,10 @@ struct BusReplaySummary {
 };
 BusReplaySummary summarize(const std::vector<TransactionResult>& results);
 // A text report: one line per transaction that differed, was missing or unexpected (at most
-// `max_lines`), three whose RAM values differ, then the summary.
+// `max_lines`), three whose RAM values differ, then the summary. `every`: one line for every
+// transaction instead, in order, matched ones included (with both reply times).
 std::string format_report(const std::vector<TransactionResult>& results, const BusReplaySummary& summary,
-                          std::size_t max_lines = 50);
+                          std::size_t max_lines = 50, bool every = false);
 
 // The transactions of robot `robot`, bus `bus` in a recording, in sequence order, and the bus'
 // BusInfo from /doppel/run (none when the recording has no RunInfo for it).
