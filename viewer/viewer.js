@@ -44,6 +44,7 @@
   let lastScene = null;
   let lastState = null;
   let lastBuses = null;
+  let lastReplay = null;   // GET /api/replay's answer; null for a live doppel
   let selectedRobot = 0;
   let placing = false;
 
@@ -368,6 +369,7 @@
     const select = $('camera-name');
     const names = [];
     for (const robot of state.robots) for (const cam of robot.cameras || []) names.push(cam.name);
+    if (lastReplay) for (const name of lastReplay.cameras || []) if (!names.includes(name)) names.push(name);
     if (select.dataset.names !== names.join()) {
       const chosen = select.value;
       select.innerHTML = '';
@@ -548,6 +550,60 @@
     placeAt(point.x, point.y);
   });
 
+  // --- replay timeline (doppel-replay: docs/replay.md) -----------------------------------------
+  // Shown only when /api/replay answers; a live doppel answers 404 and the page stays as it was.
+  let scrubbing = false;   // the slider is being dragged: polling does not move it
+  let seekBusy = false, seekWanted = null;
+  function applyReplay(replay) {
+    lastReplay = replay;
+    $('timeline').hidden = false;
+    $('replay-badge').hidden = false;
+    const slider = $('replay-slider');
+    slider.min = replay.start_s;
+    slider.max = replay.end_s;
+    if (!scrubbing) slider.value = replay.position_s;
+    $('replay-play').textContent = replay.playing ? 'Pause' : 'Play';
+    $('replay-time').textContent = `${fixed(replay.position_s, 3)} / ${fixed(replay.end_s, 3)} s`;
+    const speed = $('replay-speed');
+    if (document.activeElement !== speed && Number(speed.value) !== replay.speed) {
+      if (![...speed.options].some((o) => Number(o.value) === replay.speed)) speed.add(new Option(`${replay.speed}×`, replay.speed));
+      speed.value = String(replay.speed);
+    }
+    for (const b of document.querySelectorAll('#push-buttons button, #place-mode')) {
+      b.disabled = true;
+      b.title = 'a replay cannot change the world';
+    }
+  }
+  async function replayChange(change) {
+    try {
+      applyReplay(await api('POST', '/api/replay', change));
+      clearError();
+    } catch (e) {
+      showError(e.message);
+    }
+  }
+  // Seeks as fast as the server answers while the slider moves, always ending at the last value.
+  async function seek(position) {
+    seekWanted = position;
+    if (seekBusy) return;
+    seekBusy = true;
+    while (seekWanted !== null) {
+      const next = seekWanted;
+      seekWanted = null;
+      await replayChange({ position_s: next });
+    }
+    seekBusy = false;
+  }
+  $('replay-slider').addEventListener('input', (e) => { scrubbing = true; seek(Number(e.target.value)); });
+  $('replay-slider').addEventListener('change', (e) => { scrubbing = false; seek(Number(e.target.value)); });
+  $('replay-play').addEventListener('click', () => replayChange({ playing: !(lastReplay && lastReplay.playing) }));
+  $('replay-speed').addEventListener('change', (e) => replayChange({ speed: Number(e.target.value) }));
+  fetch('/api/replay', { cache: 'no-store' }).then(async (response) => {
+    if (!response.ok) return;  // live
+    applyReplay(await response.json());
+    poll('/api/replay', STATE_PERIOD_MS, applyReplay);
+  }).catch(() => {});
+
   poll('/api/scene', SCENE_PERIOD_MS, applyScene);
   poll('/api/state', STATE_PERIOD_MS, applyState);
   poll('/api/buses', BUSES_PERIOD_MS, applyBuses);
@@ -588,6 +644,8 @@
       return out;
     }),
     state: () => lastState,
+    replay: () => lastReplay,
+    timelineShown: () => !$('timeline').hidden,
     buses: () => lastBuses,
     scene: () => lastScene,
     error: () => ($('error').hidden ? '' : $('error').textContent),
