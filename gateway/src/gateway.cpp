@@ -192,13 +192,14 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
       info.set_adapter_latency_ms(runtime.server().adapter_latency_ms());
       info.set_adapter(config.adapter == bus::AdapterProfile::kUsb2ax ? "usb2ax" : "ftdi");
       info.set_processing_ns(runtime.server().options().processing_ns);
-      for (const DeviceConfig& device : config.devices) {
+      for (std::size_t i = 0; i < config.devices.size(); ++i) {
+        const DeviceConfig& device = config.devices[i];
         recording::DeviceInfo* d = info.add_devices();
         d->set_id(device.id);
         d->set_name(device.name);
         d->set_model(device.model);
         d->set_protocol(device.firmware == dynamixel::Protocol::kV2 ? 2 : 1);
-        if (device.return_delay_raw) d->set_return_delay_us(2u * *device.return_delay_raw);
+        d->set_return_delay_us(runtime.return_delay_us(i));  // the bus threads have not started yet
       }
       buses.push_back(std::move(bus));
     }

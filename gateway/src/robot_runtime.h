@@ -99,6 +99,8 @@ class BusRuntime final : public bus::DeviceSync {
   std::string summary() const;
 
   bus::BusServer& server() noexcept { return *server_; }
+  // Return Delay Time of device `index` (file order), µs; only while the bus thread is not running.
+  uint32_t return_delay_us(std::size_t index) const noexcept { return devices_[index]->return_delay_us(); }
   // Where the bus reports its traffic when the run is recorded (--record); null otherwise.
   bus::TrafficTap* tap() noexcept { return tap_.get(); }
   const std::string& link() const noexcept { return port_->link_path(); }

@@ -152,6 +152,9 @@ TEST(Recording, TenSecondsOfAControlLoopAreRecordedByteExactAndInOrder) {
   EXPECT_GE(static_cast<double>(world), 0.98 * 100.0 * (last_s - first_s));
   ASSERT_EQ(run.buses_size(), 1);
   EXPECT_EQ(run.buses(0).devices_size(), 24);
+  // HEAD_PITCH, an RX-28 at its factory Return Delay Time (250 x 2 µs, e-Manual): what the analyzer's
+  // "rdt=0" remedy starts from.
+  EXPECT_EQ(run.buses(0).devices(0).return_delay_us(), 500u);
   EXPECT_EQ(run.timing_mode(), "wire");
 
   // The same transactions through a reader written from the MCAP specification alone, in Python
