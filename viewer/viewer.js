@@ -621,11 +621,11 @@
     const c = document.createElement('canvas');
     box.append(caption, c);
     const ratio = window.devicePixelRatio || 1;
-    c.width = Math.round(420 * ratio);
-    c.height = Math.round(180 * ratio);
+    c.width = Math.round(400 * ratio);
+    c.height = Math.round(160 * ratio);
     const ctx = c.getContext('2d');
     ctx.scale(ratio, ratio);
-    return { c, ctx, w: 420, h: 180 };
+    return { c, ctx, w: 400, h: 160 };
   }
   function wrap(box) {
     const d = document.createElement('div');
@@ -676,6 +676,7 @@
     const hi = Math.max(...rows.map((r) => r.parts.reduce((a, [v]) => a + v, 0))) || 1;
     ctx.font = '10px sans-serif';
     if (legend) {
+      ctx.font = '9px sans-serif';
       let lx = 4;
       for (const [label, colour] of legend) {
         ctx.fillStyle = colour;
@@ -683,8 +684,9 @@
         ctx.fillStyle = '#333';
         ctx.textAlign = 'left';
         ctx.fillText(label, lx + 12, 14);
-        lx += ctx.measureText(label).width + 22;
+        lx += ctx.measureText(label).width + 17;
       }
+      ctx.font = '10px sans-serif';
     }
     rows.forEach((row, i) => {
       const y0 = top + i * rowH;

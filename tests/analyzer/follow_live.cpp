@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -167,6 +168,10 @@ TEST(FollowLive, ReportsTheCycleWhileDoppelRecordsAndAFinalReportWhenItStops) {
   const std::size_t waiting = err.find("waiting for " + file);
   EXPECT_NE(waiting, std::string::npos) << err;
   EXPECT_EQ(err.find("waiting for " + file, waiting + 1), std::string::npos) << err;
+  if (const char* keep = std::getenv("DOPPEL_FOLLOW_TEST_KEEP")) {  // to read what the tool printed
+    std::ofstream(std::string(keep) + "/follow.out") << out;
+    std::ofstream(std::string(keep) + "/follow.err") << err;
+  }
   // Not a terminal: separator lines, no escape sequences.
   EXPECT_EQ(out.find('\x1b'), std::string::npos);
 

@@ -131,7 +131,7 @@ TEST(ReportTest, JsonForTheViewerHasThePeriodsOverTimeInBuckets) {
 
 TEST(ReportTest, LastSecondsKeepsTheMostRecentTransactions) {
   std::vector<Transaction> transactions;
-  for (int64_t t : {5'000'000'000, 1'000'000'000, 9'000'000'000, 7'999'999'999, 8'000'000'000}) {
+  for (int64_t t : std::vector<int64_t>{5'000'000'000, 1'000'000'000, 9'000'000'000, 7'999'999'999, 8'000'000'000}) {
     Transaction x;
     x.first_seen_ns = t;
     transactions.push_back(x);
