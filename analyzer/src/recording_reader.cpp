@@ -56,7 +56,7 @@ std::string transactions_topic(uint32_t robot, uint32_t bus) {
 }
 
 Recording read_recording(const std::string& path, const std::optional<BusSelector>& only,
-                         const std::function<void(const ReadProgress&)>& progress) {
+                         const std::function<void(const ReadProgress&)>& progress, bool require_transactions) {
   Recording out;
   std::error_code error;
   if (std::filesystem::is_directory(path, error)) throw std::runtime_error(path + ": is a directory, not a recording");
@@ -65,6 +65,7 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
   try {
     mcap::Reader reader(path);
     out.recovery_note = reader.recovery_note();
+    out.complete = reader.complete();
 
     // Which channels hold what; schemas are checked by name and encoding.
     std::map<uint16_t, Content> content;  // channel id -> what it carries
@@ -96,6 +97,7 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
     }
     bool any_transactions = false;
     for (const auto& [id, c] : content) any_transactions = any_transactions || c == Content::kTransactions;
+    if (!any_transactions && !require_transactions) return out;
     if (!any_transactions) {
       std::string message = only ? "no transactions of bus " + std::to_string(only->robot) + "/" + std::to_string(only->bus) +
                                        " (topic " + transactions_topic(only->robot, only->bus) + ")"
@@ -142,7 +144,7 @@ Recording read_recording(const std::string& path, const std::optional<BusSelecto
         options);
     out.messages = p.messages;
     out.message_bytes = p.message_bytes;
-    if (out.transactions.empty()) {
+    if (out.transactions.empty() && require_transactions) {
       std::string message = "the transaction topics hold no message";
       if (!out.recovery_note.empty()) message += ". The file is incomplete: " + out.recovery_note;
       throw std::runtime_error(message);

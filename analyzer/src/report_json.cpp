@@ -1,5 +1,7 @@
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+
 #include "analyzer/report.h"
 
 namespace doppel::analyzer {
@@ -29,7 +31,23 @@ json cycle(const CycleStats& c) {
               {"rate_hz", c.rate_hz}};
 }
 
-json report(const Report& r) {
+json period_series(const CycleStats& c, const JsonOptions& options) {
+  json t_s = json::array();
+  json period_us = json::array();
+  const std::size_t periods = c.starts_ns.size() < 2 ? 0 : c.starts_ns.size() - 1;
+  const std::size_t per_point = std::max<std::size_t>(1, (periods + options.period_points - 1) / options.period_points);
+  for (std::size_t first = 0; first < periods; first += per_point) {
+    int64_t longest = 0;
+    for (std::size_t i = first; i < std::min(periods, first + per_point); ++i) {
+      longest = std::max(longest, c.starts_ns[i + 1] - c.starts_ns[i]);
+    }
+    t_s.push_back(static_cast<double>(c.starts_ns[first + 1] - options.origin_ns) / 1e9);
+    period_us.push_back(static_cast<double>(longest) / 1e3);
+  }
+  return json{{"t_s", std::move(t_s)}, {"period_us", std::move(period_us)}, {"per_point", per_point}};
+}
+
+json report(const Report& r, const JsonOptions& options) {
   const Analysis& a = r.analysis;
   json buses = json::array();
   for (const BusStats& b : a.buses) {
@@ -86,7 +104,7 @@ json report(const Report& r) {
     }
     what_ifs.push_back(std::move(x));
   }
-  return json{{"source", r.source},
+  json out{{"source", r.source},
               {"robot", a.robot},
               {"robot_name", a.robot_name},
               {"timing_mode", a.timing_mode},
@@ -97,6 +115,8 @@ json report(const Report& r) {
               {"timeouts", std::move(timeouts)},
               {"retries", a.retries},
               {"what_if", std::move(what_ifs)}};
+  if (options.period_points > 0 && a.cycle.found) out["period_series"] = period_series(a.cycle, options);
+  return out;
 }
 
 }  // namespace
@@ -105,9 +125,9 @@ std::string scenario_label(const WhatIf& what_if) {
   return what_if.label == "recorded" ? "model, recorded settings" : what_if.label;
 }
 
-std::string format_json(const std::vector<Report>& reports) {
+std::string format_json(const std::vector<Report>& reports, const JsonOptions& options) {
   json list = json::array();
-  for (const Report& r : reports) list.push_back(report(r));
+  for (const Report& r : reports) list.push_back(report(r, options));
   return json{{"reports", std::move(list)}}.dump(2) + "\n";
 }
 

@@ -281,6 +281,17 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
   const std::string action = path.substr(kPrefix.size());
   if (action == "replay") return replay_request(control, method, body);
+  if (action == "analysis") {
+    if (method != "GET") return {405, error_body("/api/analysis is read with GET")};
+    const std::optional<std::string> analysis = control.bus_analysis();
+    if (!analysis) {
+      return {404, error_body("no bus analysis: /api/analysis is served by doppel-replay for a recording with bus "
+                              "transactions (docs/analyzer.md)")};
+    }
+    json parsed = json::parse(*analysis, nullptr, false);
+    if (parsed.is_discarded()) return {500, error_body("the bus analysis is not valid JSON")};
+    return {200, std::move(parsed)};
+  }
   if (action == "state" || action == "scene" || action == "buses") {
     if (method != "GET") return {405, error_body("/api/" + action + " is read with GET")};
     if (action == "scene") return {200, scene_json(control.scene())};

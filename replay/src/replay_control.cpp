@@ -4,6 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <exception>
+
+#include "replay/bus_analysis.h"
 
 namespace doppel::replay {
 namespace {
@@ -258,6 +262,19 @@ control::Outcome ReplayControl::change_replay(const control::ReplayChange& chang
     if (*change.playing) playback_.play(now); else playback_.pause(now);
   }
   return control::Outcome::done();
+}
+
+std::optional<std::string> ReplayControl::bus_analysis() {
+  std::lock_guard<std::mutex> lock(analysis_mutex_);
+  if (!analysis_made_) {
+    analysis_made_ = true;
+    try {
+      analysis_ = bus_analysis_json(recording_.path(), recording_.origin_ns());
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "doppel-replay: no bus analysis: %s\n", e.what());
+    }
+  }
+  return analysis_;
 }
 
 }  // namespace doppel::replay

@@ -112,6 +112,64 @@ bool is_png(const std::string& file) {
   return in && std::string(magic, 8) == "\x89PNG\r\n\x1a\n";
 }
 
+TEST(ReportTest, JsonForTheViewerHasThePeriodsOverTimeInBuckets) {
+  // 30 cycle starts 2 ms apart from 10 ms: 29 periods; at most 10 points: buckets of 3.
+  const Report report = sample_report();
+  EXPECT_FALSE(nlohmann::json::parse(format_json({report}))["reports"][0].contains("period_series"));
+  JsonOptions options;
+  options.period_points = 10;
+  options.origin_ns = 4'000'000;
+  const auto series = nlohmann::json::parse(format_json({report}, options))["reports"][0]["period_series"];
+  EXPECT_EQ(series["per_point"], 3);
+  ASSERT_EQ(series["t_s"].size(), 10u);
+  ASSERT_EQ(series["period_us"].size(), 10u);
+  EXPECT_NEAR(series["t_s"][0].get<double>(), 0.008, 1e-12);  // the first period ends at 12 ms, origin 4 ms
+  EXPECT_NEAR(series["t_s"][1].get<double>(), 0.014, 1e-12);  // the fourth at 18 ms
+  EXPECT_NEAR(series["t_s"][9].get<double>(), 0.062, 1e-12);  // the 28th (alone in its bucket) at 66 ms
+  for (const auto& p : series["period_us"]) EXPECT_NEAR(p.get<double>(), 2000.0, 1e-9);
+}
+
+TEST(ReportTest, LastSecondsKeepsTheMostRecentTransactions) {
+  std::vector<Transaction> transactions;
+  for (int64_t t : std::vector<int64_t>{5'000'000'000, 1'000'000'000, 9'000'000'000, 7'999'999'999, 8'000'000'000}) {
+    Transaction x;
+    x.first_seen_ns = t;
+    transactions.push_back(x);
+  }
+  const std::vector<Transaction> last = last_seconds(transactions, 1.0);
+  ASSERT_EQ(last.size(), 2u);  // 9 s and 8 s, in their order; 7.999999999 s is out
+  EXPECT_EQ(last[0].first_seen_ns, 9'000'000'000);
+  EXPECT_EQ(last[1].first_seen_ns, 8'000'000'000);
+  EXPECT_EQ(last_seconds(transactions, 10.0).size(), 5u);
+  EXPECT_TRUE(last_seconds({}, 1.0).empty());
+}
+
+TEST(ReportTest, MakeReportsGivesOneReportPerRobotWithTheDefaultScenarios) {
+  std::vector<Transaction> transactions;
+  for (uint32_t robot : {1u, 0u}) {
+    for (int c = 0; c < 10; ++c) {
+      Transaction x;
+      x.robot = robot;
+      x.protocol = 2;
+      x.sequence = static_cast<uint64_t>(c);
+      x.baud_bps = 1'000'000;
+      const Bytes ping = p2_instruction(1, 0x01, {});
+      x.instruction = std::string(ping.begin(), ping.end());
+      x.first_seen_ns = x.seen_ns = c * 10'000'000 + robot;
+      transactions.push_back(x);
+    }
+  }
+  const std::vector<Report> reports = make_reports({}, transactions, "two.mcap");
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_EQ(reports[0].analysis.robot, 0u);
+  EXPECT_EQ(reports[1].analysis.robot, 1u);
+  EXPECT_EQ(reports[0].source, "two.mcap");
+  ASSERT_GE(reports[0].what_ifs.size(), 2u);
+  EXPECT_EQ(reports[0].what_ifs[0].label, "recorded");
+  EXPECT_EQ(reports[0].what_ifs[1].label, "driver=recorded");
+  EXPECT_NEAR(reports[1].analysis.cycle.rate_hz, 100.0, 1e-9);
+}
+
 TEST(ReportTest, PlotsArePngFilesDrawnByGnuplot) {
   TempDirectory dir;
   const auto files = write_plots(sample_report(), (dir.path() / "plots").string(), "r0_");

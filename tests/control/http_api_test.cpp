@@ -188,6 +188,14 @@ TEST(HttpApi, ALiveSimulationIsNoReplay) {
   EXPECT_TRUE(control.calls.empty());
 }
 
+TEST(HttpApi, ALiveSimulationHasNoBusAnalysis) {
+  RecordingControl control;
+  const Answer answer = handle(control, "GET", "/api/analysis", "");
+  EXPECT_EQ(answer.status, 404);
+  EXPECT_NE(answer.body["error"].get<std::string>().find("doppel-replay"), std::string::npos) << answer.body.dump();
+  EXPECT_TRUE(control.calls.empty());
+}
+
 TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
   class Twins final : public SimControl {
    public:

@@ -7,7 +7,9 @@ the timeline shows (a live doppel's page has none: viewer_browser_test.py), the 
 robot, a click on the slider at three quarters of its length seeks there (the replay's position
 and the drawn trunk follow: its recorded pose at that moment, and the pixel there is no longer
 carpet), Play lets the position run on and Pause stops it, the speed selector sets the speed, the
-push buttons are disabled. Saves a screenshot after scrubbing (OUTPUT_DIR/replay.png).
+push buttons are disabled, the Bus panel (GET /api/analysis) shows the fixture's 500 Hz cycle and
+draws its three plots. Saves a screenshot after scrubbing (OUTPUT_DIR/replay.png) and one of the
+Bus panel (OUTPUT_DIR/replay-bus.png).
 
 usage: replay_browser_test.py DOPPEL_REPLAY FIXTURE_TOOL OUTPUT_DIR
 Exit 77 (CTest: skipped) only when chromium is not installed.
@@ -155,8 +157,24 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         check(get(url, "api/replay")["speed"] == 4, "the speed selector did not set 4x")
         check(browser.evaluate("document.querySelector('#push-buttons button').disabled"),
               "the push buttons are enabled in a replay")
+
+        # The Bus panel: the analyzer's report of the fixture's traffic, one READ every 2 ms: 500 Hz.
+        browser.wait_for("window.doppelViewer.analysisShown()", "the Bus panel")
+        cycle = get(url, "api/analysis")["reports"][0]["cycle"]
+        check(cycle["found"] and abs(cycle["rate_hz"] - 500.0) < 0.01,
+              f"/api/analysis finds the cycle {cycle}, the fixture reads every 2 ms (500 Hz)")
+        text = browser.evaluate("window.doppelViewer.analysisCycleText()")
+        check(len(text) == 1 and "control cycle 500.0 Hz" in text[0] and "P1 READ" in text[0],
+              f"the Bus panel says {text}, the fixture's cycle is 500 Hz of P1 READ")
+        ink = browser.evaluate("window.doppelViewer.analysisInk()")
+        check(len(ink) == 3 and all(i > 500 for i in ink),
+              f"the Bus panel's three plots (period, time split, what if) have {ink} pixels of ink")
+        browser.evaluate("document.getElementById('analysis').scrollIntoView()")
+        time.sleep(0.3)
+        bus_shot = os.path.join(out_dir, "replay-bus.png")
+        browser.screenshot(bus_shot)
         check(browser.evaluate("window.doppelViewer.error()") == "", f"the page shows an error: {browser.page_error()}")
-        print(f"replay browser test: passed; scrubbed to {position:.3f} s; screenshot {shot}")
+        print(f"replay browser test: passed; scrubbed to {position:.3f} s; screenshots {shot}, {bus_shot}")
     finally:
         if browser is not None:
             browser.close()

@@ -238,6 +238,52 @@ TEST_F(ReplayControlTest, ABadPlaybackRequestChangesNothing) {
   EXPECT_EQ(control::handle(sut_, "DELETE", "/api/replay", "").status, 405);
 }
 
+// The fixture's bus: a P1 READ of ID 1 (8 bytes) every 5 ms from 1 ms, answered with 8 bytes, at
+// 1 Mbps (10 bits a byte: 10 us), no firmware time, RDT or adapter latency recorded.
+TEST_F(ReplayControlTest, TheApiServesTheBusAnalysisOfTheRecording) {
+  const control::Answer answer = control::handle(sut_, "GET", "/api/analysis", "");
+  ASSERT_EQ(answer.status, 200) << answer.body.dump();
+  ASSERT_EQ(answer.body["reports"].size(), 1u);
+  const auto& report = answer.body["reports"][0];
+  EXPECT_EQ(report["robot_name"], "fumanoid-2011");
+  const auto& cycle = report["cycle"];
+  ASSERT_EQ(cycle["found"], true);
+  EXPECT_EQ(cycle["opener_kind"], "P1 READ");
+  EXPECT_EQ(cycle["cycles"], 400);  // 1 ms, 6 ms, ... 1996 ms
+  EXPECT_NEAR(cycle["rate_hz"].get<double>(), 200.0, 1e-6);
+  EXPECT_NEAR(cycle["period"]["p99_us"].get<double>(), 5000.0, 1e-6);
+  EXPECT_NEAR(cycle["period"]["max_us"].get<double>(), 5000.0, 1e-6);
+  // Period over time in the replay's time (from the first message): each period at its end.
+  const auto& series = report["period_series"];
+  ASSERT_EQ(series["t_s"].size(), 399u);
+  EXPECT_EQ(series["per_point"], 1);
+  EXPECT_NEAR(series["t_s"][0].get<double>(), 0.006, 1e-9);
+  EXPECT_NEAR(series["t_s"][398].get<double>(), 1.996, 1e-9);
+  EXPECT_NEAR(series["period_us"][0].get<double>(), 5000.0, 1e-6);
+  // What if: the default scenarios; the bus alone allows 8 + 8 bytes of 10 us: 160 us, 6250 Hz.
+  const auto& what_if = report["what_if"];
+  ASSERT_GE(what_if.size(), 2u);
+  EXPECT_EQ(what_if[0]["scenario"], "recorded");
+  EXPECT_EQ(what_if[1]["scenario"], "driver=recorded");
+  EXPECT_NEAR(what_if[0]["rate_hz"].get<double>(), 6250.0, 6250.0 * 0.01);
+  EXPECT_EQ(control::handle(sut_, "POST", "/api/analysis", "{}").status, 405);
+}
+
+TEST(ReplayAnalysis, ARecordingWithoutBusTrafficHasNoAnalysis) {
+  const std::string path = fixture_path("no-bus.mcap");
+  RecordingFixture fixture;
+  fixture.transactions_per_s = 0;
+  testing::write_recording_fixture(path, fixture);
+  {
+    const Recording recording(path);
+    ReplayControl sut(recording);
+    const control::Answer answer = control::handle(sut, "GET", "/api/analysis", "");
+    EXPECT_EQ(answer.status, 404);
+    EXPECT_NE(answer.body["error"].get<std::string>().find("no bus analysis"), std::string::npos) << answer.body.dump();
+  }
+  std::filesystem::remove(path);
+}
+
 TEST(Playback, SeekIsClampedAndKeepsPlaying) {
   Playback sut(100, 1000);
   sut.play(0);

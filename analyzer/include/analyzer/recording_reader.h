@@ -35,6 +35,7 @@ struct Recording {
   uint64_t message_bytes = 0;                      // their payload bytes
   uint64_t file_bytes = 0;                         // size of the file
   std::string recovery_note;                       // mcap::Reader::recovery_note() ("" when complete)
+  bool complete = false;                           // the file has its footer: the writer closed it
 };
 
 // What has been read so far, for a progress line.
@@ -47,9 +48,11 @@ struct ReadProgress {
 // Reads `path`. `only` keeps one bus. `progress` is called after every message (the caller
 // throttles). Throws std::runtime_error whose message starts with the file name and says what is
 // wrong (not an MCAP file, corrupt chunk, a transaction message that is not a BusTransaction, no
-// transaction topic at all).
+// transaction topic at all). Without `require_transactions` a file with no transaction yet is not
+// an error (a recording still being written: doppel-bus report --follow); its list is empty.
 Recording read_recording(const std::string& path, const std::optional<BusSelector>& only = std::nullopt,
-                         const std::function<void(const ReadProgress&)>& progress = {});
+                         const std::function<void(const ReadProgress&)>& progress = {},
+                         bool require_transactions = true);
 
 // The topic of one bus' transactions.
 std::string transactions_topic(uint32_t robot, uint32_t bus);

@@ -14,6 +14,7 @@
 //   GET  /api/camera/NAME                             -> robot camera NAME's latest still (image/png)
 //   GET  /api/replay                                  -> a replay's playback (replay_json); 404 when live
 //   POST /api/replay {"position_s": 3.5, "speed": 0.5, "playing": true}   any of the three
+//   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 

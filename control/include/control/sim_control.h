@@ -201,6 +201,10 @@ class SimControl {
     (void)change;
     return Outcome::fail(404, "this is not a replay");
   }
+  // The bus analysis of a replay's recording as a JSON document, serialised by whoever made it (the
+  // analyzer, docs/analyzer.md: control/ does not know its fields). None for a live simulation or a
+  // recording without bus traffic: the API then answers 404 and the viewer shows no Bus panel.
+  virtual std::optional<std::string> bus_analysis() { return std::nullopt; }
 };
 
 }  // namespace doppel::control

@@ -44,6 +44,10 @@ class ReplayControl final : public control::SimControl {
   control::CameraStill camera_still(const std::string& name) override;
   std::optional<control::ReplayStatus> replay() override;
   control::Outcome change_replay(const control::ReplayChange& change) override;
+  // The analyzer's report of the recording's bus traffic (bus_analysis.h), made on the first
+  // request (seconds for a long recording; the playback is not held up meanwhile) and kept. None
+  // without bus transactions, or when the file cannot be read again (said once on stderr).
+  std::optional<std::string> bus_analysis() override;
 
  private:
   int64_t now_ns() const { return clock_(); }
@@ -62,6 +66,10 @@ class ReplayControl final : public control::SimControl {
   control::Scene scene_;
   recording::ScenePoses poses_;
   std::vector<control::BusTable> servos_;
+  // bus_analysis(): its own lock, so that state polling goes on while it is being made.
+  std::mutex analysis_mutex_;
+  bool analysis_made_ = false;
+  std::optional<std::string> analysis_;
 };
 
 inline constexpr const char* kReplayCannotChangeWorld = "a replay cannot change the world";
