@@ -78,7 +78,7 @@ class RunningHub {
   std::thread thread_;
 };
 
-const LinkCounters& link(const HubCounters& counters, int from_player, int to_player) {
+LinkCounters link(const HubCounters& counters, int from_player, int to_player) {
   for (const LinkCounters& c : counters.links) {
     if (c.from_player == from_player && c.to_player == to_player) return c;
   }
@@ -133,7 +133,7 @@ TEST(Hub, DropsTheConfiguredShareWithinFourSigma) {
   while (sut.hub().counters().received < kN) std::this_thread::sleep_for(1ms);
   while (b.receive(200ms)) ++received;
 
-  const LinkCounters& ab = link(sut.hub().counters(), 1, 2);
+  const LinkCounters ab = link(sut.hub().counters(), 1, 2);
   const double sigma = std::sqrt(kN * kP * (1 - kP));  // binomial standard deviation: 40 messages
   EXPECT_NEAR(static_cast<double>(ab.dropped), kN * kP, 4 * sigma);
   EXPECT_EQ(ab.dropped + ab.relayed, static_cast<std::uint64_t>(kN));
