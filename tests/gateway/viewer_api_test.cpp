@@ -139,8 +139,14 @@ TEST(ViewerApi, ServoTableListsTheBusServosAndFollowsWhatTheDriverWrites) {
     EXPECT_TRUE(servo["error"].is_null()) << "Protocol 1.0 servos have no error register";
     EXPECT_GT(servo["voltage"].get<int>(), 0);
   }
-  // The bus counters count the PINGs above: one packet and one reply each, no bad checksum.
-  const json counters = doppel.get("/api/buses")[0]["counters"];
+  // The bus counters count the PINGs above: one packet and one reply each, no bad checksum. The
+  // bus thread counts a reply's bytes just after writing them, so the last one may still be on its
+  // way into the counter when the client already has it: wait a little for it.
+  json counters = doppel.get("/api/buses")[0]["counters"];
+  for (int i = 0; i < 200 && counters["bytes_out"].get<uint64_t>() < 6 * servos.size(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    counters = doppel.get("/api/buses")[0]["counters"];
+  }
   EXPECT_GE(counters["packets"].get<uint64_t>(), servos.size()) << counters.dump();
   EXPECT_GE(counters["replies"].get<uint64_t>(), servos.size()) << counters.dump();
   EXPECT_EQ(counters["bad_checksums"], 0) << counters.dump();
