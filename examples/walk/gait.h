@@ -32,21 +32,25 @@ struct GaitParameters {
   double period_s = 0.5;        // one full cycle: a left and a right step
   double hip_height_m = 0.245;  // hip above the floor while walking (design pose 0.27)
   double lift_m = 0.025;        // swing foot lift
-  double sway_m = 0.025;        // lateral hip sway amplitude
+  double sway_m = 0.015;        // lateral hip sway amplitude
   double sway_lead = 0.3;       // sway phase lead (rad) over the lift
   double foot_x_m = 0.0;        // feet forward of the hips (shifts the centre of mass back)
   double foot_y_m = 0.0;        // extra foot spread either side
   double trunk_pitch_rad = 0.0;    // forward lean of the trunk (added to both hip pitches)
+  double pelvis_roll_rad = 0.1;    // standing hip rolled outward in single support (lifts the swinging side)
   double gyro_pitch_gain = 0.1;    // ankle pitch per rad/s of trunk pitch rate
   double gyro_roll_gain = 0.1;     // ankle roll per rad/s of trunk roll rate
   double tilt_pitch_gain = 0.0;    // ankle pitch per rad of trunk pitch
-  double tilt_roll_gain = 0.0;     // hip roll per rad of trunk roll
+  double tilt_roll_gain = -0.3;    // hip roll per rad of trunk roll (-: hips away from the low side)
+  double gyro_hip_roll_gain = 0.0; // hip roll per rad/s of trunk roll rate
+  double heading_gain = 1.0;       // turn rate (rad/s) per rad of heading error
+  double stride_scale = 0.64;      // step length per commanded (speed x period / 2): calibration
 };
 
 // What the IMU says (docs/devices.md, FUMANOID-IMU): pitch + nose down, roll + right side down,
 // rates about the board's y and x axes.
 struct ImuReading {
-  double pitch = 0, roll = 0, gyro_x = 0, gyro_y = 0;
+  double pitch = 0, roll = 0, yaw = 0, gyro_x = 0, gyro_y = 0, gyro_z = 0;
 };
 
 // The 12 leg joints in the order left (yaw, roll, pitch, knee, ankle pitch, ankle roll), right (same).
@@ -60,6 +64,7 @@ class Gait {
   // `amplitude` in [0, 1] scales step, sway and lift (0 = stand, ramps avoid jerks).
   void step(double dt_s, double speed_m_s, double turn_rad_s, double amplitude, const ImuReading& imu);
   const LegJoints& joints() const { return joints_; }
+  double heading_error() const { return heading_error_; }
   double phase() const { return phase_; }
   bool reachable() const { return reachable_; }
 
@@ -69,6 +74,9 @@ class Gait {
   double phase_ = 0;
   LegJoints joints_{};
   bool reachable_ = true;
+  bool heading_set_ = false;
+  double heading_target_ = 0;
+  double heading_error_ = 0;
 };
 
 }  // namespace walk
