@@ -7,6 +7,7 @@ namespace walk {
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kUnloadedN = 5;  // a foot carrying less than this is in the air
 }
 
 bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, LegAngles& out) {
@@ -72,9 +73,16 @@ void Gait::step(double dt_s, double speed_m_s, double turn_rad_s, double amplitu
   const double yaw_left = -0.5 * turn * std::cos(ph);
   const double yaw_right = 0.5 * turn * std::cos(ph);
 
+  // Reach: a trunk rolled beyond the deadband over its standing foot stretches the other leg, left
+  // hanging in the air on the high side, towards the floor (foot sensors say which foot is free).
+  const double excess_roll = std::copysign(std::max(0.0, std::fabs(imu.roll) - p_.reach_deadband), imu.roll);
+  const auto hanging = [](double load_n) { return load_n >= 0 && load_n < kUnloadedN; };
+  const double reach_left = hanging(imu.load_left_n) ? p_.reach_gain * std::max(0.0, excess_roll) : 0;  // + roll: right side down
+  const double reach_right = hanging(imu.load_right_n) ? p_.reach_gain * std::max(0.0, -excess_roll) : 0;
+
   LegAngles left, right;
-  const double z_left = leg_.hip_height_m - p_.hip_height_m + lift * swing_left;
-  const double z_right = leg_.hip_height_m - p_.hip_height_m + lift * swing_right;
+  const double z_left = leg_.hip_height_m - p_.hip_height_m + lift * swing_left - reach_left;
+  const double z_right = leg_.hip_height_m - p_.hip_height_m + lift * swing_right - reach_right;
   // Sway: the hips move towards the standing foot, so both feet move the other way relative to them.
   reachable_ = leg_ik(leg_, p_.foot_x_m + x_left, p_.foot_y_m + sway, z_left, yaw_left, left);
   reachable_ = leg_ik(leg_, p_.foot_x_m + x_right, -p_.foot_y_m + sway, z_right, yaw_right, right) && reachable_;

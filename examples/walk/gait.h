@@ -31,7 +31,7 @@ bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, Le
 struct GaitParameters {
   double period_s = 0.5;        // one full cycle: a left and a right step
   double hip_height_m = 0.245;  // hip above the floor while walking (design pose 0.27)
-  double lift_m = 0.025;        // swing foot lift
+  double lift_m = 0.018;        // swing foot lift
   double sway_m = 0.015;        // lateral hip sway amplitude
   double sway_lead = 0.3;       // sway phase lead (rad) over the lift
   double foot_x_m = 0.0;        // feet forward of the hips (shifts the centre of mass back)
@@ -43,6 +43,8 @@ struct GaitParameters {
   double tilt_pitch_gain = 0.0;    // ankle pitch per rad of trunk pitch
   double tilt_roll_gain = -0.3;    // hip roll per rad of trunk roll (-: hips away from the low side)
   double gyro_hip_roll_gain = 0.0; // hip roll per rad/s of trunk roll rate
+  double reach_gain = 0.15;         // an unloaded foot on the high side lowered (m) per rad of roll beyond reach_deadband
+  double reach_deadband = 0.05;    // rad
   double heading_gain = 1.0;       // turn rate (rad/s) per rad of heading error
   double stride_scale = 0.64;      // step length per commanded (speed x period / 2): calibration
 };
@@ -51,6 +53,7 @@ struct GaitParameters {
 // rates about the board's y and x axes.
 struct ImuReading {
   double pitch = 0, roll = 0, yaw = 0, gyro_x = 0, gyro_y = 0, gyro_z = 0;
+  double load_left_n = -1, load_right_n = -1;  // foot load cells' totals, N (-1: the robot has none)
 };
 
 // The 12 leg joints in the order left (yaw, roll, pitch, knee, ankle pitch, ankle roll), right (same).
