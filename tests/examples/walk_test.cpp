@@ -77,12 +77,13 @@ struct WalkingDoppel {
     EXPECT_EQ(code, 0) << output;
     return json::parse(output);
   }
-  // Runs doppel-walk; its per-cycle log (IMU, foot loads, phase) goes to walk-SUITE-TEST.csv in the
-  // working directory, for a look at a failed run.
+  // Runs doppel-walk; its per-cycle log (IMU, foot loads, phase) goes to walk-SUITE-TEST-N.csv in
+  // the working directory (N counts the walks of this process: --gtest_repeat keeps each run's).
   std::pair<int, std::string> walk(const std::string& arguments) const {
     const std::string which = robot == "darwin-op" ? " --robot darwin-op" : "";
     const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string log = std::string("walk-") + test->test_suite_name() + "-" + test->name() + ".csv";
+    static int walks = 0;
+    std::string log = std::string("walk-") + test->test_suite_name() + "-" + test->name() + "-" + std::to_string(++walks) + ".csv";
     std::replace(log.begin(), log.end(), '/', '-');
     auto result = run_command(std::string(DOPPEL_WALK) + " --port " + doppel.link() + which + " --log " + log + " " + arguments);
     result.second += "(log: " + log + ")";
