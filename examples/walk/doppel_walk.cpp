@@ -104,7 +104,7 @@ RobotConfig darwin_op() {
   // feedback; nor the default robot's pelvis lift (not tuned on this robot).
   r.gait.tilt_roll_gain = 0;
   r.gait.pelvis_roll_rad = 0;
-  r.gait.stride_scale = 0.8;  // measured: 0.64 walked 0.77-0.96, 0.75 0.78-0.95 of the commanded distance
+  r.gait.stride_scale = 0.8;  // measured (docs/walk.md): 0.64 and 0.75 walked short of the commanded distance
   return r;
 }
 
@@ -243,7 +243,6 @@ int main(int argc, char** argv) {
   app.add_option("--gyro-roll", params.gyro_roll_gain, "ankle roll per rad/s");
   app.add_option("--tilt-pitch", params.tilt_pitch_gain, "ankle pitch per rad");
   app.add_option("--tilt-roll", params.tilt_roll_gain, "hip roll per rad");
-  app.add_option("--gyro-hip-roll", params.gyro_hip_roll_gain, "hip roll per rad/s");
   app.add_option("--reach", params.reach_gain, "high side's foot lowered per rad of roll beyond the deadband, m/rad");
   app.add_option("--pelvis", params.pelvis_roll_rad, "stance hip roll outward in single support, rad");
   app.add_option("--heading-gain", params.heading_gain, "turn rate per rad of heading error");
@@ -280,7 +279,6 @@ int main(int argc, char** argv) {
     keep("--gyro-roll", params.gyro_roll_gain, given.gyro_roll_gain);
     keep("--tilt-pitch", params.tilt_pitch_gain, given.tilt_pitch_gain);
     keep("--tilt-roll", params.tilt_roll_gain, given.tilt_roll_gain);
-    keep("--gyro-hip-roll", params.gyro_hip_roll_gain, given.gyro_hip_roll_gain);
     keep("--reach", params.reach_gain, given.reach_gain);
     keep("--pelvis", params.pelvis_roll_rad, given.pelvis_roll_rad);
     keep("--heading-gain", params.heading_gain, given.heading_gain);

@@ -57,8 +57,8 @@ void Gait::step(double dt_s, double speed_m_s, double turn_rad_s, double amplitu
     heading_set_ = true;
   }
   heading_target_ = std::remainder(heading_target_ + amplitude * turn_rad_s * dt_s, 2 * kPi);
-  heading_error_ = std::remainder(heading_target_ - imu.yaw, 2 * kPi);
-  const double turn_rate = turn_rad_s + std::clamp(p_.heading_gain * heading_error_, -0.5, 0.5);
+  const double heading_error = std::remainder(heading_target_ - imu.yaw, 2 * kPi);
+  const double turn_rate = turn_rad_s + std::clamp(p_.heading_gain * heading_error, -0.5, 0.5);
   // A cycle has two steps; in each the standing foot sweeps one step length (half the cycle's
   // travel) backward relative to the hips while the other swings forward.
   const double step = amplitude * p_.stride_scale * speed_m_s * p_.period_s / 2;
@@ -96,7 +96,7 @@ void Gait::step(double dt_s, double speed_m_s, double turn_rad_s, double amplitu
   // toes pushed down, which rights it; likewise for roll.
   const double pitch_fb = p_.gyro_pitch_gain * imu.gyro_y + p_.tilt_pitch_gain * imu.pitch;
   const double roll_fb = p_.gyro_roll_gain * imu.gyro_x;
-  const double hip_roll_fb = p_.tilt_roll_gain * imu.roll + p_.gyro_hip_roll_gain * imu.gyro_x;
+  const double hip_roll_fb = p_.tilt_roll_gain * imu.roll;
   joints_ = {left.hip_yaw,  left.hip_roll + pelvis_left + hip_roll_fb,  left.hip_pitch - p_.trunk_pitch_rad,  left.knee,
              left.ankle_pitch + pitch_fb,  left.ankle_roll + roll_fb,
              right.hip_yaw, right.hip_roll + pelvis_right + hip_roll_fb, right.hip_pitch - p_.trunk_pitch_rad, right.knee,

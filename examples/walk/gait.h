@@ -1,7 +1,9 @@
 #pragma once
 // The reference walk's gait: an open-loop, sinusoidal (CPG-style) pattern of foot positions
 // relative to the hips, turned into joint angles by an analytic leg inverse kinematics for the
-// FUmanoid 2011 leg (robots/fumanoid-2011.textproto), plus IMU damping. docs/walk.md explains it.
+// FUmanoid 2011 leg (robots/fumanoid-2011.textproto), plus feedback from the IMU (gyro damping,
+// roll angle, heading) and the foot sensors (a hanging foot reaches for the floor), without which
+// it fell sideways now and then. docs/walk.md explains it with the measurements.
 
 #include <array>
 #include <cstdint>
@@ -42,7 +44,6 @@ struct GaitParameters {
   double gyro_roll_gain = 0.1;     // ankle roll per rad/s of trunk roll rate
   double tilt_pitch_gain = 0.0;    // ankle pitch per rad of trunk pitch
   double tilt_roll_gain = -0.3;    // hip roll per rad of trunk roll (-: hips away from the low side)
-  double gyro_hip_roll_gain = 0.0; // hip roll per rad/s of trunk roll rate
   double reach_gain = 0.15;         // an unloaded foot on the high side lowered (m) per rad of roll beyond reach_deadband
   double reach_deadband = 0.05;    // rad
   double heading_gain = 1.0;       // turn rate (rad/s) per rad of heading error
@@ -67,7 +68,6 @@ class Gait {
   // `amplitude` in [0, 1] scales step, sway and lift (0 = stand, ramps avoid jerks).
   void step(double dt_s, double speed_m_s, double turn_rad_s, double amplitude, const ImuReading& imu);
   const LegJoints& joints() const { return joints_; }
-  double heading_error() const { return heading_error_; }
   double phase() const { return phase_; }
   bool reachable() const { return reachable_; }
 
@@ -79,7 +79,6 @@ class Gait {
   bool reachable_ = true;
   bool heading_set_ = false;
   double heading_target_ = 0;
-  double heading_error_ = 0;
 };
 
 }  // namespace walk
