@@ -5,3 +5,10 @@ doppel_bus_tool(viewer_load)
 target_link_libraries(viewer_load PRIVATE PkgConfig::HTTPLIB_BENCH nlohmann_json::nlohmann_json)
 add_test(NAME viewer_load_smoke COMMAND viewer_load --quick)
 set_tests_properties(viewer_load_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE SKIP_RETURN_CODE 77)
+
+# Recording's cost (docs/benchmarks.md "Recording"): bus latency and missed simulation ticks with and
+# without doppel --record, two runs side by side, phases alternating.
+doppel_bus_tool(record_load)
+target_link_libraries(record_load PRIVATE PkgConfig::HTTPLIB_BENCH nlohmann_json::nlohmann_json)
+add_test(NAME record_load_smoke COMMAND record_load --quick)
+set_tests_properties(record_load_smoke PROPERTIES LABELS bench RUN_SERIAL TRUE)

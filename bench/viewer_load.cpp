@@ -31,10 +31,17 @@
 
 #include "doppel_process.h"
 #include "latency_stats.h"
+#include "load_phase.h"
 #include "reference_client.h"
 #include "tool_command_line.h"
 
 namespace {
+
+using doppel::bench::add;
+using doppel::bench::measure;
+using doppel::bench::Phase;
+using doppel::bench::print_row;
+using doppel::bench::state;
 
 using doppel::testing::Bytes;
 using doppel::testing::DoppelProcess;
@@ -83,44 +90,6 @@ class Browser {
   pid_t pid_ = -1;
 };
 
-struct Phase {
-  std::vector<double> latencies_us;
-  int failures = 0;
-  uint64_t missed_ticks = 0;
-  double sim_s = 0.0;
-  double wall_s = 0.0;
-};
-
-nlohmann::json state(int port) {
-  httplib::Client client("127.0.0.1", port);
-  client.set_read_timeout(std::chrono::seconds(10));
-  const httplib::Result result = client.Get("/api/state");
-  if (!result || result->status != 200) throw std::runtime_error("GET /api/state failed");
-  return nlohmann::json::parse(result->body);
-}
-
-Phase measure(SerialClient& client, int port, double seconds) {
-  Phase phase;
-  const nlohmann::json before = state(port);
-  const Bytes request = doppel::testing::p1_instruction(1, 0x02, {36, 2});
-  const auto start = Clock::now();
-  while (std::chrono::duration<double>(Clock::now() - start).count() < seconds) {
-    const auto t0 = Clock::now();
-    const Bytes reply = client.transact(request, 8, 200);
-    const double us = std::chrono::duration<double, std::micro>(Clock::now() - t0).count();
-    if (reply.size() == 8) {
-      phase.latencies_us.push_back(us);
-    } else {
-      ++phase.failures;
-    }
-  }
-  phase.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-  const nlohmann::json after = state(port);
-  phase.missed_ticks = after["missed_ticks"].get<uint64_t>() - before["missed_ticks"].get<uint64_t>();
-  phase.sim_s = after["sim_time_s"].get<double>() - before["sim_time_s"].get<double>();
-  return phase;
-}
-
 // Polls the API at the page's rates until destroyed.
 class Poller {
  public:
@@ -151,21 +120,6 @@ class Poller {
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };
-
-void print_row(const char* name, const Phase& p) {
-  const doppel::bench::Percentiles q = doppel::bench::percentiles(p.latencies_us);
-  std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f | %d | %llu | %.2f | %.3f |\n", name, q.count, q.p50, q.p99, q.p999,
-              q.max, p.failures, static_cast<unsigned long long>(p.missed_ticks),
-              static_cast<double>(p.missed_ticks) / p.wall_s, p.sim_s / p.wall_s);
-}
-
-void add(Phase& total, const Phase& p) {
-  total.latencies_us.insert(total.latencies_us.end(), p.latencies_us.begin(), p.latencies_us.end());
-  total.failures += p.failures;
-  total.missed_ticks += p.missed_ticks;
-  total.sim_s += p.sim_s;
-  total.wall_s += p.wall_s;
-}
 
 }  // namespace
 

@@ -44,6 +44,7 @@
   let lastScene = null;
   let lastState = null;
   let lastBuses = null;
+  let lastReplay = null;   // GET /api/replay's answer; null for a live doppel
   let selectedRobot = 0;
   let placing = false;
 
@@ -368,6 +369,7 @@
     const select = $('camera-name');
     const names = [];
     for (const robot of state.robots) for (const cam of robot.cameras || []) names.push(cam.name);
+    if (lastReplay) for (const name of lastReplay.cameras || []) if (!names.includes(name)) names.push(name);
     if (select.dataset.names !== names.join()) {
       const chosen = select.value;
       select.innerHTML = '';
@@ -548,6 +550,219 @@
     placeAt(point.x, point.y);
   });
 
+  // --- replay timeline (doppel-replay: docs/replay.md) -----------------------------------------
+  // Shown only when /api/replay answers; a live doppel answers 404 and the page stays as it was.
+  let scrubbing = false;   // the slider is being dragged: polling does not move it
+  let seekBusy = false, seekWanted = null;
+  function applyReplay(replay) {
+    lastReplay = replay;
+    $('timeline').hidden = false;
+    $('replay-badge').hidden = false;
+    const slider = $('replay-slider');
+    slider.min = replay.start_s;
+    slider.max = replay.end_s;
+    if (!scrubbing) slider.value = replay.position_s;
+    $('replay-play').textContent = replay.playing ? 'Pause' : 'Play';
+    $('replay-time').textContent = `${fixed(replay.position_s, 3)} / ${fixed(replay.end_s, 3)} s`;
+    const speed = $('replay-speed');
+    if (document.activeElement !== speed && Number(speed.value) !== replay.speed) {
+      if (![...speed.options].some((o) => Number(o.value) === replay.speed)) speed.add(new Option(`${replay.speed}×`, replay.speed));
+      speed.value = String(replay.speed);
+    }
+    for (const b of document.querySelectorAll('#push-buttons button, #place-mode')) {
+      b.disabled = true;
+      b.title = 'a replay cannot change the world';
+    }
+    if (periodPlots.length > 0) moveAnalysisCursor();
+  }
+  async function replayChange(change) {
+    try {
+      applyReplay(await api('POST', '/api/replay', change));
+      clearError();
+    } catch (e) {
+      showError(e.message);
+    }
+  }
+  // Seeks as fast as the server answers while the slider moves, always ending at the last value.
+  async function seek(position) {
+    seekWanted = position;
+    if (seekBusy) return;
+    seekBusy = true;
+    while (seekWanted !== null) {
+      const next = seekWanted;
+      seekWanted = null;
+      await replayChange({ position_s: next });
+    }
+    seekBusy = false;
+  }
+  $('replay-slider').addEventListener('input', (e) => { scrubbing = true; seek(Number(e.target.value)); });
+  $('replay-slider').addEventListener('change', (e) => { scrubbing = false; seek(Number(e.target.value)); });
+  $('replay-play').addEventListener('click', () => replayChange({ playing: !(lastReplay && lastReplay.playing) }));
+  $('replay-speed').addEventListener('change', (e) => replayChange({ speed: Number(e.target.value) }));
+  fetch('/api/replay', { cache: 'no-store' }).then(async (response) => {
+    if (!response.ok) return;  // live
+    applyReplay(await response.json());
+    poll('/api/replay', STATE_PERIOD_MS, applyReplay);
+  }).catch(() => {});
+
+  // --- bus analysis of a replay (GET /api/analysis: analyzer/, docs/analyzer.md) --------------------
+  // Drawn once (the recording does not change); the period plot's cursor follows the replay.
+  const SPLIT_PARTS = [  // the time split's parts (analyzer KindStats), in the order they add up
+    ['host_write', 'host write', '#4878b0'], ['return_delay', 'return delay', '#e8a33c'],
+    ['status_wire', 'status wire', '#5aa05a'], ['status_gaps', 'status gaps', '#9bd18b'],
+    ['adapter', 'adapter', '#c0504d'], ['lateness', 'Doppel late', '#999999'],
+  ];
+  let lastAnalysis = null;
+  const periodPlots = [];  // {canvas, series, t0, t1} per report, for the replay cursor
+  function sizedCanvas(box, title) {
+    const caption = document.createElement('div');
+    caption.className = 'plot-title';
+    caption.textContent = title;
+    const c = document.createElement('canvas');
+    box.append(caption, c);
+    const ratio = window.devicePixelRatio || 1;
+    c.width = Math.round(400 * ratio);
+    c.height = Math.round(160 * ratio);
+    const ctx = c.getContext('2d');
+    ctx.scale(ratio, ratio);
+    return { c, ctx, w: 400, h: 160 };
+  }
+  function wrap(box) {
+    const d = document.createElement('div');
+    box.appendChild(d);
+    return d;
+  }
+  function drawPeriods(plot, cursorS) {
+    const { ctx, w, h } = plot;
+    const { t_s: ts, period_us: ps } = plot.series;
+    ctx.fillStyle = '#fff';
+    ctx.fillRect(0, 0, w, h);
+    const left = 52, right = w - 8, top = 8, bottom = h - 20;
+    const t0 = plot.t0, t1 = Math.max(plot.t1, t0 + 1e-3);
+    const hi = Math.max(...ps) * 1.1 || 1;
+    const x = (t) => left + (t - t0) / (t1 - t0) * (right - left);
+    const y = (v) => bottom - v / hi * (bottom - top);
+    ctx.strokeStyle = '#ccc';
+    ctx.lineWidth = 1;
+    ctx.strokeRect(left, top, right - left, bottom - top);
+    ctx.fillStyle = '#444';
+    ctx.font = '10px sans-serif';
+    ctx.textAlign = 'right';
+    for (const v of [0, hi / 2, hi]) ctx.fillText(v >= 1000 ? `${fixed(v / 1000, 1)} ms` : `${fixed(v, 0)} µs`, left - 3, y(v) + 3);
+    ctx.textAlign = 'left';
+    ctx.fillText(`${fixed(t0, 1)} s`, left, h - 6);
+    ctx.textAlign = 'right';
+    ctx.fillText(`${fixed(t1, 1)} s`, right, h - 6);
+    ctx.strokeStyle = '#2a6ebb';
+    ctx.lineWidth = 1.2;
+    ctx.beginPath();
+    ts.forEach((t, i) => (i ? ctx.lineTo(x(t), y(ps[i])) : ctx.moveTo(x(t), y(ps[i]))));
+    if (ts.length === 1) ctx.lineTo(x(ts[0]) + 2, y(ps[0]));
+    ctx.stroke();
+    if (typeof cursorS === 'number' && cursorS >= t0 && cursorS <= t1) {
+      ctx.strokeStyle = '#a60';
+      ctx.beginPath();
+      ctx.moveTo(x(cursorS), top);
+      ctx.lineTo(x(cursorS), bottom);
+      ctx.stroke();
+    }
+  }
+  function drawBars(canvasBox, rows, legend) {  // rows: [{label, parts: [[value, colour]], text}]
+    const { ctx, w, h } = canvasBox;
+    ctx.fillStyle = '#fff';
+    ctx.fillRect(0, 0, w, h);
+    const left = 150, right = w - 70, top = legend ? 22 : 6;
+    const rowH = Math.min(22, (h - top - 4) / Math.max(1, rows.length));
+    const hi = Math.max(...rows.map((r) => r.parts.reduce((a, [v]) => a + v, 0))) || 1;
+    ctx.font = '10px sans-serif';
+    if (legend) {
+      ctx.font = '9px sans-serif';
+      let lx = 4;
+      for (const [label, colour] of legend) {
+        ctx.fillStyle = colour;
+        ctx.fillRect(lx, 6, 9, 9);
+        ctx.fillStyle = '#333';
+        ctx.textAlign = 'left';
+        ctx.fillText(label, lx + 12, 14);
+        lx += ctx.measureText(label).width + 17;
+      }
+      ctx.font = '10px sans-serif';
+    }
+    rows.forEach((row, i) => {
+      const y0 = top + i * rowH;
+      ctx.fillStyle = '#333';
+      ctx.textAlign = 'right';
+      ctx.fillText(row.label.length > 26 ? row.label.slice(0, 25) + '…' : row.label, left - 4, y0 + rowH / 2 + 3);
+      let x0 = left;
+      for (const [v, colour] of row.parts) {
+        const bw = v / hi * (right - left);
+        ctx.fillStyle = colour;
+        ctx.fillRect(x0, y0 + 2, Math.max(bw, v > 0 ? 1 : 0), rowH - 4);
+        x0 += bw;
+      }
+      ctx.fillStyle = '#333';
+      ctx.textAlign = 'left';
+      ctx.fillText(row.text, x0 + 3, y0 + rowH / 2 + 3);
+    });
+  }
+  function usText(us) { return us >= 1000 ? `${fixed(us / 1000, 2)} ms` : `${fixed(us, 0)} µs`; }
+  function applyAnalysis(analysis) {
+    lastAnalysis = analysis;
+    const reports = analysis.reports || [];
+    if (reports.length === 0) return;
+    $('analysis').hidden = false;
+    $('analysis-note').textContent = '(the whole recording: analyzer, as doppel-bus report shows it)';
+    const container = $('analysis-reports');
+    container.textContent = '';
+    periodPlots.length = 0;
+    for (const r of reports) {
+      const head = document.createElement('div');
+      head.className = 'analysis-cycle';
+      const c = r.cycle;
+      const who = `robot ${r.robot}${r.robot_name ? ` (${r.robot_name})` : ''}, ${r.transactions} transactions, timing ${r.timing_mode || '?'}`;
+      head.textContent = c.found
+        ? `${who}: control cycle ${fixed(c.rate_hz, 1)} Hz, opener ${c.opener_kind} on bus ${c.opener_bus}, ${c.cycles} cycles; ` +
+          `period p50 ${usText(c.period.p50_us)}, p99 ${usText(c.period.p99_us)}, max ${usText(c.period.max_us)}`
+        : `${who}: no control cycle found (no request repeats at least 3 times)`;
+      head.dataset.rateHz = c.found ? String(c.rate_hz) : '';
+      container.appendChild(head);
+      const plots = document.createElement('div');
+      plots.className = 'analysis-plots';
+      container.appendChild(plots);
+      if (c.found && r.period_series && r.period_series.t_s.length > 0) {
+        const per = r.period_series.per_point;
+        const plot = sizedCanvas(wrap(plots), per > 1 ? `cycle period over time (longest of each ${per})` : 'cycle period over time');
+        plot.series = r.period_series;
+        const ts = r.period_series.t_s;
+        plot.t0 = lastReplay ? Math.min(lastReplay.start_s, ts[0]) : ts[0];
+        plot.t1 = lastReplay ? Math.max(lastReplay.end_s, ts[ts.length - 1]) : ts[ts.length - 1];
+        periodPlots.push(plot);
+        drawPeriods(plot, lastReplay ? lastReplay.position_s : null);
+      }
+      const kinds = r.kinds.slice(0, 7);
+      drawBars(sizedCanvas(wrap(plots), 'time split per kind, mean'), kinds.map((k) => ({
+        label: `${k.kind} ×${k.count}`,
+        parts: SPLIT_PARTS.map(([key, , colour]) => [k[key].count > 0 ? Math.max(0, k[key].mean_us) : 0, colour]),
+        text: usText(k.total.mean_us),
+      })), SPLIT_PARTS.map(([, label, colour]) => [label, colour]));
+      const rates = [];
+      if (c.found) rates.push({ label: 'measured', parts: [[c.rate_hz, '#555']], text: `${fixed(c.rate_hz, 1)} Hz` });
+      for (const wi of r.what_if) {
+        if (!(wi.cycles > 0)) continue;
+        const label = wi.scenario === 'recorded' ? 'model, recorded settings' : wi.scenario;
+        rates.push({ label, parts: [[wi.rate_hz, '#2a6ebb']], text: `${fixed(wi.rate_hz, 1)} Hz` });
+      }
+      if (rates.length > 0) drawBars(sizedCanvas(wrap(plots), 'what if: achievable cycle rate'), rates, null);
+    }
+  }
+  function moveAnalysisCursor() {
+    for (const plot of periodPlots) drawPeriods(plot, lastReplay ? lastReplay.position_s : null);
+  }
+  fetch('/api/analysis', { cache: 'no-store' }).then(async (response) => {
+    if (!response.ok) return;  // a live doppel, or a recording without bus traffic
+    applyAnalysis(await response.json());
+  }).catch(() => {});
+
   poll('/api/scene', SCENE_PERIOD_MS, applyScene);
   poll('/api/state', STATE_PERIOD_MS, applyState);
   poll('/api/buses', BUSES_PERIOD_MS, applyBuses);
@@ -588,6 +803,18 @@
       return out;
     }),
     state: () => lastState,
+    replay: () => lastReplay,
+    timelineShown: () => !$('timeline').hidden,
+    analysis: () => lastAnalysis,
+    analysisShown: () => !$('analysis').hidden,
+    analysisCycleText: () => Array.from(document.querySelectorAll('#analysis .analysis-cycle')).map((d) => d.textContent),
+    // Canvas pixels of the Bus panel's plots that are not background (white), per plot.
+    analysisInk: () => Array.from(document.querySelectorAll('#analysis canvas')).map((c) => {
+      const data = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let ink = 0;
+      for (let i = 0; i < data.length; i += 4) if (data[i] < 200 || data[i + 1] < 200 || data[i + 2] < 200) ++ink;
+      return ink;
+    }),
     buses: () => lastBuses,
     scene: () => lastScene,
     error: () => ($('error').hidden ? '' : $('error').textContent),

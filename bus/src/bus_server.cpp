@@ -144,12 +144,25 @@ void BusServer::process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, ui
   if (!parser_.idle() && seen_ns - last_input_ns_ > timeout_ns) {
     parser_.reset();
     add(counters_.timeouts);
+    tap(TapEventKind::kTimeout, seen_ns);
   }
   const WireSpan span = timing_.host_bytes(seen_ns, n, baud_bps);
   last_input_ns_ = std::max(seen_ns, span.end_ns);
+  const uint64_t offset = stream_offset_;
+  stream_offset_ += n;
+  if (options_.tap != nullptr) {
+    TapEvent event;
+    event.kind = TapEventKind::kInput;
+    event.baud_bps = baud_bps;
+    event.value = span.baud_bps;  // 0 in fast mode: the bytes take no wire time
+    event.sequence = offset;
+    event.t0_ns = seen_ns;
+    event.t1_ns = span.start_ns;
+    options_.tap->push(event, {bytes, n});
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (parser_.push(bytes[i]) == dynamixel::PacketFramer::Result::kPacket) {
-      dispatch(parser_.packet(), span.byte_end_ns(i), seen_ns, baud_bps);
+      dispatch(parser_.packet(), span.byte_end_ns(i), seen_ns, baud_bps, offset + i + 1);
     }
   }
   const dynamixel::ParserCounters parsed = parser_.counters();
@@ -158,8 +171,34 @@ void BusServer::process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, ui
   set_if_changed(counters_.dropped_bytes, parsed.dropped_bytes);
 }
 
+void BusServer::tap(TapEventKind kind, int64_t t0_ns, int64_t t1_ns, std::span<const uint8_t> payload,
+                    uint32_t value) noexcept {
+  if (options_.tap == nullptr) return;
+  TapEvent event;
+  event.kind = kind;
+  event.sequence = sequence_;
+  event.t0_ns = t0_ns;
+  event.t1_ns = t1_ns;
+  event.value = value;
+  options_.tap->push(event, payload);
+}
+
 void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
-                         uint32_t baud_bps) noexcept {
+                         uint32_t baud_bps, uint64_t stream_end) noexcept {
+  sequence_ = next_sequence_++;
+  if (options_.tap != nullptr) {
+    TapEvent event;
+    event.kind = TapEventKind::kInstruction;
+    event.protocol = packet.protocol == dynamixel::Protocol::kV2 ? 2 : 1;
+    event.checksum_ok = packet.checksum_ok;
+    event.baud_bps = baud_bps;
+    event.value = packet.wire_bytes;
+    event.sequence = sequence_;
+    event.stream_end = stream_end;
+    event.t0_ns = instruction_end_ns;
+    event.t1_ns = seen_ns;
+    options_.tap->push(event);
+  }
   if (options_.adapter == AdapterProfile::kUsb2ax && usb2ax_intercepts(packet, seen_ns, baud_bps)) return;
   if (sync_ != nullptr) sync_->before_dispatch();
   const auto statuses = devices_.dispatch(packet, baud_bps);
@@ -171,6 +210,7 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   if (total == 0) return;
   if (!schedule_.can_accept(total)) {
     add(counters_.dropped_replies);
+    tap(TapEventKind::kReplyDropped, seen_ns);
     return;
   }
 
@@ -180,7 +220,9 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   }
   adapter_.begin_reply();
   uint64_t merged = 0;
+  int64_t due_ns = 0;
   auto emit = [&](const Delivery& delivery) noexcept {
+    due_ns = std::max(due_ns, delivery.due_ns + host_delay_ns_);
     if (!schedule_.push_segment(delivery.due_ns + host_delay_ns_, delivery.count)) ++merged;
   };
   ReplyTrace trace;
@@ -190,6 +232,7 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   trace.line_baud_bps = baud_bps;
   trace.id = packet.id;
   trace.instruction = packet.instruction;
+  trace.sequence = sequence_;
   for (const auto& status : statuses) {
     if (status.packet == nullptr || status.packet->size == 0) continue;
     const std::size_t size = status.packet->size;
@@ -198,9 +241,11 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
                                          status.extra_delay_ns, status.continues_previous);
     trace.status_end_ns = span.end_ns;
     adapter_.add_status(span, size, emit);
+    tap(TapEventKind::kStatus, span.start_ns, span.end_ns, {status.packet->bytes.data(), size}, status.return_delay_us);
   }
   adapter_.end_reply(emit);
   schedule_.mark_reply_end(trace);
+  tap(TapEventKind::kReply, due_ns, 0, {}, adapter_.latency_ms());
   add(counters_.replies);
   if (merged != 0) add(counters_.merged_segments, merged);
 }
@@ -241,6 +286,13 @@ void BusServer::account_delivery(const ReplySchedule::Progress& progress, int64_
     trace.written_ns = written_ns;
     traces_.try_push(trace);
   }
+  if (progress.reply_done && options_.tap != nullptr) {
+    TapEvent event;
+    event.kind = TapEventKind::kDelivered;
+    event.sequence = progress.trace.sequence;
+    event.t0_ns = written_ns;
+    options_.tap->push(event);
+  }
 }
 
 void BusServer::on_connect() noexcept {
@@ -249,6 +301,7 @@ void BusServer::on_connect() noexcept {
   if (!parser_.idle()) parser_.reset();
   write_blocked_ = false;
   add(counters_.connects);
+  tap(TapEventKind::kConnect, monotonic_now_ns());
   counters_.connected.store(true, std::memory_order_relaxed);
 }
 
@@ -256,6 +309,7 @@ void BusServer::on_hang_up() noexcept {
   // Complete packets of the departed client were served by read_input; what is left is a partial
   // packet (dropped, as a servo would after its timeout) and replies nobody will read.
   if (!parser_.idle()) parser_.reset();
+  tap(TapEventKind::kHangUp, monotonic_now_ns());
   add(counters_.discarded_bytes, schedule_.pending_bytes());
   schedule_.clear();
   adapter_.reset();

@@ -20,6 +20,7 @@ bool BusServer::usb2ax_intercepts(const dynamixel::InstructionPacket& packet, in
   trace.line_baud_bps = baud_bps;
   trace.id = packet.id;
   trace.instruction = packet.instruction;
+  trace.sequence = sequence_;
   if (action == Usb2axFirmware::Action::kSyncRead) {
     usb2ax_sync_read(seen_ns, baud_bps, trace);
     return true;
@@ -79,6 +80,7 @@ void BusServer::schedule_adapter_status(const dynamixel::StatusPacket& status, i
   if (!schedule_.can_accept(status.size)) {
     counters_.dropped_replies.store(counters_.dropped_replies.load(std::memory_order_relaxed) + 1,
                                     std::memory_order_relaxed);
+    tap(TapEventKind::kReplyDropped, due_ns);
     return;
   }
   schedule_.push_bytes(status.bytes.data(), status.size);
@@ -86,6 +88,9 @@ void BusServer::schedule_adapter_status(const dynamixel::StatusPacket& status, i
   trace.bytes = status.size;
   if (trace.status_end_ns == 0) trace.status_end_ns = due_ns;
   schedule_.mark_reply_end(trace);
+  // The adapter's own answer: on the USB side only, so its wire span is empty at the due time.
+  tap(TapEventKind::kStatus, due_ns, due_ns, {status.bytes.data(), status.size});
+  tap(TapEventKind::kReply, due_ns);
   counters_.replies.store(counters_.replies.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
 }
 

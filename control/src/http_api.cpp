@@ -132,7 +132,55 @@ Outcome apply(SimControl& control, const std::string& action, const json& reques
   throw Refused{404, "no such request: /api/" + action};
 }
 
+// The checked fields of POST /api/replay against the replay's `status`: all or nothing.
+ReplayChange replay_change(const json& request, const ReplayStatus& status) {
+  only_fields(request, {"position_s", "speed", "playing"});
+  if (request.empty()) throw Refused{400, "give at least one of 'position_s', 'speed', 'playing'"};
+  ReplayChange change;
+  if (request.contains("position_s")) {
+    const double position = number(request, "position_s");
+    if (position < status.start_s || position > status.end_s) {
+      throw Refused{400, "field 'position_s' must be within " + json(status.start_s).dump() + ".." + json(status.end_s).dump() +
+                             " s (the recording), got " + json(position).dump()};
+    }
+    change.position_s = position;
+  }
+  if (request.contains("speed")) {
+    const double speed = number(request, "speed");
+    if (speed < kMinReplaySpeed || speed > kMaxReplaySpeed) {
+      throw Refused{400, "field 'speed' must be within " + json(kMinReplaySpeed).dump() + ".." + json(kMaxReplaySpeed).dump() +
+                             ", got " + json(speed).dump()};
+    }
+    change.speed = speed;
+  }
+  if (request.contains("playing")) {
+    if (!request.at("playing").is_boolean()) throw Refused{400, "field 'playing' must be true or false"};
+    change.playing = request.at("playing").get<bool>();
+  }
+  return change;
+}
+
+Answer replay_request(SimControl& control, const std::string& method, const std::string& body) {
+  const std::optional<ReplayStatus> status = control.replay();
+  if (!status) return {404, error_body("this is not a replay: /api/replay is served by doppel-replay (docs/replay.md)")};
+  if (method == "GET") return {200, replay_json(*status)};
+  if (method != "POST") return {405, error_body("/api/replay is read with GET and changed with POST")};
+  try {
+    const Outcome outcome = control.change_replay(replay_change(parse_object(body), *status));
+    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+  } catch (const Refused& refused) {
+    return {refused.status, error_body(refused.message)};
+  }
+  const std::optional<ReplayStatus> after = control.replay();
+  return {200, after ? replay_json(*after) : json(nullptr)};
+}
+
 }  // namespace
+
+json replay_json(const ReplayStatus& status) {
+  return {{"start_s", status.start_s}, {"end_s", status.end_s}, {"position_s", status.position_s},
+          {"speed", status.speed},     {"playing", status.playing}, {"cameras", status.cameras}};
+}
 
 json state_json(const SimState& state) {
   json robots = json::array();
@@ -232,6 +280,18 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   constexpr std::string_view kPrefix = "/api/";
   if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
   const std::string action = path.substr(kPrefix.size());
+  if (action == "replay") return replay_request(control, method, body);
+  if (action == "analysis") {
+    if (method != "GET") return {405, error_body("/api/analysis is read with GET")};
+    const std::optional<std::string> analysis = control.bus_analysis();
+    if (!analysis) {
+      return {404, error_body("no bus analysis: /api/analysis is served by doppel-replay for a recording with bus "
+                              "transactions (docs/analyzer.md)")};
+    }
+    json parsed = json::parse(*analysis, nullptr, false);
+    if (parsed.is_discarded()) return {500, error_body("the bus analysis is not valid JSON")};
+    return {200, std::move(parsed)};
+  }
   if (action == "state" || action == "scene" || action == "buses") {
     if (method != "GET") return {405, error_body("/api/" + action + " is read with GET")};
     if (action == "scene") return {200, scene_json(control.scene())};
@@ -296,7 +356,10 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     }
     response.set_header("Cache-Control", "no-store");
     response.set_header("X-Sim-Time", std::to_string(still.sim_time_s));
-    response.set_content(still.png, "image/png");
+    // A replay serves the still as recorded: PNG, or JPEG (its magic bytes FF D8 FF).
+    const bool jpeg = still.png.size() >= 3 && static_cast<uint8_t>(still.png[0]) == 0xFF &&
+                      static_cast<uint8_t>(still.png[1]) == 0xD8 && static_cast<uint8_t>(still.png[2]) == 0xFF;
+    response.set_content(still.png, jpeg ? "image/jpeg" : "image/png");
   });
   server_->Get(R"(/api/.*)", serve);
   server_->Post(R"(/api/.*)", serve);

@@ -503,9 +503,16 @@ constexpr double deg_to_rad(double deg) { return deg * std::numbers::pi / 180.0;
 constexpr ServoSpec axrx_servo(const MotorSpec& motor) {
   return ServoSpec{ServoFamily::kAxRx, ControlLaw::kCompliance, 1023, 512, deg_to_rad(300.0), 0.111, 1023.0, &motor};
 }
-// MX with Protocol 1.0 firmware (§3.5): 4096 units per turn, 0.114 rpm, PID with output 1023 = full duty.
+// MX with Protocol 1.0 firmware (§3.5): 4096 units per turn, 0.114 rpm, PID (Kp = P / 8, e-Manual).
+// The e-Manual gives no output scale of that PID. Rhoban measured it on MX-64 and MX-106 with an
+// oscilloscope: duty = 0.158 x P x error in rad (Rhoban/bam, bam/dynamixel/actuator.py at 1b5a1ce,
+// MXActuator error_gain; the Protocol 1.0 P Gain register 28 written raw). So Kp x error reaches
+// full duty at 4096 / 2 pi / (8 x 0.158) = 515.8 output units: P 32 gives full duty at 129 units
+// (11.3 deg). The MX-28 runs the same firmware family; Doppel assumes it alike (docs/devices.md).
+constexpr double kMxDutyPerRadAndP = 0.158;
+constexpr double kMxPidFullScale = 4096.0 / (2.0 * std::numbers::pi) / (8.0 * kMxDutyPerRadAndP);
 constexpr ServoSpec mx_servo(const MotorSpec& motor) {
-  return ServoSpec{ServoFamily::kMx, ControlLaw::kPid, 4095, 2048, deg_to_rad(360.0), 0.114, 1023.0, &motor};
+  return ServoSpec{ServoFamily::kMx, ControlLaw::kPid, 4095, 2048, deg_to_rad(360.0), 0.114, kMxPidFullScale, &motor};
 }
 // X series and MX(2.0) (§3.6, §3.7): 4096 pulses per turn, 0.229 rpm, PID with PWM 885 = full duty.
 constexpr ServoSpec x_servo(const MotorSpec& motor) {

@@ -95,6 +95,7 @@ Protocol1Parser::Result Protocol1Parser::push(uint8_t byte) noexcept {
       }
       return Result::kIncomplete;
     case State::kChecksum:
+      packet_.wire_bytes = static_cast<uint16_t>(length_ + 4);  // FF FF ID LEN, then LEN bytes
       detail::count_framed_packet(static_cast<uint8_t>(~sum_) == byte, packet_, counters_);
       state_ = State::kHeader1;
       return Result::kPacket;

@@ -239,6 +239,7 @@ Protocol2Parser::Result Protocol2Parser::push(uint8_t byte) noexcept {
       state_ = State::kCrcHigh;
       return Result::kIncomplete;
     case State::kCrcHigh:
+      packet_.wire_bytes = static_cast<uint16_t>(length_ + kP2HeaderBytes);
       detail::count_framed_packet(static_cast<uint16_t>(crc_low_ | (byte << 8)) == crc_, packet_, counters_);
       state_ = State::kHeader1;
       return Result::kPacket;

@@ -1,6 +1,7 @@
 #include "gateway/gateway.h"
 
 #include <pthread.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <iostream>
@@ -19,6 +20,8 @@
 #include "physics/world.h"
 #include "eeprom_state.h"
 #include "control/http_api.h"
+#include "base/monotonic_clock.h"
+#include "record/recorder.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
 
@@ -162,6 +165,58 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
     }
   }
+  if (!options.record_path.empty()) start_recorder(configs);
+}
+
+void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
+  recording::RunInfo run;
+  run.set_doppel_version(DOPPEL_VERSION);
+  run.set_command_line(options_.command_line);
+  run.set_start_monotonic_ns(monotonic_now_ns());
+  run.set_start_unix_ns(clock_now_ns(CLOCK_REALTIME));
+  run.set_physics_engine(world_ != nullptr ? std::string(physics::engine_name(*options_.physics)) : "");
+  run.set_timing_mode(options_.timing == bus::TimingMode::kWire ? "wire" : "fast");
+  std::vector<record::RecordedBus> buses;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
+      BusRuntime& runtime = robots_[r]->bus(b);
+      const BusConfig& config = configs[r].buses[b];
+      record::RecordedBus bus;
+      bus.tap = runtime.tap();
+      recording::BusInfo& info = bus.info;
+      info.set_robot(static_cast<uint32_t>(r));
+      info.set_robot_name(configs[r].name);
+      info.set_bus(static_cast<uint32_t>(b));
+      info.set_link(runtime.link());
+      info.set_configured_baud_bps(config.baud_bps);
+      info.set_adapter_latency_ms(runtime.server().adapter_latency_ms());
+      info.set_adapter(config.adapter == bus::AdapterProfile::kUsb2ax ? "usb2ax" : "ftdi");
+      info.set_processing_ns(runtime.server().options().processing_ns);
+      for (std::size_t i = 0; i < config.devices.size(); ++i) {
+        const DeviceConfig& device = config.devices[i];
+        recording::DeviceInfo* d = info.add_devices();
+        d->set_id(device.id);
+        d->set_name(device.name);
+        d->set_model(device.model);
+        d->set_protocol(device.firmware == dynamixel::Protocol::kV2 ? 2 : 1);
+        d->set_return_delay_us(runtime.return_delay_us(i));  // the bus threads have not started yet
+      }
+      buses.push_back(std::move(bus));
+    }
+  }
+  record::RecorderOptions recorder_options;
+  recorder_options.path = options_.record_path;
+  recorder_options.camera_hz = options_.record_camera_hz;
+  recorder_options.compression = options_.record_compression == "lz4"    ? mcap::Compression::kLz4
+                                 : options_.record_compression == "none" ? mcap::Compression::kNone
+                                                                         : mcap::Compression::kZstd;
+  recorder_options.progress = ::isatty(STDERR_FILENO) == 1;
+  try {
+    recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_.get(),
+                                                   &std::cerr);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("--record: ") + e.what());
+  }
 }
 
 Gateway::~Gateway() { stop(); }
@@ -186,6 +241,9 @@ void Gateway::start() {
   });
   if (control_api_ != nullptr) {
     control_api_->start();
+  }
+  if (recorder_ != nullptr) {
+    recorder_->start();
   }
   if (!state_files_.empty()) {
     state_thread_ = std::thread([this] {
@@ -276,6 +334,9 @@ void Gateway::stop() {
   for (auto& robot : robots_) {
     robot->join();
   }
+  if (recorder_ != nullptr) {
+    recorder_->stop();  // after the bus threads: every event they tapped is in the file
+  }
   if (state_thread_.joinable()) {
     state_thread_.join();
   }
@@ -347,6 +408,9 @@ std::string Gateway::summary() const {
     out << cameras_->summary();
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
+  if (recorder_ != nullptr) {
+    out << recorder_->summary();
+  }
   return out.str();
 }
 

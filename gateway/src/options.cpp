@@ -83,6 +83,12 @@ Options:
   --viewer-dir DIR       The viewer's page (index.html, viewer.js) from DIR instead of the source tree's
                          viewer/ (or $DOPPEL_VIEWER_DIR). three.js comes from Debian's libjs-three.
   --no-viewer            Serve neither the viewer nor simulation control.
+  --record FILE.mcap     Record the run to FILE (MCAP, docs/recording.md): every bus transaction with
+                         its bytes and times, the world state at 100 Hz, servo tables, the scene.
+                         Read it with doppel-bus report, doppel-replay or Foxglove.
+  --record-cameras HZ    Also record each camera's still (PNG) HZ times a second (0.1..30).
+  --record-compression zstd|lz4|none
+                         Chunk compression of the recording (default zstd).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -130,14 +136,23 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--viewer-dir", options.viewer_dir)->check(not_empty("the folder"));
   app.add_flag("--no-viewer{false}", options.viewer);
   app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
+  app.add_option("--record", options.record_path)->check(not_empty("the file name"));
+  app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
+  app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     throw std::invalid_argument(std::string(e.what()) + " (see --help)");
   }
+  for (int i = 0; i < argc; ++i) {
+    options.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
+  }
   if (options.robots.empty()) {
     options.robots.emplace_back("fumanoid-2011");
+  }
+  if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
+    throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
   }
   if (options.state_dir.empty()) {
     options.state_dir = default_state_dir();

@@ -120,6 +120,10 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
   server_options.adapter_latency_ms = config.latency_timer_ms.value_or(options.latency_timer_ms);
   server_options.adapter = config.adapter;
+  if (!options.record_path.empty()) {
+    tap_ = std::make_unique<bus::TrafficTap>();
+    server_options.tap = tap_.get();
+  }
   port_ = std::make_unique<bus::PtyPort>(link);
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
   for (std::size_t d = 0; d < devices_.size(); ++d) {

@@ -99,6 +99,10 @@ class BusRuntime final : public bus::DeviceSync {
   std::string summary() const;
 
   bus::BusServer& server() noexcept { return *server_; }
+  // Return Delay Time of device `index` (file order), µs; only while the bus thread is not running.
+  uint32_t return_delay_us(std::size_t index) const noexcept { return devices_[index]->return_delay_us(); }
+  // Where the bus reports its traffic when the run is recorded (--record); null otherwise.
+  bus::TrafficTap* tap() noexcept { return tap_.get(); }
   const std::string& link() const noexcept { return port_->link_path(); }
   // State thread: the newest EEPROM areas the bus thread published (generation, bytes). rt-safe.
   const BusEeprom& published_eeprom() noexcept { return eeprom_.latest(); }
@@ -156,6 +160,7 @@ class BusRuntime final : public bus::DeviceSync {
   bool supply_on_ = true;                            // bus thread: its Dynamixel Power as last followed
   std::vector<Gated> gated_;                         // the devices it switches
   std::unique_ptr<bus::PtyPort> port_;
+  std::unique_ptr<bus::TrafficTap> tap_;  // before server_, which writes it
   std::unique_ptr<bus::BusServer> server_;
   concurrency::Snapshot<BusCommands> commands_;
   concurrency::Snapshot<BusFeedback> feedback_;
@@ -211,6 +216,8 @@ class RobotRuntime {
   std::vector<std::vector<uint16_t>> model_numbers() const;
   // Every bus' servo table (robot fields left to the caller). Any thread but the bus threads.
   std::vector<control::BusTable> servo_tables();
+  std::size_t bus_count() const noexcept { return buses_.size(); }
+  BusRuntime& bus(std::size_t index) noexcept { return *buses_[index]; }
 
  private:
   RobotConfig config_;

@@ -56,6 +56,8 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   CountingSync sync(servos);
   BusServerOptions options;
   options.timing_mode = TimingMode::kFast;
+  TrafficTap tap(std::size_t{16} << 20);  // recording on: the tap copies into its ring, never allocates
+  options.tap = &tap;
   BusServer sut(port, devices, options, &sync);
 
   testing::ClientFd client(open_client(port.link_path()));
@@ -95,6 +97,10 @@ TEST(RealtimeAllocations, BusServerServesPacketsWithoutAllocating) {
   // PING 6 + READ 8 + WRITE 6 + REG_WRITE 6 + BULK READ 3 x 8 + bad-checksum status 6 per round.
   EXPECT_EQ(served, 200u * (6 + 8 + 6 + 6 + 24 + 6));
   EXPECT_GT(sut.diagnostics().packets, 1000u);
+  EXPECT_EQ(tap.dropped(), 0u);
+  TapEvent event;
+  std::vector<uint8_t> payload;
+  EXPECT_TRUE(tap.pop(event, payload));
   EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "operator new called on the bus thread while serving packets";
 }
 

@@ -78,6 +78,7 @@ class RecordingControl final : public SimControl {
     return {bus};
   }
   CameraStill camera_still(const std::string& name) override {
+    if (name == "jpeg") return {200, "", std::string("\xFF\xD8\xFF\xE0", 4) + "jfif", 1.0};  // a replay's recorded JPEG
     if (name != "head") return {404, "no camera '" + name + "' (robot cameras: head)", "", 0.0};
     return {200, "", std::string("\x89PNG\r\n\x1a\n", 8) + "pixels", 2.25};
   }
@@ -175,6 +176,24 @@ TEST(HttpApi, BadRequestsAreRefusedWithTheReasonAndReachNothing) {
         << answer.body["error"] << " should say " << refusal.reason;
     EXPECT_TRUE(control.calls.empty()) << refusal.path << " " << refusal.body << " reached " << control.calls.front();
   }
+}
+
+TEST(HttpApi, ALiveSimulationIsNoReplay) {
+  RecordingControl control;
+  for (const char* method : {"GET", "POST"}) {
+    const Answer answer = handle(control, method, "/api/replay", R"({"playing": true})");
+    EXPECT_EQ(answer.status, 404) << method;
+    EXPECT_NE(answer.body["error"].get<std::string>().find("not a replay"), std::string::npos) << answer.body.dump();
+  }
+  EXPECT_TRUE(control.calls.empty());
+}
+
+TEST(HttpApi, ALiveSimulationHasNoBusAnalysis) {
+  RecordingControl control;
+  const Answer answer = handle(control, "GET", "/api/analysis", "");
+  EXPECT_EQ(answer.status, 404);
+  EXPECT_NE(answer.body["error"].get<std::string>().find("doppel-replay"), std::string::npos) << answer.body.dump();
+  EXPECT_TRUE(control.calls.empty());
 }
 
 TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
@@ -375,6 +394,9 @@ TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
   ASSERT_TRUE(unknown);
   EXPECT_EQ(unknown->status, 404);
   EXPECT_EQ(nlohmann::json::parse(unknown->body)["error"], "no camera 'tail' (robot cameras: head)");
+  const httplib::Result jpeg = client.Get("/api/camera/jpeg");
+  ASSERT_TRUE(jpeg);
+  EXPECT_EQ(jpeg->get_header_value("Content-Type"), "image/jpeg");
   api.stop();
 }
 

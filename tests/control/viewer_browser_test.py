@@ -238,6 +238,9 @@ def run(doppel, out_dir, chromium):
         # The robot is drawn: its shapes are in the 3D scene and the frame shows it.
         robots = browser.wait_for("window.doppelViewer && window.doppelViewer.robotCount()", "the robot in the 3D view")
         check(robots == 1, f"the view draws {robots} robots, doppel simulates 1")
+        # A live doppel is no replay: no timeline (tests/replay/replay_browser_test.py has it).
+        check(not browser.evaluate("window.doppelViewer.timelineShown()"), "a live doppel's page shows the replay timeline")
+        check(not browser.evaluate("window.doppelViewer.analysisShown()"), "a live doppel's page shows the Bus panel")
         browser.wait_for("window.doppelViewer.frames() > 5 && window.doppelViewer.sceneUpdates() > 2", "frames drawn")
         # The pixel under the robot's trunk is not the carpet's colour: the robot is drawn there.
         pixel = browser.evaluate("""(() => {

@@ -355,6 +355,25 @@ TEST(PacketFramer, MixedProtocol1And2Stream) {
   EXPECT_EQ(counters.dropped_bytes, 2u);
 }
 
+// A recorder cuts each packet's bytes out of the driver's stream by its wire size: header to
+// checksum, with Protocol 2.0's stuffing bytes (reference §2.3) counted.
+TEST(PacketFramer, ReportsEachPacketsWireSize) {
+  const Bytes p2_ping = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E};
+  const Bytes p1_ping = {0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};
+  // WRITE to ID 1 whose data holds FF FF FD: one stuffing FD on the wire (LEN 9: INST, 6 stuffed
+  // parameter bytes, 2 CRC), so 7 + 9 = 16 bytes in all.
+  const uint8_t params[] = {0x41, 0x00, 0xFF, 0xFF, 0xFD};
+  Bytes write(64);
+  write.resize(encode_protocol2_instruction(1, 0x03, params, sizeof(params), write.data(), write.size()));
+  ASSERT_EQ(write.size(), 16u);
+  const auto packets = frame(cat(cat(p2_ping, p1_ping), write));
+  ASSERT_EQ(packets.size(), 3u);
+  EXPECT_EQ(packets[0].wire_bytes, 10u);
+  EXPECT_EQ(packets[1].wire_bytes, 6u);
+  EXPECT_EQ(packets[2].wire_bytes, 16u);
+  EXPECT_EQ(packets[2].param_count, 5u);
+}
+
 TEST(PacketFramer, AProtocol1PacketInsideProtocol2ParametersIsNotFramed) {
   // WRITE to ID 1 whose data bytes spell a P1 PING (FF FF 01 02 01 FB).
   const uint8_t params[] = {0x41, 0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB};

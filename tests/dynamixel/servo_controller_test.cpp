@@ -15,6 +15,11 @@ constexpr double kPi = 3.14159265358979323846;
 // AX/RX position unit (reference §5: 1024 steps over 300 deg, 0.29 deg) and MX/X (4096 per turn).
 constexpr double kRxUnit = 300.0 / 1024.0 * kPi / 180.0;
 constexpr double kMxUnit = 2.0 * kPi / 4096.0;
+// MX (Protocol 1.0 firmware) PID output: duty = 0.158 x P x error in rad, measured by Rhoban on
+// MX-64/MX-106 with an oscilloscope (Rhoban/bam, bam/dynamixel/actuator.py, MXActuator error_gain).
+// With the e-Manual's Kp = P / 8 output units per position unit, one output unit is this duty:
+constexpr double kMxDutyPerRadAndP = 0.158;
+constexpr double kMxDutyPerOutputUnit = 8.0 * kMxDutyPerRadAndP * kMxUnit;
 
 ServoCommand compliance_command(double goal_rad) {
   ServoCommand c;
@@ -95,7 +100,7 @@ TEST(ServoControllerTest, MovingSpeedZeroJumpsToTheGoal) {
   EXPECT_DOUBLE_EQ(out.setpoint_rad, 1.0);
 }
 
-TEST(ServoControllerTest, MxProportionalGainAsInTheManual) {
+TEST(ServoControllerTest, MxProportionalGainAsTheManualAndTheOscilloscopeGiveIt) {
   ServoController sut(servo_controller_config("MX-28"));
   ServoCommand command;
   command.torque_enabled = true;
@@ -104,7 +109,9 @@ TEST(ServoControllerTest, MxProportionalGainAsInTheManual) {
 
   const ControllerOutput out = sut.update(command, 0.0, 0.0, kDt);
 
-  EXPECT_NEAR(out.pwm_ratio, 4.0 * 100.0 / 1023.0, 1e-9);
+  // Rhoban's measurement: 0.158 x 32 x 0.1534 rad = 77.6 % duty for 100 units at P 32.
+  EXPECT_NEAR(out.pwm_ratio, kMxDutyPerRadAndP * 32.0 * (100.0 * kMxUnit), 1e-9);
+  EXPECT_NEAR(out.pwm_ratio, 4.0 * 100.0 * kMxDutyPerOutputUnit, 1e-9);
 }
 
 TEST(ServoControllerTest, MxIntegralGainAccumulatesTheError) {
@@ -119,7 +126,7 @@ TEST(ServoControllerTest, MxIntegralGainAccumulatesTheError) {
     out = sut.update(command, 0.0, 0.0, kDt);
   }
 
-  EXPECT_NEAR(out.pwm_ratio, (2.0 * 1000.0 / 2048.0) * 10.0 * 0.1 / 1023.0, 1e-9);
+  EXPECT_NEAR(out.pwm_ratio, (2.0 * 1000.0 / 2048.0) * 10.0 * 0.1 * kMxDutyPerOutputUnit, 1e-9);
 }
 
 TEST(ServoControllerTest, MxDerivativeGainDampsTheSpeed) {
@@ -128,9 +135,9 @@ TEST(ServoControllerTest, MxDerivativeGainDampsTheSpeed) {
   command.torque_enabled = true;
   command.pid = mx_pid_gains(0, 0, 250);  // Kd = 1.0 output unit per position unit / s
 
-  const ControllerOutput out = sut.update(command, 0.0, 1.0, kDt);
+  const ControllerOutput out = sut.update(command, 0.0, 0.5, kDt);  // 0.5 rad/s: 63 % duty, below full
 
-  EXPECT_NEAR(out.pwm_ratio, -1.0 / kMxUnit / 1023.0, 1e-9);
+  EXPECT_NEAR(out.pwm_ratio, -0.5 / kMxUnit * kMxDutyPerOutputUnit, 1e-9);
 }
 
 TEST(ServoControllerTest, WheelModeDutyFollowsMovingSpeed) {
@@ -188,7 +195,7 @@ TEST(ServoControllerTest, ConfigCarriesTheRegistrysMotor) {
   EXPECT_GT(sut.resistance_ohm, 0.0);
   EXPECT_EQ(sut.pwm_full_scale, 885.0);                                   // X / MX(2.0): PWM 885 = 100 %
   EXPECT_NEAR(sut.velocity_unit_rad_s, 0.229 * 2.0 * kPi / 60.0, 1e-12);  // Goal Velocity unit
-  EXPECT_EQ(servo_controller_config("MX-64").pwm_full_scale, 1023.0);
+  EXPECT_NEAR(servo_controller_config("MX-64").pwm_full_scale, 1.0 / kMxDutyPerOutputUnit, 1e-9);  // 515.8
   EXPECT_EQ(servo_controller_config("RX-64").law, ControlLaw::kCompliance);
 }
 

@@ -142,7 +142,10 @@ struct WalkingDoppel {
   // Runs doppel-walk; its per-cycle log (IMU, foot loads, phase) goes to walk-SUITE-TEST-N.csv in
   // the working directory (N counts the walks of this process: --gtest_repeat keeps each run's).
   std::pair<int, std::string> walk(const std::string& arguments) const {
-    const std::string which = robot == "darwin-op" ? " --robot darwin-op" : "";
+    // DARwIn-OP: the framework's leg gain, P 32 (darwin_op_framework.h), which Doppel's MX PID scale
+    // (Rhoban's measurement, docs/devices.md "Servo gains") makes as stiff as P 64 was before it;
+    // doppel-walk's own default, 64, is now twice as stiff.
+    const std::string which = robot == "darwin-op" ? " --robot darwin-op --p-gain 32" : "";
     const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
     static int walks = 0;
     std::string log = std::string("walk-") + test->test_suite_name() + "-" + test->name() + "-" + std::to_string(++walks) + ".csv";

@@ -42,18 +42,13 @@ inline constexpr std::array<uint16_t, kServoCount + 1> kWalkReady = {
 // the default 32. The walk-ready Action page 9 gives the same (compliance slopes 0x55 -> 32, arms
 // 0x77 -> 8). I and D stay 0.
 inline constexpr uint8_t kDefaultPGain = 32;
-// At 32 the body stands on both engines but sags out of the walk-ready lean (knees 80 counts, trunk
-// 1.3 deg forward instead of 12.9), as the model's statics predict for Doppel's MX-28 (duty = P/8 x
-// error / 1023: 6.4 N m/rad) under Webots' centres of mass (docs/devices.md, DARwIn-OP body). The
-// tests run Walking with `p_gain = 64`, where the lean stays within 4 deg.
-inline constexpr uint8_t kConfigPGain = 64;
-inline constexpr uint8_t p_gain(uint8_t id, uint8_t leg_p = kConfigPGain) {
+inline constexpr uint8_t p_gain(uint8_t id, uint8_t leg_p = kDefaultPGain) {
   return id <= 6 ? 8 : id >= 19 ? kDefaultPGain : leg_p;
 }
 
 // MotionManager::Process(): one SYNC WRITE of D, I, P, a reserved 0 and Goal Position (MX-28
 // 26..31, MX28::PARAM_BYTES = 7) for every joint.
-inline Bytes framework_sync_write(const std::array<uint16_t, kServoCount + 1>& goal, uint8_t leg_p = kConfigPGain) {
+inline Bytes framework_sync_write(const std::array<uint16_t, kServoCount + 1>& goal, uint8_t leg_p = kDefaultPGain) {
   Bytes params = {kDGain, 6};
   for (uint8_t id = 1; id <= kServoCount; ++id) {
     params.insert(params.end(), {id, 0, 0, p_gain(id, leg_p), 0, static_cast<uint8_t>(goal[id] & 0xFF),

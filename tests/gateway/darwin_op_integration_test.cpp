@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "cycle_stats.h"
 #include "darwin_op_framework.h"
 #include "doppel_process.h"
 #include "reference_client.h"
@@ -131,13 +132,10 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   constexpr int kCycles = 7500;  // 60 s of 8 ms
   constexpr auto kPeriod = std::chrono::milliseconds(8);
   constexpr double kPeriodMs = 8.0;
-  int errors = 0;
-  int overruns = 0;      // cycles whose SYNC WRITE + BULK READ took longer than 8 ms
+  CycleStats stats(kPeriodMs, kCycles);  // over the period: SYNC WRITE + BULK READ took longer than 8 ms
   int late_starts = 0;   // cycles that started late because the one before ran past its slot
   double last_feet_n = 0.0;
   int first_low_cycle = -1;  // the first cycle whose feet carry less than half the weight
-  std::vector<double> cycle_ms;
-  cycle_ms.reserve(kCycles);
   std::array<uint16_t, kServoCount + 1> goal = kWalkReady;
   auto next = std::chrono::steady_clock::now();
   for (int cycle = 0; cycle < kCycles; ++cycle) {
@@ -149,8 +147,6 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
     // test for a while (load 5-8), so only a reply missing after 1 s counts as lost.
     const Bytes reply = client.transact(bulk_read, kBulkReplyBytes, 1000);
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    cycle_ms.push_back(ms);
-    if (ms > kPeriodMs) ++overruns;
 
     const auto statuses = parse_p1_statuses(reply);
     bool ok = statuses && statuses->size() == 3u && reply.size() == kBulkReplyBytes;
@@ -161,8 +157,8 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
            s[2].error == 0 && cm730_block_ok(s[0].params) && fsr_block_ok(s[1].params, left_n) &&
            fsr_block_ok(s[2].params, right_n);
     }
+    stats.add(ms, ok);
     if (!ok) {
-      ++errors;
       ADD_FAILURE() << "cycle " << cycle << ": " << reply.size() << " bytes, not a valid answer to the BULK READ";
     } else {
       last_feet_n = left_n + right_n;
@@ -181,27 +177,21 @@ TEST(DarwinOp, TheFrameworksEightMillisecondCycleForSixtySecondsInWireMode) {
   }
   // SYNC WRITE has no status: nothing may be left on the line.
   EXPECT_TRUE(client.drain(50).empty());
-  EXPECT_EQ(errors, 0);
+  EXPECT_EQ(stats.errors(), 0);
   // After 60 s of the cycle the robot still stands on its feet.
   const double weight_n = kRobotMassKg * kStandardGravity;
   EXPECT_NEAR(last_feet_n, weight_n, 0.1 * weight_n);
   EXPECT_EQ(first_low_cycle, -1) << "the feet lost their load";
 
-  std::vector<double> sorted = cycle_ms;
-  std::sort(sorted.begin(), sorted.end());
-  const double p50 = sorted[sorted.size() / 2];
-  const double p99 = sorted[sorted.size() * 99 / 100];
-  const double max = sorted.back();
-  RecordProperty("cycles", kCycles);
-  RecordProperty("errors", errors);
-  RecordProperty("overruns", overruns);
+  RecordProperty("cycles", static_cast<int>(stats.cycles()));
+  RecordProperty("errors", static_cast<int>(stats.errors()));
+  RecordProperty("overruns", static_cast<int>(stats.over_period()));
   RecordProperty("late_starts", late_starts);
-  RecordProperty("cycle_p50_ms", std::to_string(p50));
-  RecordProperty("cycle_p99_ms", std::to_string(p99));
-  RecordProperty("cycle_max_ms", std::to_string(max));
-  std::printf("darwin-op 8 ms cycle, wire mode, physics: %d cycles, %d errors, %d transactions over 8 ms, %d late "
-              "starts; SYNC WRITE + BULK READ p50 %.2f ms, p99 %.2f ms, max %.2f ms; feet %.2f N\n",
-              kCycles, errors, overruns, late_starts, p50, p99, max, last_feet_n);
+  RecordProperty("cycle_p50_ms", std::to_string(stats.percentile(0.5)));
+  RecordProperty("cycle_p99_ms", std::to_string(stats.percentile(0.99)));
+  RecordProperty("cycle_max_ms", std::to_string(stats.percentile(1.0)));
+  std::printf("darwin-op 8 ms cycle (SYNC WRITE + BULK READ), wire mode, physics: %s; %d late starts; feet %.2f N\n",
+              stats.summary().c_str(), late_starts, last_feet_n);
 
   // The last SYNC WRITE reached every servo: its P gain, its goal, and the torque on (a Goal
   // Position write switches it on, docs/devices.md 3.7).

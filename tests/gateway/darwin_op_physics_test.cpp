@@ -8,6 +8,8 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -131,8 +133,9 @@ TEST_P(DarwinOpBody, StandsInTheWalkReadyPoseAtWalkingsGains) {
   EXPECT_NEAR(r.feet_n, weight_n, 0.05 * weight_n);
   for (std::size_t axis = 0; axis < 3; ++axis) EXPECT_NEAR(r.gyro[axis], 512, kGyroCounts) << "gyro axis " << axis;
   EXPECT_NEAR(r.accel_norm(), 128.0, kAccelCounts);
-  // Standing in the walk-ready lean; the loaded knees give a little (P 64: 0.0196 N m per count,
-  // static equilibrium of the model 9 deg, docs/devices.md).
+  // Standing in the walk-ready lean; the loaded knees give a little (P 32: 0.0194 N m per count
+  // with the MX PID scale Rhoban measured; static equilibrium of the model about 9 deg,
+  // docs/devices.md "Servo gains").
   EXPECT_NEAR(r.lean_deg(), kLeanDeg, 6.0);
   EXPECT_NEAR(r.roll_deg(), 0.0, 2.0);
   // Both feet on the carpet, each with its centre of pressure inside the board.
@@ -142,9 +145,12 @@ TEST_P(DarwinOpBody, StandsInTheWalkReadyPoseAtWalkingsGains) {
   }
   // The legs hold their goals within 5 deg (57 counts); the arms, at P 8, hang lower.
   const std::vector<uint16_t> positions = read_positions(bus_);
+  std::string errors;
   for (uint8_t id = 7; id <= kServoCount; ++id) {
     EXPECT_NEAR(positions[id - 1], kWalkReady[id], 57) << "ID " << int(id);
+    if (id <= 18) errors += " " + std::to_string(positions[id - 1] - kWalkReady[id]);
   }
+  std::printf("darwin-op on %s, leg errors (Present - Goal, counts) ID 7..18:%s\n", GetParam(), errors.c_str());
   // And it stays so: 2 s later the same.
   wait_sim_time(clock_, 2.0);
   const Reading later = read_mean(bus_, clock_);

@@ -23,6 +23,7 @@
 
 #include "camera/camera_config.h"
 #include "camera/lens.h"
+#include "cycle_stats.h"
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
 #include "held_pose.h"
@@ -272,11 +273,6 @@ TEST_P(Op3Stands, AtTheStackGainsAndTheOpenCrReadsItAtRest) {
 INSTANTIATE_TEST_SUITE_P(Engines, Op3Stands, ::testing::Values("ode", "bullet"),
                          [](const ::testing::TestParamInfo<const char*>& param) { return std::string(param.param); });
 
-double percentile(std::vector<double> v, double p) {
-  std::sort(v.begin(), v.end());
-  return v.at(static_cast<std::size_t>(p * static_cast<double>(v.size() - 1)));
-}
-
 // (c) The stack's cycle for 60 s in wire mode with physics (ODE): one BULK READ and one SYNC WRITE
 // every 8 ms. The head pans +-200 units (17.6 deg) in a 2 s sine; the other joints hold.
 TEST(Op3, StackCycleOfEightMillisecondsForSixtySecondsInWireMode) {
@@ -301,10 +297,8 @@ TEST(Op3, StackCycleOfEightMillisecondsForSixtySecondsInWireMode) {
 
   constexpr int kCycles = 7500;  // 60 s of 8 ms
   constexpr auto kPeriod = std::chrono::milliseconds(8);
-  int errors = 0, overruns = 0;
+  CycleStats stats(8.0, kCycles);
   OpenCrBlock last_open_cr;
-  std::vector<double> transaction_ms;
-  transaction_ms.reserve(kCycles);
   auto next = std::chrono::steady_clock::now();
   for (int cycle = 0; cycle < kCycles; ++cycle) {
     const auto start = std::chrono::steady_clock::now();
@@ -355,28 +349,22 @@ TEST(Op3, StackCycleOfEightMillisecondsForSixtySecondsInWireMode) {
     }
     bus.client().send(p2_instruction(kBroadcast, kSyncWrite, sync));
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    transaction_ms.push_back(ms);
+    stats.add(ms, ok);
     if (!ok) {
-      ++errors;
       ADD_FAILURE() << "cycle " << cycle << ": " << reply.size() << " bytes, not the expected BULK READ answer: " << why;
-      if (errors > 10) break;
+      if (stats.errors() > 10) break;
       bus.client().drain(20);
     }
-    if (ms > 8.0) ++overruns;
     next += kPeriod;
     if (std::chrono::steady_clock::now() > next) next = std::chrono::steady_clock::now();
     std::this_thread::sleep_until(next);
   }
   EXPECT_TRUE(bus.client().drain(50).empty());  // SYNC WRITE has no status
-  EXPECT_EQ(errors, 0);
-  ASSERT_FALSE(transaction_ms.empty());
-  const double p50 = percentile(transaction_ms, 0.5), p99 = percentile(transaction_ms, 0.99);
-  const double worst = *std::max_element(transaction_ms.begin(), transaction_ms.end());
-  RecordProperty("cycles", static_cast<int>(transaction_ms.size()));
-  RecordProperty("overruns", overruns);
-  std::printf("op3 cycle: %zu cycles, %d errors, %d transactions over 8 ms; BULK READ + SYNC WRITE p50 %.2f ms, "
-              "p99 %.2f ms, max %.2f ms\n",
-              transaction_ms.size(), errors, overruns, p50, p99, worst);
+  EXPECT_EQ(stats.errors(), 0);
+  ASSERT_GT(stats.cycles(), 0);
+  RecordProperty("cycles", static_cast<int>(stats.cycles()));
+  RecordProperty("overruns", static_cast<int>(stats.over_period()));
+  std::printf("op3 cycle (BULK READ + SYNC WRITE): %s\n", stats.summary().c_str());
   // Still standing after the stack's start-up (it enables its servos one at a time; the handler
   // hands the robot over joint by joint, physics::WorldOptions::hold_hand_over_s) and 60 s of
   // cycles: the OpenCR level within asin(0.06) = 3.4 deg, as in Op3Stands.

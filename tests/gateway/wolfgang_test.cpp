@@ -12,15 +12,15 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "cycle_stats.h"
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
 #include "held_pose.h"
+#include "p2_robot_buses.h"
 #include "reference_client.h"
 #include "reference_client_p2.h"
 
@@ -51,7 +51,7 @@ constexpr int kRightLegBus = 0, kLeftLegBus = 1, kHeadBus = 2, kArmsBus = 3;
 
 // MX(2.0) and X series share these addresses (reference §3.7).
 constexpr uint16_t kHardwareErrorStatus = 70, kPositionPGain = 84, kTorqueEnable = 64, kGoalPosition = 116;
-constexpr uint16_t kPresentPosition = 132, kPresentInputVoltage = 144, kRealtimeTick = 120;
+constexpr uint16_t kPresentPosition = 132, kPresentInputVoltage = 144;
 // Position P Gain of each servo as wolfgang.yaml's ROM_RAM groups set it: DEFAULT (hips, ankles)
 // 1200, ARMS 800, KNEES 4000, HEAD 500.
 uint16_t team_p_gain(uint8_t id) {
@@ -62,26 +62,10 @@ uint16_t team_p_gain(uint8_t id) {
 }
 
 // Bit-Bots IMU (docs/devices.md §8.2): float32 gyro 36, accel 48, quaternion x y z w 60; the driver
-// reads 40 bytes from 36 every cycle. BitFoot: four int32 counts from 36 (driver: 16 bytes), default
-// calibration 1e7 counts + force / 3e-6 N per count (docs/devices.md P7).
+// reads 40 bytes from 36 every cycle. BitFoot: four int32 counts from 36 (driver: 16 bytes;
+// p2_robot_buses.h decodes them).
 constexpr uint16_t kImuBlock = 36, kImuBlockLength = 40, kFootBlock = 36, kFootBlockLength = 16;
-constexpr double kFootZeroCounts = 1e7, kFootNewtonPerCount = 3e-6;
 constexpr uint16_t kCoreBlock = 23, kCoreBlockLength = 27, kButtons = 76, kButtonsLength = 3;
-
-float f32_at(const Bytes& b, std::size_t offset) {
-  uint32_t raw = 0;
-  for (int i = 0; i < 4; ++i) raw |= static_cast<uint32_t>(b.at(offset + static_cast<std::size_t>(i))) << (8 * i);
-  float f;
-  std::memcpy(&f, &raw, sizeof f);
-  return f;
-}
-
-Bytes read_params(uint16_t address, uint16_t length) {
-  Bytes p = le16(address);
-  const Bytes l = le16(length);
-  p.insert(p.end(), l.begin(), l.end());
-  return p;
-}
 
 struct Imu {
   std::array<double, 3> gyro{}, accel{};
@@ -97,38 +81,15 @@ struct Pose {
 
 class WolfgangBody : public ::testing::TestWithParam<const char*> {
  protected:
-  explicit WolfgangBody(std::vector<std::string> extra = {}) : doppel_(args(std::move(extra)), "ttyDXL3") {
-    for (int bus = 0; bus < 4; ++bus) {
-      clients_.push_back(std::make_unique<SerialClient>(doppel_.link("ttyDXL" + std::to_string(bus)), kBaud));
-    }
-  }
+  explicit WolfgangBody(std::vector<std::string> extra = {})
+      : doppel_(args(std::move(extra)), "ttyDXL3"), buses_(doppel_, kBaud, kServos) {}
   static std::vector<std::string> args(std::vector<std::string> extra) {
     std::vector<std::string> a = {"--robot", "wolfgang", "--timing", "fast"};
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
   }
-  SerialClient& bus(int index) { return *clients_.at(static_cast<std::size_t>(index)); }
-
-  Bytes read(int b, uint8_t id, uint16_t address, uint16_t length) {
-    const auto statuses =
-        parse_p2_statuses(bus(b).transact(p2_instruction(id, kRead, read_params(address, length)), 11u + length));
-    if (!statuses || statuses->size() != 1 || (*statuses)[0].id != id || (*statuses)[0].error != 0 ||
-        (*statuses)[0].params.size() != length) {
-      ADD_FAILURE() << "no " << length << "-byte READ reply from ID " << int(id) << " on bus " << b;
-      return {};
-    }
-    return (*statuses)[0].params;
-  }
-
-  // SYNC WRITE of one `size`-byte value per servo of bus `b`.
-  void sync_write(int b, uint16_t address, uint16_t size, uint32_t (*value)(uint8_t)) {
-    Bytes params = read_params(address, size);
-    for (uint8_t id : kServos[static_cast<std::size_t>(b)]) {
-      params.push_back(id);
-      for (uint16_t i = 0; i < size; ++i) params.push_back(static_cast<uint8_t>(value(id) >> (8 * i)));
-    }
-    bus(b).send(p2_instruction(kBroadcast, kSyncWrite, params));
-  }
+  SerialClient& bus(int index) { return buses_.bus(index); }
+  Bytes read(int b, uint8_t id, uint16_t address, uint16_t length) { return buses_.read(b, id, address, length); }
 
   // ServoBusInterface: writeROMRAM (the gains of the servo's group), writeTorque(true), and in its
   // first cycle the goal set to the present position ("when the servos have a goal position which
@@ -138,7 +99,7 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
     const std::vector<int32_t> present = read_positions();
     std::size_t k = 0;
     for (int b = 0; b < 4; ++b) {
-      Bytes goals = read_params(kGoalPosition, 4);
+      Bytes goals = p2_read_params(kGoalPosition, 4);
       for (uint8_t id : kServos[static_cast<std::size_t>(b)]) {
         const Bytes g = le32(present.at(k++));
         goals.push_back(id);
@@ -147,8 +108,8 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
       bus(b).send(p2_instruction(kBroadcast, kSyncWrite, goals));
     }
     for (int b = 0; b < 4; ++b) {
-      sync_write(b, kPositionPGain, 2, [](uint8_t id) -> uint32_t { return team_p_gain(id); });
-      sync_write(b, kTorqueEnable, 1, [](uint8_t) -> uint32_t { return 1; });
+      buses_.sync_write(b, kPositionPGain, 2, team_p_gain);
+      buses_.sync_write(b, kTorqueEnable, 1, [](uint8_t) { return 1; });
     }
   }
 
@@ -160,20 +121,13 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
       imu.gyro[k] = f32_at(raw, 4 * k);
       imu.accel[k] = f32_at(raw, 12 + 4 * k);
     }
-    const double x = f32_at(raw, 24), y = f32_at(raw, 28), z = f32_at(raw, 32), w = f32_at(raw, 36);
-    imu.roll_deg = std::atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y)) * 180.0 / M_PI;
-    imu.pitch_deg = std::asin(std::clamp(2.0 * (w * y - z * x), -1.0, 1.0)) * 180.0 / M_PI;
+    const RollPitch attitude = roll_pitch_deg(f32_at(raw, 24), f32_at(raw, 28), f32_at(raw, 32), f32_at(raw, 36));
+    imu.roll_deg = attitude.roll_deg;
+    imu.pitch_deg = attitude.pitch_deg;
     return imu;
   }
 
-  double foot_total_n(int b, uint8_t id) {
-    const Bytes raw = read(b, id, kFootBlock, kFootBlockLength);
-    double total = 0.0;
-    for (std::size_t cell = 0; cell < 4 && raw.size() == kFootBlockLength; ++cell) {
-      total += (static_cast<double>(le32_at(raw, 4 * cell)) - kFootZeroCounts) * kFootNewtonPerCount;
-    }
-    return total;
-  }
+  double foot_total_n(int b, uint8_t id) { return buses_.foot_total_n(b, id); }
 
   Pose read_pose() {
     const Imu imu = read_imu();
@@ -181,34 +135,13 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
                 foot_total_n(kRightLegBus, kRightFoot) + foot_total_n(kLeftLegBus, kLeftFoot)};
   }
 
-  std::vector<int32_t> read_positions() {
-    std::vector<int32_t> positions;
-    for (int b = 0; b < 4; ++b) {
-      for (uint8_t id : kServos[static_cast<std::size_t>(b)]) {
-        const Bytes raw = read(b, id, kPresentPosition, 4);
-        positions.push_back(raw.size() == 4 ? le32_at(raw, 0) : -1);
-      }
-    }
-    return positions;
-  }
+  std::vector<int32_t> read_positions() { return buses_.read_positions(); }
 
-  // Simulation time from a servo's Realtime Tick (ms, wraps at 32768); gives up after 60 s.
-  void wait_sim_time(double seconds) {
-    auto tick_ms = [&] {
-      const Bytes tick = read(kHeadBus, 19, kRealtimeTick, 2);
-      return tick.size() == 2 ? static_cast<int>(tick[0] | (tick[1] << 8)) : 0;
-    };
-    const int start = tick_ms();
-    const auto wanted = static_cast<int>(seconds * 1000.0);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-    while ((tick_ms() - start + 32768) % 32768 < wanted) {
-      ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the simulation did not advance " << seconds << " s";
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-  }
+  // Simulation time from HeadPan's Realtime Tick; gives up after 60 s.
+  void wait_sim_time(double seconds) { buses_.wait_sim_time(seconds, kHeadBus, 19, 60); }
 
   DoppelProcess doppel_;
-  std::vector<std::unique_ptr<SerialClient>> clients_;
+  P2RobotBuses buses_;
 };
 
 class WolfgangStands : public WolfgangBody {
@@ -357,12 +290,6 @@ TEST_F(WolfgangHeld, UntilTheDriverEnablesTorque) {
 //          BitFoot: READ 36, 16 (legs); IMU: READ 36, 40 every cycle, buttons READ 76, 3 every 50th
 //          (head bus); CORE: READ 23, 27 every 10th (read_rate 10, arms bus);
 //   write: SYNC WRITE of Goal Position (116, 4) to the bus' servos.
-struct BusCycleStats {
-  long cycles = 0;
-  long errors = 0;
-  long over_period = 0;
-  std::vector<double> cycle_ms;
-};
 
 class WolfgangWire : public ::testing::Test {
  protected:
@@ -381,11 +308,11 @@ bool check_statuses(const Bytes& reply, const std::vector<uint8_t>& ids, std::si
 }
 
 void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_point start,
-             std::chrono::steady_clock::time_point stop, BusCycleStats& stats) {
+             std::chrono::steady_clock::time_point stop, CycleStats& stats) {
   SerialClient client(path, kBaud);
   const std::vector<uint8_t>& ids = kServos[static_cast<std::size_t>(b)];
   auto sync_read = [&](uint16_t address, uint16_t length) {
-    Bytes params = read_params(address, length);
+    Bytes params = p2_read_params(address, length);
     params.insert(params.end(), ids.begin(), ids.end());
     return p2_instruction(kBroadcast, kSyncRead, params);
   };
@@ -393,16 +320,16 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
   const Bytes read_volt_temp = sync_read(kPresentInputVoltage, 3);
   const Bytes read_error = sync_read(kHardwareErrorStatus, 1);
   const uint8_t foot = b == kRightLegBus ? kRightFoot : kLeftFoot;
-  const Bytes read_foot = p2_instruction(foot, kRead, read_params(kFootBlock, kFootBlockLength));
-  const Bytes read_imu = p2_instruction(kImuId, kRead, read_params(kImuBlock, kImuBlockLength));
-  const Bytes read_buttons = p2_instruction(kImuId, kRead, read_params(kButtons, kButtonsLength));
-  const Bytes read_core = p2_instruction(kCoreId, kRead, read_params(kCoreBlock, kCoreBlockLength));
+  const Bytes read_foot = p2_instruction(foot, kRead, p2_read_params(kFootBlock, kFootBlockLength));
+  const Bytes read_imu = p2_instruction(kImuId, kRead, p2_read_params(kImuBlock, kImuBlockLength));
+  const Bytes read_buttons = p2_instruction(kImuId, kRead, p2_read_params(kButtons, kButtonsLength));
+  const Bytes read_core = p2_instruction(kCoreId, kRead, p2_read_params(kCoreBlock, kCoreBlockLength));
 
   // Driver start: the servos' gains, torque on, and the goals where they stand.
   std::vector<int32_t> goal;
   {
-    Bytes gains = read_params(kPositionPGain, 2);
-    Bytes torque = read_params(kTorqueEnable, 1);
+    Bytes gains = p2_read_params(kPositionPGain, 2);
+    Bytes torque = p2_read_params(kTorqueEnable, 1);
     for (uint8_t id : ids) {
       const uint16_t p = team_p_gain(id);
       gains.insert(gains.end(), {id, static_cast<uint8_t>(p & 0xFF), static_cast<uint8_t>(p >> 8)});
@@ -410,10 +337,10 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     }
     const auto statuses = parse_p2_statuses(client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs));
     if (!statuses || statuses->size() != ids.size()) {
-      ++stats.errors;
+      stats.add_error();
       return;
     }
-    Bytes goals = read_params(kGoalPosition, 4);
+    Bytes goals = p2_read_params(kGoalPosition, 4);
     for (const P2Status& s : *statuses) {
       goal.push_back(le32_at(s.params, 0));
       const Bytes g = le32(goal.back());
@@ -425,8 +352,7 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     client.send(p2_instruction(kBroadcast, kSyncWrite, torque));
   }
 
-  stats.cycle_ms.reserve(30000);
-  Bytes goal_write = read_params(kGoalPosition, 4);
+  Bytes goal_write = p2_read_params(kGoalPosition, 4);
   const std::size_t goal_offset = goal_write.size();
   goal_write.resize(goal_offset + 5 * ids.size());
   constexpr auto kPeriod = std::chrono::microseconds(2000);
@@ -463,28 +389,17 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     client.send(p2_instruction(kBroadcast, kSyncWrite, goal_write));
     const auto end = std::chrono::steady_clock::now();
     const double ms = std::chrono::duration<double, std::milli>(end - begin).count();
-    stats.cycle_ms.push_back(ms);
-    ++stats.cycles;
-    if (!ok) ++stats.errors;
+    stats.add(ms, ok);
     next += kPeriod;
-    if (end > next) {
-      ++stats.over_period;
-      next = end;  // as a ros_control loop: the next cycle starts when this one ends
-    }
+    if (end > next) next = end;  // as a ros_control loop: the next cycle starts when this one ends
   }
   // SYNC WRITE has no status (Status Return Level 2): nothing may be left on the line.
-  if (!client.drain(20).empty()) ++stats.errors;
-}
-
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[static_cast<std::size_t>(p * static_cast<double>(v.size() - 1))];
+  if (!client.drain(20).empty()) stats.add_error();
 }
 
 TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
   // 60 s of cycles: 30000 at 2 ms each; a cycle that overruns delays the next (as the driver's loop).
-  std::array<BusCycleStats, 4> stats;
+  std::vector<CycleStats> stats(4, CycleStats(2.0, 30000));
   std::vector<std::thread> threads;
   const auto start = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
   const auto stop = start + std::chrono::seconds(60);
@@ -495,23 +410,21 @@ TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
   for (std::thread& t : threads) t.join();
   const char* names[] = {"right_leg", "left_leg", "head", "arms"};
   for (int b = 0; b < 4; ++b) {
-    const BusCycleStats& s = stats[static_cast<std::size_t>(b)];
-    std::printf("wolfgang bus %d (%s): %ld cycles, %ld errors, %ld over 2 ms; cycle p50 %.3f p99 %.3f max %.3f ms\n", b,
-                names[b], s.cycles, s.errors, s.over_period, percentile(s.cycle_ms, 0.5),
-                percentile(s.cycle_ms, 0.99), percentile(s.cycle_ms, 1.0));
-    RecordProperty(std::string(names[b]) + "_over_2ms", static_cast<int>(s.over_period));
-    EXPECT_GT(s.cycles, 1000) << names[b];  // the loop ran (no timing asserted: the machine is shared)
-    EXPECT_EQ(s.errors, 0) << names[b];
+    const CycleStats& s = stats[static_cast<std::size_t>(b)];
+    std::printf("wolfgang bus %d (%s): %s\n", b, names[b], s.summary().c_str());
+    RecordProperty(std::string(names[b]) + "_over_2ms", static_cast<int>(s.over_period()));
+    EXPECT_GT(s.cycles(), 1000) << names[b];  // the loop ran (no timing asserted: the machine is shared)
+    EXPECT_EQ(s.errors(), 0) << names[b];
   }
   // The driver start of every thread reached the servos: torque on at the team's head gain.
   SerialClient head(doppel_.link("ttyDXL2"), kBaud);
   // Still standing after a minute of ramped goals (a fallen robot's servos would stall into
   // overload errors): the torso IMU's accelerometer z still carries most of gravity.
-  const auto imu = parse_p2_statuses(head.transact(p2_instruction(kImuId, kRead, read_params(kImuBlock, kImuBlockLength)), 51));
+  const auto imu = parse_p2_statuses(head.transact(p2_instruction(kImuId, kRead, p2_read_params(kImuBlock, kImuBlockLength)), 51));
   ASSERT_TRUE(imu && imu->size() == 1 && (*imu)[0].params.size() == kImuBlockLength);
   EXPECT_GT(f32_at((*imu)[0].params, 20), 0.9 * kGravity);
-  EXPECT_EQ(head.transact(p2_instruction(19, kRead, read_params(kTorqueEnable, 1)), 12), p2_status(19, 0, {1}));
-  EXPECT_EQ(head.transact(p2_instruction(19, kRead, read_params(kPositionPGain, 2)), 13), p2_status(19, 0, le16(500)));
+  EXPECT_EQ(head.transact(p2_instruction(19, kRead, p2_read_params(kTorqueEnable, 1)), 12), p2_status(19, 0, {1}));
+  EXPECT_EQ(head.transact(p2_instruction(19, kRead, p2_read_params(kPositionPGain, 2)), 13), p2_status(19, 0, le16(500)));
 }
 
 }  // namespace

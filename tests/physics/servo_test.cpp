@@ -178,6 +178,37 @@ TEST_P(ServoTest, GearFrictionHoldsAnUnpoweredJointAgainstASmallLoad) {
   EXPECT_NEAR(world->link_position(0, 1), 0.0, 0.01);
 }
 
+// An MX-28 at P 32 (the DARwIn-OP framework's gain) holding a horizontal arm, 0.2 m and 1 kg, on
+// a 12 V bus. Static: the duty is 0.158 x P x error in rad (Rhoban's oscilloscope measurement of the
+// MX PID, Rhoban/bam bam/dynamixel/actuator.py), the torque at rest that duty of the 2.5 N m stall
+// torque at 12 V (e-Manual); the arm sags until that torque carries m g L/2 cos(sag).
+TEST_P(ServoTest, MxHoldsALoadWithTheStiffnessMeasuredOnItsPid) {
+  const std::string rig = R"(name: "mx-arm"
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 supply_voltage_v: 12 device { id: 1 model: "MX-28" name: "J" } }
+figure {
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
+  body { name: "post" pose { position_m { z: 0.35 } } shape { box { size_m { x: 0.04 y: 0.04 z: 0.5 } } } mass_kg: 1 }
+  body { name: "arm" pose { position_m { x: 0.1 y: 0.05 z: 0.5 } } shape { box { size_m { x: 0.2 y: 0.02 z: 0.02 } } } mass_kg: 1 }
+  link { name: "fix" type: LINK_FIXED parent: "base" child: "post" }
+  link { name: "J" type: LINK_REVOLUTE parent: "post" child: "arm" anchor_m { y: 0.05 z: 0.5 } axis { y: 1 }
+         motor { bus: 0 id: 1 } }
+})";
+  WorldOptions options = test::bare_options();
+  options.hold = HoldMode::kReleased;
+  auto world = make_world(GetParam(), {robot_from_text(rig)}, options);
+  test::DrivenRobot driven(*world, 0);  // MX P 32, I 0, D 0
+  driven.enable_all();
+
+  driven.run(2.0);
+
+  const double stiffness_nm_rad = 2.5 * 0.158 * 32.0;  // 12.64 N m/rad
+  const double load_nm = 1.0 * 9.80665 * 0.1;
+  double sag = 0.0;
+  for (int i = 0; i < 20; ++i) sag = load_nm * std::cos(sag) / stiffness_nm_rad;  // 0.0775 rad, 4.4 deg
+  EXPECT_NEAR(std::fabs(world->link_position(0, 1)), sag, 0.02 * sag);
+  EXPECT_NEAR(world->motor(driven.handle(0)).velocity_rad_s, 0.0, 1e-3);
+}
+
 INSTANTIATE_TEST_SUITE_P(Engines, ServoTest, ::testing::ValuesIn(engine_names()),
                          [](const ::testing::TestParamInfo<std::string>& param) { return param.param; });
 

@@ -19,6 +19,7 @@
 #include "bus/pty_port.h"
 #include "bus/reply_schedule.h"
 #include "bus/spin_budget.h"
+#include "bus/traffic_tap.h"
 #include "bus/wire_timing.h"
 #include "concurrency/spsc_queue.h"
 #include "dynamixel/bus_devices.h"
@@ -37,6 +38,7 @@ struct BusServerOptions {
   int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
   int64_t idle_wait_ns = 10'000'000;    // longest single wait: bounds how soon run() notices stop
   bool record_traces = false;           // push one ReplyTrace per reply into traces()
+  TrafficTap* tap = nullptr;            // when set, every byte, instruction and reply is reported there (record/)
 };
 
 // Delivery lateness (written - due) is counted in bins of kLatenessBinNs; the last bin also holds
@@ -136,7 +138,10 @@ class BusServer {
   void read_input() noexcept;
   void process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept;
   void dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
-                uint32_t baud_bps) noexcept;
+                uint32_t baud_bps, uint64_t stream_end) noexcept;
+  // Reports to options_.tap, if any. rt-safe.
+  void tap(TapEventKind kind, int64_t t0_ns, int64_t t1_ns = 0, std::span<const uint8_t> payload = {},
+           uint32_t value = 0) noexcept;
   void write_due() noexcept;
   void account_delivery(const ReplySchedule::Progress& progress, int64_t written_ns) noexcept;
   void await_due(int64_t due_ns) noexcept;
@@ -165,6 +170,9 @@ class BusServer {
   int64_t last_input_ns_ = 0;   // when the previous input chunk had crossed the wire (fast: was read)
   int64_t last_tick_ns_ = 0;    // last DeviceSync::on_tick
   bool write_blocked_ = false;  // the client's queue was full at the last write
+  uint64_t stream_offset_ = 0;  // driver bytes read so far (the tap's stream positions)
+  uint64_t sequence_ = 0;       // transaction (framed instruction) being served
+  uint64_t next_sequence_ = 0;  // the next framed instruction's, per bus from 0
   std::atomic<uint32_t> requested_latency_ms_{0};  // set_adapter_latency_ms, applied by the bus thread
 };
 

@@ -21,6 +21,7 @@ struct ReplyTrace {
   int64_t written_ns = 0;          // actual: the last byte was written to the pty
   uint32_t bytes = 0;              // status bytes in the reply (all statuses)
   uint32_t line_baud_bps = 0;      // line rate the instruction came at
+  uint64_t sequence = 0;           // the transaction (BusServer's count of framed instructions)
   uint8_t id = 0;                  // instruction's target ID
   uint8_t instruction = 0;         // instruction code
 };

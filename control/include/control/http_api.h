@@ -12,6 +12,9 @@
 //   GET  /api/scene                                   -> every visible shape (scene_json)
 //   GET  /api/buses                                   -> every bus' servo table and counters (buses_json)
 //   GET  /api/camera/NAME                             -> robot camera NAME's latest still (image/png)
+//   GET  /api/replay                                  -> a replay's playback (replay_json); 404 when live
+//   POST /api/replay {"position_s": 3.5, "speed": 0.5, "playing": true}   any of the three
+//   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
@@ -38,6 +41,7 @@ inline constexpr double kMaxPushForceN = 1000.0;
 nlohmann::json state_json(const SimState& state);
 nlohmann::json scene_json(const Scene& scene);
 nlohmann::json buses_json(const std::vector<BusTable>& buses);
+nlohmann::json replay_json(const ReplayStatus& status);
 
 // Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's
 // libjs-three: three.min.js). Empty: not served.

@@ -131,9 +131,29 @@ struct BusTable {
 struct CameraStill {
   int status = 200;  // 200, 404 no such camera, 503 nothing to render yet
   std::string error;
-  std::string png;          // the encoded image
+  std::string png;          // the encoded image (a replay's recorded still may be a JPEG: served as one)
   double sim_time_s = 0.0;  // simulation time of the scene it shows
 };
+
+// Where a replay (doppel-replay, docs/replay.md) is in its recording. Times are seconds of the
+// recording's clock from its first message, so a pause during the recording replays as one.
+struct ReplayStatus {
+  double start_s = 0.0;     // the first world state
+  double end_s = 0.0;       // the last message
+  double position_s = 0.0;  // the moment state(), scene(), buses() and camera_still() show
+  double speed = 1.0;       // recording seconds per wall-clock second while playing
+  bool playing = false;     // false: paused, or stopped at the end
+  std::vector<std::string> cameras;  // cameras whose stills were recorded
+};
+
+// A change of playback; a field left empty stays as it is. All fields are checked before any applies.
+struct ReplayChange {
+  std::optional<double> position_s;  // seek (scrub) to this moment, within [start_s, end_s]
+  std::optional<double> speed;       // kMinReplaySpeed..kMaxReplaySpeed
+  std::optional<bool> playing;
+};
+inline constexpr double kMinReplaySpeed = 0.1;
+inline constexpr double kMaxReplaySpeed = 10.0;
 
 // A robot counts as fallen when its robot frame leans more than this from upright (trunk on the
 // carpet is 90 degrees; a walking robot leans far less than 45).
@@ -174,6 +194,17 @@ class SimControl {
   virtual std::vector<BusTable> buses() { return {}; }
   // The latest image of robot camera `name` (as RobotState::cameras names it), a few per second.
   virtual CameraStill camera_still(const std::string& name) { return {404, "no camera '" + name + "'", "", 0.0}; }
+  // A replay's playback (none for a live simulation: the API then answers 404).
+  virtual std::optional<ReplayStatus> replay() { return std::nullopt; }
+  // Applies a checked change (control/http_api.cpp checks the fields and ranges against replay()).
+  virtual Outcome change_replay(const ReplayChange& change) {
+    (void)change;
+    return Outcome::fail(404, "this is not a replay");
+  }
+  // The bus analysis of a replay's recording as a JSON document, serialised by whoever made it (the
+  // analyzer, docs/analyzer.md: control/ does not know its fields). None for a live simulation or a
+  // recording without bus traffic: the API then answers 404 and the viewer shows no Bus panel.
+  virtual std::optional<std::string> bus_analysis() { return std::nullopt; }
 };
 
 }  // namespace doppel::control

@@ -55,7 +55,7 @@ struct ServoSpec {
   uint16_t position_center_raw = 0;  // register value of 0 rad: 512 (AX/RX), 2048 (MX, X)
   double position_span_rad = 0.0;    // angle covered by position_max_raw + 1 units: 300 deg / 360 deg
   double speed_unit_rpm = 0.0;       // speed register unit: 0.111 (AX/RX), 0.114 (MX), 0.229 (X, MX(2.0)) rpm
-  double pwm_full_scale = 0.0;       // controller output that means full duty: 1023 (P1), 885 (P2 firmware)
+  double pwm_full_scale = 0.0;       // controller output that means full duty: MX (P1) 515.8, X / MX(2.0) 885
   const MotorSpec* motor = nullptr;  // servos: never null
 
   // Position register units per radian.

@@ -46,6 +46,7 @@ struct InstructionPacket {
   uint8_t instruction = 0;            // instruction code (namespace instruction)
   bool checksum_ok = true;            // false: framing was valid but the checksum / CRC was not
   uint16_t param_count = 0;           // number of valid bytes in params (after P2 unstuffing)
+  uint16_t wire_bytes = 0;            // bytes it took on the wire: header to checksum, P2 stuffing included
   std::array<uint8_t, kMaxInstructionParams> params{};  // parameter bytes
 };
 

@@ -22,7 +22,7 @@ struct ServoControllerConfig {
   double units_per_rad = 1023.0 / (300.0 * 3.14159265358979323846 / 180.0);  // position register units per rad
   double wheel_full_speed_rad_s = 11.89;  // wheel-mode Moving Speed that means full duty (1023 units)
   double velocity_unit_rad_s = 0.111 * 3.14159265358979323846 / 30.0;  // speed register unit, rad/s (velocity-mode error unit)
-  double pwm_full_scale = 1023.0;         // controller output that means full duty (1023 MX, 885 X)
+  double pwm_full_scale = 1023.0;         // controller output that means full duty (MX 515.8, X 885)
   double overload_time_s = 1.0;           // saturated and stalled this long -> overload (assumption)
   // The motor (MotorSpec), output-shaft referred: current control computes the duty from
   // V = ke w + R i. 0 = unknown: then current control gives no drive.
@@ -37,7 +37,8 @@ ServoControllerConfig servo_controller_config(const ServoSpec& servo) noexcept;
 // a name that is not a servo model. Setup only.
 ServoControllerConfig servo_controller_config(std::string_view model);
 
-// MX (Protocol 1.0 firmware): Kp = P / 8, Ki = I * 1000 / 2048, Kd = D * 4 / 1000 (e-Manual).
+// MX (Protocol 1.0 firmware): Kp = P / 8, Ki = I * 1000 / 2048, Kd = D * 4 / 1000 (e-Manual), in
+// output units of which 515.8 are full duty (Rhoban's measurement, model_registry.cpp mx_servo).
 PidGains mx_pid_gains(uint8_t p_raw, uint8_t i_raw, uint8_t d_raw) noexcept;
 // X series and MX(2.0) position gains: Kp = P / 128, Ki = I / 65536, Kd = D / 16 (e-Manual).
 PidGains x_pid_gains(uint16_t p_raw, uint16_t i_raw, uint16_t d_raw) noexcept;

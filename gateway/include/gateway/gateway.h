@@ -22,6 +22,9 @@ class World;
 namespace doppel::control {
 class HttpApi;
 }
+namespace doppel::record {
+class Recorder;
+}
 namespace doppel::bus {
 class LinkDirectory;
 class LatencyTimerFiles;
@@ -59,6 +62,7 @@ class Gateway {
  private:
   void simulate() noexcept;
   void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
+  void start_recorder(const std::vector<RobotConfig>& configs);  // --record: opens the file; throws
 
   Options options_;
   std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
@@ -68,6 +72,7 @@ class Gateway {
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
+  std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
   std::thread state_thread_;

@@ -43,6 +43,10 @@ struct Options {
   std::optional<uint16_t> viewer_port;   // unset = control::kDefaultPort
   std::string viewer_address = "127.0.0.1";
   std::string viewer_dir;                // --viewer-dir DIR: the viewer's page; "" = $DOPPEL_VIEWER_DIR or the source tree's viewer/
+  std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
+  double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
+  std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  std::string command_line;              // argv joined by spaces (what a recording says it ran)
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };

@@ -1,0 +1,127 @@
+#pragma once
+// A small stand-in for the Humanoid League's GameController: the state of one game (INITIAL ->
+// READY -> SET -> PLAYING -> FINISHED, kick-off team, scores, penalties with their countdown),
+// sent as RoboCupGameControlData every 500 ms (2 Hz, as the real GameController sends) to one
+// configured address, and the robots' return packets received and kept, the last per (team,
+// player). Packets go to 127.0.0.1 unless the caller names another address. Not real-time code:
+// one mutex guards the game between the command side and the two network threads.
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include "gamecontroller/packet.h"
+#include "gamecontroller/udp_socket.h"
+
+namespace doppel::gamecontroller {
+
+struct GameControllerOptions {
+  std::uint8_t team_a = 1;  // team number of teams[0] (cyan)
+  std::uint8_t team_b = 2;  // team number of teams[1] (magenta)
+  std::uint8_t players_per_team = 4;
+  std::uint16_t half_seconds = 600;
+  std::string address = "127.0.0.1";  // where the game packets go; the user must name anything else
+  std::uint16_t port = kDataPort;
+  std::string return_address = "127.0.0.1";  // where return packets are received
+  std::uint16_t return_port = kReturnPort;    // 0: the system picks one (tests)
+  std::chrono::milliseconds period{500};
+};
+
+struct ReturnRecord {
+  std::uint8_t message = 0;
+  std::uint64_t count = 0;
+  std::chrono::steady_clock::time_point last;
+};
+
+struct GameControllerCounters {
+  std::uint64_t sent = 0;
+  std::uint64_t send_errors = 0;
+  std::uint64_t returns = 0;       // accepted return packets
+  std::uint64_t wrong_size = 0;    // not 8 bytes
+  std::uint64_t wrong_header = 0;  // not "RGrt"
+  std::uint64_t wrong_version = 0;
+  std::uint64_t unknown_robot = 0;  // a team not in this game or a player outside 1..kMaxPlayers
+};
+
+// The game itself, without sockets: every command checks its preconditions and returns an empty
+// string or a message saying why it was refused.
+class Game {
+ public:
+  explicit Game(const GameControllerOptions& options);
+
+  std::string ready();   // INITIAL, PLAYING (a stoppage) or FINISHED after the first half -> READY
+  std::string set();     // READY -> SET
+  std::string play();    // SET -> PLAYING
+  std::string finish();  // READY, SET or PLAYING -> FINISHED (the end of a half)
+  // A goal for team index 0 (A) or 1 (B) while PLAYING: score + 1, the other team kicks off, READY.
+  std::string goal(int team);
+  std::string penalise(int team, int player, int seconds, std::uint8_t penalty = kPenaltyPickupOrIncapable);
+  std::string unpenalise(int team, int player);
+  // Advances the clocks: the half's remaining time while PLAYING, the penalty countdowns while
+  // READY, SET or PLAYING (a countdown stops at 0; the robot stays penalised until unpenalise()).
+  void advance(std::chrono::milliseconds elapsed);
+
+  const GameControlData& data() const { return data_; }
+  GameControlData& data() { return data_; }
+
+ private:
+  std::uint16_t half_seconds_;
+  GameControlData data_;
+  std::chrono::milliseconds half_clock_{0};
+  std::array<std::array<std::chrono::milliseconds, kMaxPlayers>, 2> penalty_clock_{};
+};
+
+class GameController {
+ public:
+  // Opens the sockets; nullptr and `error` when an address does not parse or a socket cannot be
+  // bound. Nothing is sent before start().
+  static std::unique_ptr<GameController> create(const GameControllerOptions& options, std::string& error);
+  ~GameController();
+
+  void start();  // the sender (every period) and the return receiver threads
+  void stop();
+
+  // Runs `change` on the game under the lock and returns what it returns.
+  template <typename F>
+  auto with_game(F&& change) {
+    std::lock_guard lock(mutex_);
+    return std::forward<F>(change)(game_);
+  }
+  GameControlData snapshot() const;
+  // Encodes and sends the current state now (the sender thread calls it every period).
+  bool send_now();
+
+  std::optional<ReturnRecord> last_return(std::uint8_t team, std::uint8_t player) const;
+  GameControllerCounters counters() const;
+  std::uint16_t return_port() const { return returns_.local_port(); }
+  Endpoint destination() const { return destination_; }
+
+ private:
+  GameController(const GameControllerOptions& options, UdpSocket sender, UdpSocket returns, Endpoint destination);
+  void send_loop();
+  void receive_loop();
+
+  GameControllerOptions options_;
+  UdpSocket sender_;
+  UdpSocket returns_;
+  Endpoint destination_;
+  mutable std::mutex mutex_;
+  Game game_;
+  std::uint8_t packet_number_ = 0;
+  std::map<std::pair<std::uint8_t, std::uint8_t>, ReturnRecord> last_returns_;
+  GameControllerCounters counters_;
+  std::condition_variable wake_;
+  bool running_ = false;
+  std::thread sender_thread_;
+  std::thread receiver_thread_;
+};
+
+}  // namespace doppel::gamecontroller

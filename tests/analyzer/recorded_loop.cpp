@@ -1,0 +1,74 @@
+// The analyzer on a real recording (doppel --record): a driver's loop recorded in wire mode, and
+// the analyzer's what-if at the recording's own settings (keeping the driver's own time between a
+// reply and its next instruction) predicts the cycle time the driver measured.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "analyzer/analysis.h"
+#include "analyzer/recording_reader.h"
+#include "analyzer/what_if.h"
+#include "doppel_process.h"
+#include "reference_client.h"
+
+namespace doppel::analyzer {
+namespace {
+
+using testing::Bytes;
+using testing::DoppelProcess;
+using testing::p1_instruction;
+using testing::SerialClient;
+using Clock = std::chrono::steady_clock;
+
+// A DynamixelSDK-style loop as fast as the bus allows: GroupSyncWrite of 21 goal positions, then
+// each servo's Present Position by a READ of its own (RX servos have no BULK READ). Returns the
+// mean cycle time the driver measured, ns.
+double sdk_loop(SerialClient& client, double seconds) {
+  Bytes sync = {30, 2};
+  for (uint8_t id = 1; id <= 21; ++id) sync.insert(sync.end(), {id, 0x00, 0x02});
+  const Bytes write = p1_instruction(0xFE, 0x83, sync);
+  std::vector<Bytes> reads;
+  for (uint8_t id = 1; id <= 21; ++id) reads.push_back(p1_instruction(id, 0x02, {36, 2}));
+  const auto start = Clock::now();
+  int cycles = 0;
+  while (std::chrono::duration<double>(Clock::now() - start).count() < seconds) {
+    client.send(write);
+    for (const Bytes& read : reads) {
+      if (client.transact(read, 8).size() != 8) ADD_FAILURE() << "no answer";
+    }
+    ++cycles;
+  }
+  return std::chrono::duration<double, std::nano>(Clock::now() - start).count() / cycles;
+}
+
+TEST(RecordedLoop, TheWhatIfAtTheRecordedSettingsPredictsTheMeasuredCycleWithinFivePercent) {
+  const std::string file =
+      (std::filesystem::temp_directory_path() / ("recorded_loop_" + std::to_string(getpid()) + ".mcap")).string();
+  double measured_ns = 0.0;
+  {
+    DoppelProcess doppel({"--record", file, "--timing", "wire"});
+    doppel.wait_for_output("running until");
+    SerialClient client(doppel.link(), 1'000'000);
+    measured_ns = sdk_loop(client, 5.0);
+    ASSERT_EQ(doppel.stop(15), 0);
+  }
+  const Recording recording = read_recording(file);
+  const Analysis analysis = analyze(recording.run, recording.transactions, 0);
+  ASSERT_TRUE(analysis.cycle.found);
+  EXPECT_EQ(analysis.cycle.opener_kind, "P1 SYNC WRITE");
+  const WhatIf predicted = what_if(recording.run, recording.transactions, analysis, parse_scenario("driver=recorded"));
+  ASSERT_GT(predicted.cycles, 100u) << predicted.note;
+  const double predicted_ns = 1e9 / predicted.rate_hz;
+  RecordProperty("measured_cycle_us", std::to_string(measured_ns / 1000.0));
+  RecordProperty("predicted_cycle_us", std::to_string(predicted_ns / 1000.0));
+  EXPECT_NEAR(predicted_ns / measured_ns, 1.0, 0.05)
+      << "measured " << measured_ns / 1000.0 << " us, predicted " << predicted_ns / 1000.0 << " us";
+  std::filesystem::remove(file);
+}
+
+}  // namespace
+}  // namespace doppel::analyzer
