@@ -22,6 +22,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180;
 constexpr double kFallTiltRad = 0.8;  // IMU pitch or roll beyond this: the robot fell
+// READ attempts of 100 ms before the walk gives up: rides out a loaded machine stalling for 2 s.
+constexpr int kReadAttempts = 20;
 
 // One servo of a figure link: goal units = centre + (offset + sign x link angle) x units per rad.
 // sign -1 where the robot file's motor is `reversed`; offset = the file's `offset_deg`.
@@ -98,6 +100,11 @@ RobotConfig darwin_op() {
   r.gait.lift_m = 0.02;
   r.gait.sway_m = 0.012;
   r.gait.foot_y_m = 0.005;
+  // Its roll comes from the accelerometer, which the sway swings by about 0.3 rad: no roll angle
+  // feedback; nor the default robot's pelvis lift (not tuned on this robot).
+  r.gait.tilt_roll_gain = 0;
+  r.gait.pelvis_roll_rad = 0;
+  r.gait.stride_scale = 0.8;  // measured (docs/walk.md): 0.64 and 0.75 walked short of the commanded distance
   return r;
 }
 
@@ -151,13 +158,15 @@ struct ImuSample {
 
 ImuSample read_imu(walk::Protocol1Client& bus) {
   std::array<uint8_t, 24> raw{};  // addr 26..49: pitch, roll, yaw, gyro xyz, accel xyz, ..., Sample Counter
-  for (int attempt = 0; attempt < 5; ++attempt) {
+  for (int attempt = 0; attempt < kReadAttempts; ++attempt) {
     if (bus.read(kImuId, 26, raw)) {
       ImuSample s;
       s.reading.pitch = le16(&raw[0]) * 1e-4;
       s.reading.roll = le16(&raw[2]) * 1e-4;
+      s.reading.yaw = le16(&raw[4]) * 1e-4;
       s.reading.gyro_x = le16(&raw[6]) * 1e-3;
       s.reading.gyro_y = le16(&raw[8]) * 1e-3;
+      s.reading.gyro_z = le16(&raw[10]) * 1e-3;
       s.counter = static_cast<uint16_t>(raw[22] | (raw[23] << 8));
       return s;
     }
@@ -165,21 +174,32 @@ ImuSample read_imu(walk::Protocol1Client& bus) {
   throw std::runtime_error("the IMU (ID 100) does not answer READ 26..49");
 }
 
+// FUmanoid: the foot boards (ID 101 left, 102 right), Force Total (addr 34, 0.01 N); -1 when one
+// does not answer.
+void read_feet(walk::Protocol1Client& bus, walk::ImuReading& out) {
+  double* loads[2] = {&out.load_left_n, &out.load_right_n};
+  for (int foot = 0; foot < 2; ++foot) {
+    std::array<uint8_t, 2> raw{};
+    *loads[foot] = bus.read(static_cast<uint8_t>(101 + foot), 34, raw) ? (raw[0] | (raw[1] << 8)) * 0.01 : -1;
+  }
+}
+
 // DARwIn-OP: the CM-730 (ID 200). Gyro Z/Y/X at 38/40/42, ACC X/Y/Z at 44/46/48, 10 bit with 512
 // at zero; gyro 500 deg/s and ACC 4 g over 512 counts (docs/devices.md, CM-730). Its ACC axes: X
-// right, Y forward, Z up; gyro X back, Y right. So the trunk's roll rate (+ right side down, about
-// forward) is -Gyro X and its pitch rate (+ nose down, about left) is -Gyro Y; the tilts come from
-// the accelerometer (nose down: ACC Y < 512; right side down: ACC X < 512).
+// right, Y forward, Z up; gyro X back, Y right, Z up. So the trunk's roll rate (+ right side down,
+// about forward) is -Gyro X, its pitch rate (+ nose down, about left) -Gyro Y and its yaw rate
+// (+ left) Gyro Z; the tilts come from the accelerometer (nose down: ACC Y < 512; right side down: ACC X < 512).
 constexpr uint8_t kCm730Id = 200;
 walk::ImuReading read_cm730(walk::Protocol1Client& bus) {
   std::array<uint8_t, 12> raw{};
-  for (int attempt = 0; attempt < 5; ++attempt) {
+  for (int attempt = 0; attempt < kReadAttempts; ++attempt) {
     if (bus.read(kCm730Id, 38, raw)) {
       const auto counts = [&](int i) { return static_cast<double>(le16(&raw[2 * i])) - 512; };
       constexpr double kGyro = 500.0 / 512 * kDeg;  // rad/s per count
       walk::ImuReading r;
       r.gyro_x = -counts(2) * kGyro;
       r.gyro_y = -counts(1) * kGyro;
+      r.gyro_z = counts(0) * kGyro;
       const double ax = counts(3), ay = counts(4), az = counts(5);
       r.pitch = std::atan2(-ay, az);
       r.roll = std::atan2(-ax, az);
@@ -203,6 +223,7 @@ int main(int argc, char** argv) {
   double seconds = 30, speed = 0.05, turn = 0;
   walk::GaitParameters params;
   bool verbose = false;
+  std::string log_path;
   app.add_option("--port", port, "the robot's serial port (doppel's link, e.g. /tmp/doppel/ttyDXL0)")->required();
   app.add_option("--robot", robot_name, "the robot: fumanoid (robots/fumanoid-2011) or darwin-op (robots/darwin-op)")
       ->capture_default_str()->check(CLI::IsMember({"fumanoid", "darwin-op"}));
@@ -222,12 +243,19 @@ int main(int argc, char** argv) {
   app.add_option("--gyro-roll", params.gyro_roll_gain, "ankle roll per rad/s");
   app.add_option("--tilt-pitch", params.tilt_pitch_gain, "ankle pitch per rad");
   app.add_option("--tilt-roll", params.tilt_roll_gain, "hip roll per rad");
+  app.add_option("--reach", params.reach_gain, "high side's foot lowered per rad of roll beyond the deadband, m/rad");
+  app.add_option("--pelvis", params.pelvis_roll_rad, "stance hip roll outward in single support, rad");
+  app.add_option("--heading-gain", params.heading_gain, "turn rate per rad of heading error");
+  app.add_option("--stride-scale", params.stride_scale, "stride per commanded speed x period");
   int slope = 16, p_gain = 64;
+  double max_gait_step = 0.02;
+  app.add_option("--max-gait-step", max_gait_step, "the gait advances at most this many seconds per control cycle")->capture_default_str();
   app.add_option("--slope", slope, "fumanoid: RX compliance slope of every servo")->capture_default_str()
       ->check(CLI::IsMember({2, 4, 8, 16, 32, 64, 128}));
   app.add_option("--p-gain", p_gain, "darwin-op: MX-28 P gain of every servo")->capture_default_str()
       ->transform(doppel::number_in<int>(1, 254));
   app.add_flag("--verbose", verbose, "print the IMU every second");
+  app.add_option("--log", log_path, "write every control cycle (time, phase, amplitude, IMU, foot forces) to this CSV file");
   CLI11_PARSE(app, argc, argv);
 
   const bool darwin = robot_name == "darwin-op";
@@ -251,6 +279,10 @@ int main(int argc, char** argv) {
     keep("--gyro-roll", params.gyro_roll_gain, given.gyro_roll_gain);
     keep("--tilt-pitch", params.tilt_pitch_gain, given.tilt_pitch_gain);
     keep("--tilt-roll", params.tilt_roll_gain, given.tilt_roll_gain);
+    keep("--reach", params.reach_gain, given.reach_gain);
+    keep("--pelvis", params.pelvis_roll_rad, given.pelvis_roll_rad);
+    keep("--heading-gain", params.heading_gain, given.heading_gain);
+    keep("--stride-scale", params.stride_scale, given.stride_scale);
   }
 
   try {
@@ -286,6 +318,12 @@ int main(int argc, char** argv) {
     robot.send_goals(config.initial);
     robot.send_byte(24, 1);
 
+    std::FILE* log = nullptr;
+    if (!log_path.empty()) {
+      log = std::fopen(log_path.c_str(), "w");
+      if (log == nullptr) throw std::runtime_error("cannot write the log " + log_path);
+      std::fprintf(log, "t,phase,amplitude,pitch,roll,yaw,gyro_x,gyro_y,gyro_z,force_left,force_right\n");
+    }
     walk::Gait gait(config.leg, params);
     // Where the gait stands (amplitude 0): found once for the blend from the held pose.
     walk::Gait stance(config.leg, params);
@@ -302,8 +340,10 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_until(next_cycle);
         next_cycle += kCycle;
         if (Clock::now() > next_cycle) next_cycle = Clock::now() + kCycle;  // overrun: no catch-up burst
+        const double yaw = imu.yaw;
         imu = read_cm730(bus);
         dt = 0.008;
+        imu.yaw = std::remainder(yaw + imu.gyro_z * dt, 2 * kPi);  // no orientation on the CM-730: the gyro integrated
       } else {
         const ImuSample sample = read_imu(bus);
         const uint16_t elapsed = static_cast<uint16_t>(sample.counter - last_counter);
@@ -313,6 +353,7 @@ int main(int argc, char** argv) {
         }
         last_counter = sample.counter;
         imu = sample.reading;
+        read_feet(bus, imu);
         dt = elapsed * kImuSamplePeriodMs * 1e-3;
       }
       t += dt;
@@ -327,10 +368,16 @@ int main(int argc, char** argv) {
       } else {
         const double walking = t - kStandUpS;
         const double amplitude = smooth(walking / kRampS) * smooth((seconds - t) / kRampS);
-        gait.step(dt, speed, turn, amplitude, imu);
+        // A client that missed samples (starved of CPU) lets the gait lag rather than jump ahead.
+        gait.step(std::fmin(dt, max_gait_step), speed, turn, amplitude, imu);
         goals = gait.joints();
       }
       robot.send_goals(goals);
+      if (log != nullptr) {
+        const double amplitude = t < kStandUpS ? 0 : smooth((t - kStandUpS) / kRampS) * smooth((seconds - t) / kRampS);
+        std::fprintf(log, "%.3f,%.3f,%.3f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%.2f,%.2f\n", t, gait.phase(), amplitude, imu.pitch,
+                     imu.roll, imu.yaw, imu.gyro_x, imu.gyro_y, imu.gyro_z, imu.load_left_n, imu.load_right_n);
+      }
       if (verbose && t >= next_report) {
         std::printf("t %.2f s  pitch %+.3f roll %+.3f  gyro x %+.2f y %+.2f\n", t, imu.pitch, imu.roll, imu.gyro_x, imu.gyro_y);
         ++next_report;

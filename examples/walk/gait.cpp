@@ -7,6 +7,7 @@ namespace walk {
 
 namespace {
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kUnloadedN = 5;  // a foot carrying less than this is in the air
 }
 
 bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, LegAngles& out) {
@@ -49,35 +50,56 @@ bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, Le
 void Gait::step(double dt_s, double speed_m_s, double turn_rad_s, double amplitude, const ImuReading& imu) {
   phase_ = std::fmod(phase_ + 2 * kPi * dt_s / p_.period_s, 2 * kPi);
   const double ph = phase_;
-  // Per cycle the body travels speed x period; each foot sweeps that distance relative to the hips
-  // (forward while it swings, backward while it stands).
-  const double stride = amplitude * speed_m_s * p_.period_s;
-  const double turn = amplitude * turn_rad_s * p_.period_s;
+  // Heading hold: the target heading follows the commanded turn; the error to the IMU's yaw adds
+  // to the turn rate the feet are asked for.
+  if (!heading_set_) {
+    heading_target_ = imu.yaw;
+    heading_set_ = true;
+  }
+  heading_target_ = std::remainder(heading_target_ + amplitude * turn_rad_s * dt_s, 2 * kPi);
+  const double heading_error = std::remainder(heading_target_ - imu.yaw, 2 * kPi);
+  const double turn_rate = turn_rad_s + std::clamp(p_.heading_gain * heading_error, -0.5, 0.5);
+  // A cycle has two steps; in each the standing foot sweeps one step length (half the cycle's
+  // travel) backward relative to the hips while the other swings forward.
+  const double step = amplitude * p_.stride_scale * speed_m_s * p_.period_s / 2;
+  const double turn = amplitude * turn_rate * p_.period_s / 2;
   const double lift = amplitude * p_.lift_m;
   const double sway = amplitude * p_.sway_m * std::sin(ph + p_.sway_lead);
   // Left foot swings for phase in (0, pi), right foot in (pi, 2 pi).
   const double swing_left = std::max(0.0, std::sin(ph));
   const double swing_right = std::max(0.0, -std::sin(ph));
-  const double x_left = -0.5 * stride * std::cos(ph);
-  const double x_right = 0.5 * stride * std::cos(ph);
+  const double x_left = -0.5 * step * std::cos(ph);
+  const double x_right = 0.5 * step * std::cos(ph);
   const double yaw_left = -0.5 * turn * std::cos(ph);
   const double yaw_right = 0.5 * turn * std::cos(ph);
 
+  // Reach: a trunk rolled beyond the deadband over its standing foot stretches the other leg, left
+  // hanging in the air on the high side, towards the floor (foot sensors say which foot is free).
+  const double excess_roll = std::copysign(std::max(0.0, std::fabs(imu.roll) - p_.reach_deadband), imu.roll);
+  const auto hanging = [](double load_n) { return load_n >= 0 && load_n < kUnloadedN; };
+  const double reach_left = hanging(imu.load_left_n) ? p_.reach_gain * std::max(0.0, excess_roll) : 0;  // + roll: right side down
+  const double reach_right = hanging(imu.load_right_n) ? p_.reach_gain * std::max(0.0, -excess_roll) : 0;
+
   LegAngles left, right;
-  const double z_left = leg_.hip_height_m - p_.hip_height_m + lift * swing_left;
-  const double z_right = leg_.hip_height_m - p_.hip_height_m + lift * swing_right;
+  const double z_left = leg_.hip_height_m - p_.hip_height_m + lift * swing_left - reach_left;
+  const double z_right = leg_.hip_height_m - p_.hip_height_m + lift * swing_right - reach_right;
   // Sway: the hips move towards the standing foot, so both feet move the other way relative to them.
   reachable_ = leg_ik(leg_, p_.foot_x_m + x_left, p_.foot_y_m + sway, z_left, yaw_left, left);
   reachable_ = leg_ik(leg_, p_.foot_x_m + x_right, -p_.foot_y_m + sway, z_right, yaw_right, right) && reachable_;
 
+  // Pelvis: in single support the standing hip rolls its foot outward, which lifts the pelvis on
+  // the swinging side against the sag of the compliant hip and ankle roll servos.
+  const double pelvis = amplitude * p_.pelvis_roll_rad;
+  const double pelvis_left = pelvis * swing_right;
+  const double pelvis_right = -pelvis * swing_left;
   // IMU feedback on the ankles (and hips for roll): a trunk pitching nose-down gets its feet'
   // toes pushed down, which rights it; likewise for roll.
   const double pitch_fb = p_.gyro_pitch_gain * imu.gyro_y + p_.tilt_pitch_gain * imu.pitch;
   const double roll_fb = p_.gyro_roll_gain * imu.gyro_x;
   const double hip_roll_fb = p_.tilt_roll_gain * imu.roll;
-  joints_ = {left.hip_yaw,  left.hip_roll + hip_roll_fb,  left.hip_pitch - p_.trunk_pitch_rad,  left.knee,
+  joints_ = {left.hip_yaw,  left.hip_roll + pelvis_left + hip_roll_fb,  left.hip_pitch - p_.trunk_pitch_rad,  left.knee,
              left.ankle_pitch + pitch_fb,  left.ankle_roll + roll_fb,
-             right.hip_yaw, right.hip_roll + hip_roll_fb, right.hip_pitch - p_.trunk_pitch_rad, right.knee,
+             right.hip_yaw, right.hip_roll + pelvis_right + hip_roll_fb, right.hip_pitch - p_.trunk_pitch_rad, right.knee,
              right.ankle_pitch + pitch_fb, right.ankle_roll + roll_fb};
 }
 

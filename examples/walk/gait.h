@@ -1,7 +1,9 @@
 #pragma once
 // The reference walk's gait: an open-loop, sinusoidal (CPG-style) pattern of foot positions
 // relative to the hips, turned into joint angles by an analytic leg inverse kinematics for the
-// FUmanoid 2011 leg (robots/fumanoid-2011.textproto), plus IMU damping. docs/walk.md explains it.
+// FUmanoid 2011 leg (robots/fumanoid-2011.textproto), plus feedback from the IMU (gyro damping,
+// roll angle, heading) and the foot sensors (a hanging foot reaches for the floor), without which
+// it fell sideways now and then. docs/walk.md explains it with the measurements.
 
 #include <array>
 #include <cstdint>
@@ -31,22 +33,28 @@ bool leg_ik(const LegGeometry& leg, double x, double y, double z, double yaw, Le
 struct GaitParameters {
   double period_s = 0.5;        // one full cycle: a left and a right step
   double hip_height_m = 0.245;  // hip above the floor while walking (design pose 0.27)
-  double lift_m = 0.025;        // swing foot lift
-  double sway_m = 0.025;        // lateral hip sway amplitude
+  double lift_m = 0.018;        // swing foot lift
+  double sway_m = 0.015;        // lateral hip sway amplitude
   double sway_lead = 0.3;       // sway phase lead (rad) over the lift
   double foot_x_m = 0.0;        // feet forward of the hips (shifts the centre of mass back)
   double foot_y_m = 0.0;        // extra foot spread either side
   double trunk_pitch_rad = 0.0;    // forward lean of the trunk (added to both hip pitches)
+  double pelvis_roll_rad = 0.1;    // standing hip rolled outward in single support (lifts the swinging side)
   double gyro_pitch_gain = 0.1;    // ankle pitch per rad/s of trunk pitch rate
   double gyro_roll_gain = 0.1;     // ankle roll per rad/s of trunk roll rate
   double tilt_pitch_gain = 0.0;    // ankle pitch per rad of trunk pitch
-  double tilt_roll_gain = 0.0;     // hip roll per rad of trunk roll
+  double tilt_roll_gain = -0.3;    // hip roll per rad of trunk roll (-: hips away from the low side)
+  double reach_gain = 0.15;         // an unloaded foot on the high side lowered (m) per rad of roll beyond reach_deadband
+  double reach_deadband = 0.05;    // rad
+  double heading_gain = 1.0;       // turn rate (rad/s) per rad of heading error
+  double stride_scale = 0.64;      // step length per commanded (speed x period / 2): calibration
 };
 
 // What the IMU says (docs/devices.md, FUMANOID-IMU): pitch + nose down, roll + right side down,
 // rates about the board's y and x axes.
 struct ImuReading {
-  double pitch = 0, roll = 0, gyro_x = 0, gyro_y = 0;
+  double pitch = 0, roll = 0, yaw = 0, gyro_x = 0, gyro_y = 0, gyro_z = 0;
+  double load_left_n = -1, load_right_n = -1;  // foot load cells' totals, N (-1: the robot has none)
 };
 
 // The 12 leg joints in the order left (yaw, roll, pitch, knee, ankle pitch, ankle roll), right (same).
@@ -69,6 +77,8 @@ class Gait {
   double phase_ = 0;
   LegJoints joints_{};
   bool reachable_ = true;
+  bool heading_set_ = false;
+  double heading_target_ = 0;
 };
 
 }  // namespace walk
