@@ -247,7 +247,7 @@ int main(int argc, char** argv) {
   app.add_option("--pelvis", params.pelvis_roll_rad, "stance hip roll outward in single support, rad");
   app.add_option("--heading-gain", params.heading_gain, "turn rate per rad of heading error");
   app.add_option("--stride-scale", params.stride_scale, "stride per commanded speed x period");
-  int slope = 16, p_gain = 64;
+  int slope = 16, p_gain = 32;  // p_gain: the DARwIn-OP framework's walking gain (JointData::P_GAIN_DEFAULT)
   double max_gait_step = 0.02;
   app.add_option("--max-gait-step", max_gait_step, "the gait advances at most this many seconds per control cycle")->capture_default_str();
   app.add_option("--slope", slope, "fumanoid: RX compliance slope of every servo")->capture_default_str()
