@@ -43,6 +43,42 @@ def check(condition, message):
         raise Failure(message)
 
 
+def tear_down(browser, process, work, out_dir, logs):
+    """Closes the browser, stops the server `process`, keeps its `logs` (names under `work`) in
+    `out_dir` for a failed run to be read, and removes `work`."""
+    if browser is not None:
+        browser.close()
+    process.terminate()
+    try:
+        process.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+    for name in logs:
+        path = os.path.join(work, name)
+        if os.path.exists(path):
+            shutil.copy(path, os.path.join(out_dir, os.path.basename(name)))
+    shutil.rmtree(work, ignore_errors=True)
+
+
+def browser_test_main(name, doc, argument_count, run):
+    """The command line of a browser test: `argument_count` arguments handed to run(..., chromium);
+    exit 2 on a bad command line, SKIP without chromium, 1 on a Failure."""
+    if len(sys.argv) != argument_count + 1:
+        print(doc)
+        return 2
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        print("SKIPPED: chromium is not installed (scripts/setup installs Debian's chromium)")
+        return SKIP
+    try:
+        run(*sys.argv[1:], chromium)
+    except Failure as e:
+        print(f"{name}: FAILED: {e}")
+        return 1
+    return 0
+
+
 class Browser:
     """Headless Chromium and a DevTools session with its one page."""
 
@@ -366,35 +402,11 @@ def run(doppel, out_dir, chromium):
         check(os.path.getsize(shot) > 10000, f"the screenshot {shot} is nearly empty")
         print(f"viewer test: passed; screenshot {shot}")
     finally:
-        if browser is not None:
-            browser.close()
-        process.terminate()
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-        for name in ("doppel.txt", "chromium/chromium.log"):
-            path = os.path.join(work, name)
-            if os.path.exists(path):
-                shutil.copy(path, os.path.join(out_dir, os.path.basename(name)))
-        shutil.rmtree(work, ignore_errors=True)
+        tear_down(browser, process, work, out_dir, ("doppel.txt", "chromium/chromium.log"))
 
 
 def main():
-    if len(sys.argv) != 3:
-        print(__doc__)
-        return 2
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    if chromium is None:
-        print("SKIPPED: chromium is not installed (scripts/setup installs Debian's chromium)")
-        return SKIP
-    try:
-        run(sys.argv[1], sys.argv[2], chromium)
-    except Failure as e:
-        print(f"viewer test: FAILED: {e}")
-        return 1
-    return 0
+    return browser_test_main("viewer test", __doc__, 2, run)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ import json
 import math
 import os
 import re
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -27,7 +26,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "control"))
-from viewer_browser_test import Browser, Failure, SKIP, check  # noqa: E402
+from viewer_browser_test import Browser, Failure, browser_test_main, check, tear_down  # noqa: E402
 
 SECONDS = 10.0
 
@@ -176,35 +175,11 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         check(browser.evaluate("window.doppelViewer.error()") == "", f"the page shows an error: {browser.page_error()}")
         print(f"replay browser test: passed; scrubbed to {position:.3f} s; screenshots {shot}, {bus_shot}")
     finally:
-        if browser is not None:
-            browser.close()
-        process.terminate()
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
-        for name in ("doppel-replay.txt", "chromium/chromium.log"):
-            path = os.path.join(work, name)
-            if os.path.exists(path):
-                shutil.copy(path, os.path.join(out_dir, os.path.basename(name)))
-        shutil.rmtree(work, ignore_errors=True)
+        tear_down(browser, process, work, out_dir, ("doppel-replay.txt", "chromium/chromium.log"))
 
 
 def main():
-    if len(sys.argv) != 4:
-        print(__doc__)
-        return 2
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    if chromium is None:
-        print("SKIPPED: chromium is not installed (scripts/setup installs Debian's chromium)")
-        return SKIP
-    try:
-        run(sys.argv[1], sys.argv[2], sys.argv[3], chromium)
-    except Failure as e:
-        print(f"replay browser test: FAILED: {e}")
-        return 1
-    return 0
+    return browser_test_main("replay browser test", __doc__, 3, run)
 
 
 if __name__ == "__main__":
