@@ -152,6 +152,9 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
                                                 0.5 * field.field_length_m + field.border_strip_width_m,
                                                 0.5 * field.field_width_m + field.border_strip_width_m);
   if (options.world_model && world_ != nullptr) start_truth(configs, in_world);
+  if (options.world_model && world_ == nullptr) {
+    std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
+  }
   if (options.viewer) {
     // The viewer's page beside the API; without its files (no libjs-three) the API alone.
     control::StaticFiles files = control::default_static_files();
