@@ -15,6 +15,11 @@
 //   GET  /api/replay                                  -> a replay's playback (replay_json); 404 when live
 //   POST /api/replay {"position_s": 3.5, "speed": 0.5, "playing": true}   any of the three
 //   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
+//   GET  /api/game                                    -> the GameController (game_json); 404 without one
+//   POST /api/game   {"command": "state", "state": "ready"}, goal, score, kickoff, penalize, ... (docs/control.md)
+//   GET  /api/teamcomm                                -> the team-communication hub (teamcomm_json); 404 without one
+//   GET|POST /api/teamcomm/robots {"team": 7, "player": 2, "port": 44002}
+//   DELETE /api/teamcomm/robots/TEAM/PLAYER
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
@@ -42,6 +47,9 @@ nlohmann::json state_json(const SimState& state);
 nlohmann::json scene_json(const Scene& scene);
 nlohmann::json buses_json(const std::vector<BusTable>& buses);
 nlohmann::json replay_json(const ReplayStatus& status);
+nlohmann::json game_json(const GameStatus& status);
+nlohmann::json teamcomm_json(const TeamcommStatus& status);
+inline constexpr uint32_t kMaxGamePlayers = 11;  // MAX_NUM_PLAYERS of the Humanoid GameController header
 
 // Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's
 // libjs-three: three.min.js). Empty: not served.
@@ -56,7 +64,7 @@ StaticFiles default_static_files();
 std::string static_files_problem(const StaticFiles& files);
 
 // A request as the API takes it, for tests of the checks without a socket: `method` "GET" or
-// "POST", `path` as in the table above, `body` the request body. Returns the HTTP status and the
+// "POST" or "DELETE", `path` as in the table above, `body` the request body. Returns the HTTP status and the
 // JSON answer.
 struct Answer {
   int status = 200;
