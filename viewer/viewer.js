@@ -618,7 +618,7 @@
     const a = game.teams[0], b = game.teams[1];
     const kickOff = game.kick_off_team === 255 ? 'drop ball' : `team ${game.kick_off_team}`;
     const secondary = game.secondary_state !== 'normal' ? ` · ${game.secondary_state} (team ${game.secondary_team})` : '';
-    $('game-status').textContent = `${game.state.toUpperCase()} · ${a.number} ${a.score} : ${b.score} ${b.number} · ` +
+    $('game-status').textContent = `${game.state.toUpperCase()} · A (team ${a.number}) ${a.score} : ${b.score} B (team ${b.number}) · ` +
         `kick-off ${kickOff} · ${game.first_half ? '1st' : '2nd'} half ${game.secs_remaining} s${secondary}`;
     const sending = $('game-sending');
     sending.textContent = !game.on ? 'off' : game.sending ? `sending to ${game.destination}` :
