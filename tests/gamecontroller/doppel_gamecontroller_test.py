@@ -145,6 +145,18 @@ def run(doppel, doppel_ctl):
         check(28 <= secs <= 30, f"secsTillUnpenalised {secs}, 30 s were given a moment ago")
         check(data == golden(1, data[6], penalties=[(1, 2, 31, secs)]), f"the penalty packet differs:\n{data.hex()}")
 
+        # The same through doppel-ctl: player 3 of team A (by its number), 20 s, service (35).
+        answer = ctl(doppel_ctl, url, "game", "penalize", str(TEAM_A), "3", "20", "--reason", "service")
+        check(answer.returncode == 0, f"doppel-ctl game penalize: {answer.returncode} {answer.stderr}")
+        penalties = json.loads(answer.stdout)["teams"][0]["penalties"]
+        check([(p["player"], p["penalty"], p["reason"]) for p in penalties] == [(3, 35, "service")],
+              f"after doppel-ctl game penalize: {penalties}")
+        answer = ctl(doppel_ctl, url, "game", "unpenalize", "A", "3")
+        check(answer.returncode == 0 and not json.loads(answer.stdout)["teams"][0]["penalties"],
+              f"doppel-ctl game unpenalize: {answer.stdout} {answer.stderr}")
+        answer = ctl(doppel_ctl, url, "game", "goal", "B")
+        check(answer.returncode == 1 and "goal is not allowed in READY" in answer.stderr, f"goal in READY: {answer.stderr}")
+
         # A robot's return packet ("RGrt", version 2, team, player, message 2 = alive) shows in /api/game.
         _, game = api(url, "api/game")
         return_port = int(game["return_address"].rsplit(":", 1)[1])

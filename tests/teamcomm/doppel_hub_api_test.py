@@ -107,9 +107,14 @@ def run(doppel, doppel_ctl):
                               capture_output=True, text=True, timeout=30)
         check(done.returncode != 0, "doppel-ctl teamcomm add with port 0 succeeded")
 
-        # Removed, 7:2 hears nothing more.
+        # Removed (7:2 through the API, a third one through doppel-ctl), 7:2 hears nothing more.
         status, answer = api(url, "api/teamcomm/robots/7/2", method="DELETE")
         check(status == 200 and len(answer["robots"]) == 1, f"DELETE 7/2: {status} {answer}")
+        api(url, "api/teamcomm/robots", {"team": 8, "player": 1, "port": 40998})
+        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "teamcomm", "remove", "8", "1"],
+                              capture_output=True, text=True, timeout=30)
+        check(done.returncode == 0 and [r["team"] for r in json.loads(done.stdout)["robots"]] == [7],
+              f"doppel-ctl teamcomm remove: {done.returncode} {done.stdout} {done.stderr}")
         status, error = api(url, "api/teamcomm/robots/7/2", method="DELETE")
         check(status == 404 and "7:2" in error["error"], f"DELETE 7/2 again: {status} {error}")
         a.sendto(b"after", hub)
