@@ -89,7 +89,8 @@ Options:
   --record-cameras HZ    Also record each camera's still (PNG) HZ times a second (0.1..30).
   --record-compression zstd|lz4|none
                          Chunk compression of the recording (default zstd).
-  --gamecontroller       Run a RoboCup GameController (Humanoid League protocol, struct version 12;
+  --gamecontroller [on|off]
+                         Run a RoboCup GameController (Humanoid League protocol, struct version 12;
                          docs/gamecontroller.md) inside doppel, driven from doppel-ctl game and the
                          viewer. Off by default: a robot's software behaves differently once it hears
                          a GameController. doppel-ctl game on starts it later.
@@ -168,7 +169,8 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
-  app.add_flag("--gamecontroller", options.gamecontroller);
+  std::string gamecontroller;
+  app.add_option("--gamecontroller", gamecontroller)->expected(0, 1);
   std::string gc_teams;
   app.add_option("--gc-teams", gc_teams)->check(not_empty("the team numbers"));
   app.add_option("--gc-players", options.gc_players)->transform(number_in<int>(1, 11));
@@ -198,6 +200,12 @@ Options parse_options(int argc, const char* const* argv) {
   }
   if (options.robots.empty()) {
     options.robots.emplace_back("fumanoid-2011");
+  }
+  if (app.count("--gamecontroller") > 0) {
+    if (gamecontroller != "" && gamecontroller != "on" && gamecontroller != "off") {
+      throw std::invalid_argument("--gamecontroller '" + gamecontroller + "': expected on or off (see --help)");
+    }
+    options.gamecontroller = gamecontroller != "off";
   }
   if (!gc_teams.empty()) {
     const auto comma = gc_teams.find(',');

@@ -177,6 +177,10 @@ TEST(Options, GameControllerIsOffAndLoopbackUnlessTheUserSaysOtherwise) {
                              "--teamcomm", "0", "--teamcomm-robot", "7:1:44001", "--teamcomm-robot", "7:2:44002",
                              "--teamcomm-loss", "0.2", "--teamcomm-delay-ms", "20", "--teamcomm-jitter", "normal"});
   EXPECT_TRUE(sut.gamecontroller);
+  EXPECT_TRUE(parse({"--gamecontroller", "on"}).gamecontroller);
+  EXPECT_FALSE(parse({"--gamecontroller", "off"}).gamecontroller);
+  EXPECT_TRUE(parse({"--gamecontroller", "--gc-teams", "3,4"}).gamecontroller);
+  EXPECT_THROW(parse({"--gamecontroller", "maybe"}), std::invalid_argument);
   EXPECT_EQ(sut.gc_team_a, 5);
   EXPECT_EQ(sut.gc_team_b, 6);
   EXPECT_EQ(sut.gc_players, 3);
