@@ -1,6 +1,7 @@
 #include "live_robots.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <sstream>
@@ -12,6 +13,7 @@
 #include "camera/lens.h"
 #include "camera/noise.h"
 #include "camera/pixel_format.h"
+#include "camera/streaming.h"
 #include "camera_feed.h"
 #include "gateway/gateway.h"
 #include "physics/world.h"
@@ -38,6 +40,7 @@ struct LiveRobots::Live {
   bool shown = false;                     // SimController::show
   std::vector<std::size_t> camera_ids;    // CameraFeed::add
   std::vector<std::size_t> camera_bodies;
+  std::vector<std::string> camera_names;  // as streamed
   std::size_t cameras_attached = 0;       // CameraFeed::attach of the first ones
   std::unique_ptr<bus::LatencyTimerFiles> latency;
   std::atomic<bool> stop{false};          // its bus threads
@@ -255,6 +258,7 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     try {
       robot.camera_ids.push_back(parts_.cameras->add(plan.cameras[c], *parts_.options));
       robot.camera_bodies.push_back(plan.cameras[c].body);
+      robot.camera_names.push_back(plan.cameras[c].config.name);
     } catch (const std::exception& e) {
       tear_down(robot);
       return Refusal{plan.camera_fields[c], "camera '" + plan.cameras[c].config.name + "': " + e.what()};
@@ -352,6 +356,14 @@ void LiveRobots::tear_down(Live& live) noexcept {
     if (live.shown) parts_.controller->hide(live.index);
     live.shown = false;
     for (const std::size_t id : live.camera_ids) parts_.cameras->hide(id);  // the streams and their services go
+    // RouDi takes them off its list in its discovery loop: wait for it (bounded), so that the names
+    // are free for the next robot as soon as this returns.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+    for (const std::string& name : live.camera_names) {
+      while (camera::camera_offered(name) && std::chrono::steady_clock::now() < deadline) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    }
     if (live.threads) {
       live.stop.store(true);
       live.runtime->join();
