@@ -8,15 +8,20 @@
 #include <stdlib.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <thread>
 #include <fstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 #include "control/robot_host.h"
 #include "gateway/gateway.h"
 #include "reference_client.h"
 #include "sim_time.h"
+
+#include <httplib.h>  // after Eigen (gateway.h): a macro of it breaks Eigen's headers
 
 namespace doppel::testing {
 namespace {
@@ -50,7 +55,8 @@ class LiveRobots : public ::testing::Test {
     options_.robots_dir = DOPPEL_ROBOTS_DIR;
     options_.timing = bus::TimingMode::kFast;
     options_.camera = false;
-    options_.viewer = false;
+    options_.viewer = true;  // simulation control on any free port: the new robot shows in /api/state
+    options_.viewer_port = 0;
     options_.state_dir.clear();
     gateway_ = std::make_unique<gateway::Gateway>(options_);
     gateway_->start();
@@ -64,6 +70,17 @@ class LiveRobots : public ::testing::Test {
   }
 
   control::RobotHost& host() { return gateway_->robot_host(); }
+
+  nlohmann::json state() {
+    httplib::Client client("127.0.0.1", gateway_->control_port());
+    client.set_read_timeout(std::chrono::seconds(10));
+    const httplib::Result result = client.Get("/api/state");
+    if (!result || result->status != 200) {
+      ADD_FAILURE() << "GET /api/state failed";
+      return nlohmann::json::object();
+    }
+    return nlohmann::json::parse(result->body);
+  }
 
   // Refused, naming `field`; nothing of it is left: one robot, no robot1 link.
   void expect_refused(const RobotRequest& request, const std::string& field) {
@@ -133,11 +150,21 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
     expect_ping_answered(second, "the added robot");
     wait_sim_time(second, 0.2);  // its IMU counts simulation time: it is simulated
   }
+  // Simulation control (the viewer, doppel-ctl) shows it where it was put, held by the handler.
+  const nlohmann::json shown = state();
+  ASSERT_EQ(shown["robots"].size(), 2u) << shown.dump();
+  EXPECT_EQ(shown["robots"][1]["name"], "fumanoid-2011");
+  EXPECT_TRUE(shown["robots"][1]["simulated"].get<bool>());
+  EXPECT_TRUE(shown["robots"][1]["held"].get<bool>());
+  EXPECT_NEAR(shown["robots"][1]["pose"]["x"].get<double>(), 1.0, 0.01);
+  EXPECT_NEAR(shown["robots"][1]["pose"]["y"].get<double>(), 1.5, 0.01);
+  EXPECT_FALSE(shown["robots"][1]["imus"].empty());
 
   EXPECT_FALSE(host().remove_robot(1).has_value());
   EXPECT_FALSE(fs::exists(fs::symlink_status(bus->location))) << "its link is gone";
   EXPECT_FALSE(fs::exists(fs::symlink_status(timer->location))) << "its latency-timer file is gone";
   EXPECT_EQ(host().robots().size(), 1u);
+  EXPECT_EQ(state()["robots"].size(), 1u);
   done = true;
   pinger.join();
   EXPECT_GT(answered.load(), 10);
