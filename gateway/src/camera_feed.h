@@ -110,7 +110,7 @@ class CameraFeed {
   mutable std::mutex mounts_mutex_;
   std::vector<Mount> mounts_;
   std::set<std::string> names_;  // of every mount in use, under mounts_mutex_
-  bool wanted_ = false;           // start() was called (the thread starts with the first camera)
+  std::atomic<bool> wanted_{false};  // start() was called (the thread starts with the first camera)
   // Simulation side.
   std::array<Offered, kMaxMounts> offered_{};
   std::size_t offered_end_ = 0;           // ids below this may be active

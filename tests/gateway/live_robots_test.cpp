@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <set>
 #include <thread>
 #include <fstream>
 #include <string>
@@ -71,15 +72,34 @@ class LiveRobots : public ::testing::Test {
 
   control::RobotHost& host() { return gateway_->robot_host(); }
 
-  nlohmann::json state() {
+  nlohmann::json get(const std::string& path) {
     httplib::Client client("127.0.0.1", gateway_->control_port());
     client.set_read_timeout(std::chrono::seconds(10));
-    const httplib::Result result = client.Get("/api/state");
+    const httplib::Result result = client.Get(path);
     if (!result || result->status != 200) {
-      ADD_FAILURE() << "GET /api/state failed";
+      ADD_FAILURE() << "GET " << path << " failed";
       return nlohmann::json::object();
     }
     return nlohmann::json::parse(result->body);
+  }
+  nlohmann::json state() { return get("/api/state"); }
+
+  // The robots the viewer's scene draws (distinct object ids of robot shapes), once the scene was
+  // taken after `after_s` of simulation time.
+  std::set<int> robots_in_scene(double after_s) {
+    for (int i = 0; i < 500; ++i) {
+      const nlohmann::json scene = get("/api/scene");
+      if (scene.value("sim_time_s", 0.0) > after_s) {
+        std::set<int> objects;
+        for (const auto& shape : scene["shapes"]) {
+          if (shape["kind"] == "robot") objects.insert(shape["object"].get<int>());
+        }
+        return objects;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ADD_FAILURE() << "the scene did not pass " << after_s << " s";
+    return {};
   }
 
   // Refused, naming `field`; nothing of it is left: one robot, no robot1 link.
@@ -197,6 +217,27 @@ TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
   SerialClient second(find_link(std::get<RobotAdded>(result), "bus", "ttyDXL0")->location, 1000000);
   expect_ping_answered(second, "the robot from its description");
+}
+
+// A failure halfway (here: its port link's place is taken by a regular file, found once the world
+// holds its body) undoes what was built: no body stays in the world, nothing is served.
+TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
+  fs::create_directories(options_.link_dir + "/robot1");
+  std::ofstream(options_.link_dir + "/robot1/ttyDXL0") << "not a link\n";
+  const control::AddResult failed = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<Refusal>(failed));
+  EXPECT_EQ(std::get<Refusal>(failed).field, "robot");
+  EXPECT_NE(std::get<Refusal>(failed).message.find("robot1/ttyDXL0"), std::string::npos) << std::get<Refusal>(failed).message;
+  EXPECT_EQ(host().robots().size(), 1u);
+  EXPECT_EQ(state()["robots"].size(), 1u);
+  const double now_s = state()["sim_time_s"].get<double>();
+  EXPECT_EQ(robots_in_scene(now_s).size(), 1u) << "the failed robot's body was left in the world";
+
+  fs::remove(options_.link_dir + "/robot1/ttyDXL0");
+  const control::AddResult added = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(added)) << std::get<Refusal>(added).message;
+  EXPECT_EQ(robots_in_scene(state()["sim_time_s"].get<double>()).size(), 2u);
+  expect_ping_answered(*first_, "the first robot");
 }
 
 TEST_F(LiveRobots, BadRequestsAreRefusedNamingTheFieldAndLeaveNothingBehind) {
