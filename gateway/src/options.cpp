@@ -89,6 +89,15 @@ Options:
   --record-cameras HZ    Also record each camera's still (PNG) HZ times a second (0.1..30).
   --record-compression zstd|lz4|none
                          Chunk compression of the recording (default zstd).
+  --lockstep             Simulation time instead of the wall clock (docs/lockstep.md): time advances
+                         only while every thread of a controller started with `doppel-run --lockstep`
+                         waits, as fast as the machine can. Implies --timing wire on its own clock.
+  --hashes               With --lockstep: print `hash SECOND HEX` for every simulated second (bus
+                         bytes in and out with their times, world state): equal runs, equal lines.
+  --hashes-file FILE     The same lines to FILE instead of standard output.
+  --lockstep-watchdog S  Wall seconds a controller thread may run without a wait doppel sees before
+                         it is reported (default 5).
+  --lockstep-epoch S     CLOCK_REALTIME at simulation time 0, Unix seconds (default: when doppel starts).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -140,6 +149,11 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
+  app.add_flag("--lockstep", options.lockstep);
+  app.add_flag("--hashes", options.hashes);
+  app.add_option("--hashes-file", options.hashes_file)->check(not_empty("the file name"));
+  app.add_option("--lockstep-watchdog", options.lockstep_watchdog_s)->transform(number_in<double>(0.1, 3600.0));
+  app.add_option("--lockstep-epoch", options.lockstep_epoch_s)->transform(number_in<double>(0.0, 1e11));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -153,6 +167,9 @@ Options parse_options(int argc, const char* const* argv) {
   }
   if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
     throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
+  }
+  if ((options.hashes || !options.hashes_file.empty() || options.lockstep_epoch_s) && !options.lockstep) {
+    throw std::invalid_argument("--hashes, --hashes-file and --lockstep-epoch need --lockstep (see --help)");
   }
   if (options.state_dir.empty()) {
     options.state_dir = default_state_dir();

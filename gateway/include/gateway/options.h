@@ -46,6 +46,13 @@ struct Options {
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  // Lockstep time (docs/lockstep.md): --lockstep, --hashes / --hashes-file FILE, --lockstep-watchdog S,
+  // --lockstep-epoch S.
+  bool lockstep = false;
+  bool hashes = false;                   // print `hash SECOND HEX` lines on standard output
+  std::string hashes_file;               // the same lines to this file; "" = not
+  double lockstep_watchdog_s = 5.0;
+  std::optional<double> lockstep_epoch_s;  // CLOCK_REALTIME at simulation time 0; unset = doppel's start
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
