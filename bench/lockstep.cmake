@@ -1,0 +1,8 @@
+# Lockstep speed (issue 15): a 1 kHz single-threaded controller on the default robot, simulated
+# seconds per wall second under doppel --lockstep and in real time, in one run (docs/benchmarks.md).
+if(TARGET lockstep_controller)
+  doppel_bus_tool(lockstep_speed)
+  target_compile_definitions(lockstep_speed PRIVATE DOPPEL_RUN="$<TARGET_FILE:doppel-run>"
+                             LOCKSTEP_CONTROLLER="$<TARGET_FILE:lockstep_controller>")
+  add_dependencies(lockstep_speed doppel-run doppel_shim lockstep_controller)
+endif()
