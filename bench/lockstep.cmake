@@ -6,3 +6,9 @@ if(TARGET lockstep_controller)
                              LOCKSTEP_CONTROLLER="$<TARGET_FILE:lockstep_controller>")
   add_dependencies(lockstep_speed doppel-run doppel_shim lockstep_controller)
 endif()
+
+if(TARGET lockstep_speed)
+  # A short run under ctest so the tool cannot rot; the figures come from full runs.
+  add_test(NAME lockstep_speed_smoke COMMAND lockstep_speed --seconds 0.5)
+  set_tests_properties(lockstep_speed_smoke PROPERTIES LABELS "bench;lockstep")
+endif()

@@ -84,11 +84,17 @@ void BusServer::hash_bytes(uint8_t direction, int64_t t_ns, const uint8_t* bytes
   options_.hash->add(bytes, n);
 }
 
-void BusServer::serve_lockstep(uint64_t input_total, int64_t settle_ns) noexcept {
+void BusServer::serve_lockstep(uint64_t input_total, int64_t settle_ns, bool check_line) noexcept {
   tick();
   if (!port_.connected()) {
+    if (!check_line && input_total <= counters_.bytes_in.load(std::memory_order_relaxed)) return;
     if (!port_.poll_client()) return;
     on_connect();
+  }
+  if (!check_line && counters_.bytes_in.load(std::memory_order_relaxed) >= input_total) {
+    write_blocked_ = false;
+    write_due();
+    return;
   }
   // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of them.
   const int64_t give_up = monotonic_now_ns() + settle_ns;

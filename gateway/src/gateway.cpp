@@ -445,15 +445,17 @@ void Gateway::simulate_lockstep() noexcept {
   int64_t next_second_ns = (lockstep_->now_ns() / kSecondNs + 1) * kSecondNs;
   Fnv1a world_hash;
   bool told_waiting = false;
-  const auto serve_buses = [this] {
+  bool stepped = true;  // the pty is polled at each step even when the controller wrote nothing
+  const auto serve_buses = [this, &stepped] {
     std::size_t index = 0;
     for (auto& robot : robots_) {
       for (std::size_t b = 0; b < robot->bus_count(); ++b, ++index) {
         bus::BusServer& server = robot->bus(b).server();
-        server.serve_lockstep(lockstep_->client_written(index), kSettleNs);
-        lockstep_->set_delivered(index, server.diagnostics().bytes_out);
+        server.serve_lockstep(lockstep_->client_written(index), kSettleNs, stepped);
+        lockstep_->set_delivered(index, server.bytes_out());
       }
     }
+    stepped = false;
   };
   while (!stop_.load(std::memory_order_relaxed)) {
     if (!lockstep_->settle(stop_)) break;
@@ -479,6 +481,7 @@ void Gateway::simulate_lockstep() noexcept {
     lockstep_->advance_to(std::max(next_ns, lockstep_->now_ns()));
     if (lockstep_->now_ns() < next_step_ns) continue;
     next_step_ns += kSimulationStepNs;
+    stepped = true;
     if (controller_->begin_tick()) {
       step_world(sim_time_ns);
     }

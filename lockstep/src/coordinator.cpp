@@ -109,7 +109,7 @@ bool Coordinator::settle(const std::atomic<bool>& stop) noexcept {
   for (;;) {
     const uint32_t seq = file_->coordinator_seq.load(std::memory_order_acquire);
     bool running = false;
-    for (const ThreadSlot& slot : file_->threads) {
+    for (const ThreadSlot& slot : used()) {
       if (slot.state.load(std::memory_order_acquire) == kRunning) {
         running = true;
         break;
@@ -127,7 +127,7 @@ bool Coordinator::settle(const std::atomic<bool>& stop) noexcept {
 }
 
 void Coordinator::watch(int64_t wall_ns) noexcept {
-  for (std::size_t i = 0; i < kMaxThreads; ++i) {
+  for (std::size_t i = 0; i < used().size(); ++i) {
     ThreadSlot& slot = file_->threads[i];
     Watch& w = watches_[i];
     const uint64_t waits = slot.waits.load(std::memory_order_acquire);
@@ -159,7 +159,7 @@ void Coordinator::watch(int64_t wall_ns) noexcept {
 }
 
 void Coordinator::remove_gone() noexcept {
-  for (ThreadSlot& slot : file_->threads) {
+  for (ThreadSlot& slot : used()) {
     if (slot.state.load(std::memory_order_acquire) == kFree) continue;
     if (!alive(slot.pid.load(std::memory_order_relaxed), slot.tid.load(std::memory_order_relaxed))) {
       slot.state.store(kFree, std::memory_order_release);
@@ -171,12 +171,14 @@ void Coordinator::remove_gone() noexcept {
 bool Coordinator::wake_one() noexcept {
   const int64_t now = now_ns();
   const uint64_t events = file_->events.load(std::memory_order_acquire);
-  for (ThreadSlot& slot : file_->threads) {
+  const uint64_t deliveries = file_->deliveries.load(std::memory_order_acquire);
+  for (ThreadSlot& slot : used()) {
     if (slot.state.load(std::memory_order_acquire) != kWaiting) continue;
     const uint32_t flags = slot.flags.load(std::memory_order_acquire);
     const bool time_up = (flags & kUntilTime) != 0 && slot.wake_ns.load(std::memory_order_acquire) <= now;
     const bool event = (flags & kNextEvent) != 0 && slot.event_mark.load(std::memory_order_acquire) < events;
-    if (time_up || event) {
+    const bool delivery = (flags & kDelivery) != 0 && slot.delivery_mark.load(std::memory_order_acquire) < deliveries;
+    if (time_up || event || delivery) {
       wake(slot);
       return true;
     }
@@ -186,7 +188,7 @@ bool Coordinator::wake_one() noexcept {
 
 std::size_t Coordinator::threads() const noexcept {
   std::size_t n = 0;
-  for (const ThreadSlot& slot : file_->threads) n += slot.state.load(std::memory_order_acquire) != kFree ? 1 : 0;
+  for (const ThreadSlot& slot : used()) n += slot.state.load(std::memory_order_acquire) != kFree ? 1 : 0;
   return n;
 }
 
@@ -200,7 +202,7 @@ bool Coordinator::wait_for_threads(int64_t timeout_ns) noexcept {
 
 int64_t Coordinator::earliest_wake_ns() const noexcept {
   int64_t earliest = kNever;
-  for (const ThreadSlot& slot : file_->threads) {
+  for (const ThreadSlot& slot : used()) {
     if (slot.state.load(std::memory_order_acquire) != kWaiting) continue;
     if ((slot.flags.load(std::memory_order_acquire) & kUntilTime) == 0) continue;
     earliest = std::min(earliest, slot.wake_ns.load(std::memory_order_acquire));
@@ -220,6 +222,7 @@ uint64_t Coordinator::client_written(std::size_t bus) const noexcept {
 void Coordinator::set_delivered(std::size_t bus, uint64_t total) noexcept {
   if (file_->buses[bus].delivered.load(std::memory_order_relaxed) == total) return;
   file_->buses[bus].delivered.store(total, std::memory_order_release);
+  file_->deliveries.fetch_add(1, std::memory_order_acq_rel);
   file_->events.fetch_add(1, std::memory_order_acq_rel);
 }
 

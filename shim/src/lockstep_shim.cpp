@@ -170,6 +170,10 @@ ThreadSlot* claim(pid_t tid) noexcept {
     slot.clock_reads.store(0, std::memory_order_relaxed);
     slot.last_call.store(static_cast<uint32_t>(Call::kStart), std::memory_order_relaxed);
     slot.pid.store(g_pid, std::memory_order_release);
+    const uint32_t index = static_cast<uint32_t>(&slot - g_clock->threads) + 1;
+    uint32_t used = g_clock->slots_used.load(std::memory_order_acquire);
+    while (used < index && !g_clock->slots_used.compare_exchange_weak(used, index, std::memory_order_acq_rel)) {
+    }
     return &slot;
   }
   say("more than 256 controller threads: this one runs unseen (simulation time may pass while it runs)");
@@ -200,6 +204,7 @@ void begin_wait(ThreadSlot* slot, uint32_t flags, int64_t wake_ns, Call call) no
   slot->flags.store(flags, std::memory_order_relaxed);
   slot->wake_ns.store(wake_ns, std::memory_order_relaxed);
   slot->event_mark.store(g_clock->events.load(std::memory_order_acquire), std::memory_order_relaxed);
+  slot->delivery_mark.store(g_clock->deliveries.load(std::memory_order_acquire), std::memory_order_relaxed);
   slot->waits.fetch_add(1, std::memory_order_relaxed);
   slot->state.store(lockstep::kWaiting, std::memory_order_seq_cst);
   notify_coordinator();
@@ -376,9 +381,14 @@ int poll_for(struct pollfd* fds, nfds_t n, int64_t timeout_ns, Call call) noexce
   if (slot == nullptr || r != 0 || timeout_ns == 0) return r;
   touch(slot, call);
   const int64_t deadline = timeout_ns < 0 ? kNever : sim_now() + timeout_ns;
+  // Buses and virtual timers only: nothing can change before a delivery, a timer or the timeout,
+  // so the thread sleeps through the events in between. Any other descriptor: every event.
+  bool only_ours = true;
+  for (nfds_t i = 0; i < n; ++i) only_ours = only_ours && (timer_of(fds[i].fd) != nullptr || bus_of_fd(fds[i].fd) >= 0);
+  const uint32_t wake_for = only_ours ? lockstep::kDelivery : lockstep::kNextEvent;
   for (;;) {
     const int64_t wake = timer_wake < deadline ? timer_wake : deadline;
-    park(slot, lockstep::kNextEvent | (wake != kNever ? lockstep::kUntilTime : 0u), wake, call);
+    park(slot, wake_for | (wake != kNever ? lockstep::kUntilTime : 0u), wake, call);
     if (!on()) {
       return g_real.poll(fds, n, timeout_ns < 0 ? -1 : static_cast<int>(timeout_ns / 1'000'000));
     }

@@ -124,8 +124,11 @@ class BusServer {
   // Lockstep: one pass at the time of options.clock, called by the simulation thread instead of
   // run(). Accepts a client, reads until `input_total` bytes have been read since construction
   // (what the controller wrote before it waited; at most `settle_ns` of wall time for the pty to
-  // hand them over), dispatches them and writes the bytes that are due. rt-safe.
-  void serve_lockstep(uint64_t input_total, int64_t settle_ns) noexcept;
+  // hand them over), dispatches them and writes the bytes that are due. With nothing to read it
+  // asks the pty only when `check_line` (a hang-up, a client that writes without the shim). rt-safe.
+  void serve_lockstep(uint64_t input_total, int64_t settle_ns, bool check_line) noexcept;
+  // Status bytes written to the client so far (BusDiagnostics::bytes_out, without the copy). rt-safe.
+  uint64_t bytes_out() const noexcept { return counters_.bytes_out.load(std::memory_order_relaxed); }
   // When the next reply bytes are due; INT64_MAX when none are (or the client's queue is full). rt-safe.
   int64_t next_due_ns() const noexcept;
 

@@ -35,6 +35,7 @@ enum WaitFlags : uint32_t {
   kUntilTime = 1,   // wake when simulation time reaches wake_ns
   kNextEvent = 2,   // wake at the next event after event_mark: time advanced or bus bytes delivered
   kPeer = 4,        // blocked on another controller thread (condition variable, semaphore): doppel never wakes it, the peer does
+  kDelivery = 8,    // wake when a bus delivered bytes after delivery_mark (a poll of bus descriptors only)
 };
 
 // The intercepted call a thread made last (the watchdog names it).
@@ -64,6 +65,7 @@ struct alignas(64) ThreadSlot {
   std::atomic<uint32_t> last_call{0};   // Call
   std::atomic<int64_t> wake_ns{kNever};     // kUntilTime: simulation time to wake at
   std::atomic<uint64_t> event_mark{0};      // kNextEvent: ClockFile::events when the wait began
+  std::atomic<uint64_t> delivery_mark{0};   // kDelivery: ClockFile::deliveries when the wait began
   std::atomic<uint64_t> calls{0};           // intercepted calls since the thread started (watchdog)
   std::atomic<uint64_t> waits{0};           // waits begun since the thread started (watchdog)
   std::atomic<uint64_t> clock_reads{0};     // clock reads in a row, since the thread last waited or made another call
@@ -89,6 +91,8 @@ struct ClockFile {
   int64_t epoch_realtime_ns = 0;            // CLOCK_REALTIME = this + simulation time
   std::atomic<int64_t> sim_ns{0};           // simulation time (doppel writes, everyone reads)
   std::atomic<uint64_t> events{0};          // bumped when time advances or a bus delivers bytes
+  std::atomic<uint64_t> deliveries{0};      // bumped when a bus delivers bytes
+  std::atomic<uint32_t> slots_used{0};      // threads[0, slots_used) were ever claimed (doppel scans no further)
   std::atomic<uint32_t> coordinator_seq{0};  // futex word doppel sleeps on; threads bump it when they wait or leave
   std::atomic<uint32_t> open{1};            // 0 once doppel stops: every call passes through again
   BusSlot buses[kMaxBuses];

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cstdint>
 #include <iosfwd>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,11 @@ class Coordinator {
   void watch(int64_t wall_ns) noexcept;
   void remove_gone() noexcept;
   void wake(ThreadSlot& slot) noexcept;
+  // The slots ever claimed (the rest are free).
+  std::span<ThreadSlot> used() const noexcept {
+    const uint32_t n = file_->slots_used.load(std::memory_order_acquire);
+    return {file_->threads, n < kMaxThreads ? n : kMaxThreads};
+  }
 
   std::string path_;
   CoordinatorOptions options_;
