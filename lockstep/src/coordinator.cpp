@@ -23,8 +23,22 @@ namespace {
 
 constexpr int64_t kPollWallNs = 50'000'000;  // settle(): how often stop, liveness and the watchdog are checked
 
+// A process that exited but was not reaped yet still answers kill(0): its /proc state is Z (or X).
+bool zombie(int32_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  std::getline(stat, line);
+  const std::size_t close = line.rfind(')');
+  return close != std::string::npos && close + 2 < line.size() && (line[close + 2] == 'Z' || line[close + 2] == 'X');
+}
+
 bool alive(int32_t pid, int32_t tid) noexcept {
   if (pid <= 0) return true;  // a slot being claimed (the shim sets pid last)
+  try {
+    if (zombie(pid)) return false;
+  } catch (...) {
+    // Unreadable /proc: fall back on the signal check.
+  }
   if (tid > 0) {
     return ::syscall(SYS_tgkill, pid, tid, 0) == 0 || errno != ESRCH;
   }
