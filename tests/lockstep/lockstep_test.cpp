@@ -113,6 +113,20 @@ TEST(Lockstep, ReferenceWalkGivesTheSameHashesTwice) {
   EXPECT_EQ(first.hashes, second.hashes);
 }
 
+TEST(Lockstep, PyserialControllerSeesTheWireTimeInSimulationTime) {
+  const std::string controller = "/usr/bin/python3 " + std::string(PYSERIAL_PING) + " /dev/ttyUSB0";
+  const LockstepRun first = run_lockstep(controller);
+  const LockstepRun second = run_lockstep(controller);
+  ASSERT_EQ(first.code, 0) << first.output << first.doppel_output;
+  EXPECT_EQ(value(first.output, "answered"), "200") << first.output;
+  // Each round: PING 6 bytes at 1 Mbps (60 us), doppel's default firmware time (50 us), the RX-28's
+  // default Return Delay Time (250 x 2 us = 500 us, e-Manual), the 6-byte status (60 us), then
+  // 5 ms of sleep: 5.670 ms, 200 times. Exactly, because every wait is simulation time.
+  EXPECT_EQ(value(first.output, "elapsed_s"), "1.134000") << first.output;
+  EXPECT_EQ(first.output, second.output);
+  EXPECT_EQ(first.hashes, second.hashes);
+}
+
 TEST(Lockstep, DifferentControllersGiveDifferentHashes) {
   // The hash sees the traffic: a controller with another timing gives other hashes.
   const LockstepRun single = run_lockstep(kController + " single /dev/ttyUSB0 1");
