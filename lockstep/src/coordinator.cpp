@@ -176,6 +176,7 @@ void Coordinator::remove_gone() noexcept {
   for (ThreadSlot& slot : used()) {
     if (slot.state.load(std::memory_order_acquire) == kFree) continue;
     if (!alive(slot.pid.load(std::memory_order_relaxed), slot.tid.load(std::memory_order_relaxed))) {
+      slot.pid.store(0, std::memory_order_relaxed);
       slot.state.store(kFree, std::memory_order_release);
       ++removed_;
     }

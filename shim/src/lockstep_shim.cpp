@@ -147,6 +147,7 @@ void notify_coordinator() noexcept {
 void release(ThreadSlot* slot) noexcept {
   if (slot == nullptr || g_clock == nullptr) return;
   g_blocked_on[slot - g_clock->threads].store(nullptr, std::memory_order_relaxed);
+  slot->pid.store(0, std::memory_order_relaxed);  // 0 until the next owner sets its own
   slot->state.store(lockstep::kFree, std::memory_order_release);
   notify_coordinator();
 }
@@ -163,7 +164,7 @@ ThreadSlot* claim(pid_t tid) noexcept {
   for (ThreadSlot& slot : g_clock->threads) {
     uint32_t expected = lockstep::kFree;
     if (slot.state.load(std::memory_order_relaxed) != lockstep::kFree) continue;
-    slot.pid.store(0, std::memory_order_relaxed);  // 0 = being claimed: doppel does not remove it
+    // A free slot's pid is 0 (released so): doppel does not remove a slot being claimed.
     if (!slot.state.compare_exchange_strong(expected, lockstep::kRunning, std::memory_order_acq_rel)) continue;
     slot.tid.store(tid, std::memory_order_relaxed);
     slot.calls.store(0, std::memory_order_relaxed);
@@ -224,8 +225,12 @@ void park(ThreadSlot* slot, uint32_t flags, int64_t wake_ns, Call call) noexcept
   }
 }
 
-void sleep_until(int64_t wake_ns, Call call) noexcept {
-  if (ThreadSlot* slot = self()) park(slot, lockstep::kUntilTime, wake_ns, call);
+// False when the thread has no slot (more threads than slots): the caller waits in wall time.
+bool sleep_until(int64_t wake_ns, Call call) noexcept {
+  ThreadSlot* slot = self();
+  if (slot == nullptr) return false;
+  park(slot, lockstep::kUntilTime, wake_ns, call);
+  return true;
 }
 
 bool virtual_clock(clockid_t clock) noexcept {
@@ -378,7 +383,11 @@ int poll_for(struct pollfd* fds, nfds_t n, int64_t timeout_ns, Call call) noexce
   settle_fds(fds, n);
   int64_t timer_wake = kNever;
   int r = poll_now(fds, n, &timer_wake);
-  if (slot == nullptr || r != 0 || timeout_ns == 0) return r;
+  if (r != 0 || timeout_ns == 0) return r;
+  if (slot == nullptr) {
+    const struct timespec timeout = timespec_of(timeout_ns);
+    return g_real.ppoll(fds, n, timeout_ns < 0 ? nullptr : &timeout, nullptr);
+  }
   touch(slot, call);
   const int64_t deadline = timeout_ns < 0 ? kNever : sim_now() + timeout_ns;
   // Buses and virtual timers only: nothing can change before a delivery, a timer or the timeout,
@@ -734,7 +743,7 @@ SHIM_EXPORT int nanosleep(const struct timespec* request, struct timespec* remai
     errno = EINVAL;
     return -1;
   }
-  sleep_until(sim_now() + ns_of(*request), Call::kNanosleep);
+  if (!sleep_until(sim_now() + ns_of(*request), Call::kNanosleep)) return g_real.nanosleep(request, remaining);
   if (remaining != nullptr) *remaining = {};
   return 0;
 }
@@ -743,20 +752,20 @@ SHIM_EXPORT int clock_nanosleep(clockid_t clock, int flags, const struct timespe
   if (!on() || !virtual_clock(clock) || request == nullptr) return g_real.clock_nanosleep(clock, flags, request, remaining);
   if (request->tv_nsec < 0 || request->tv_nsec >= kSecond) return EINVAL;
   const int64_t wake = (flags & TIMER_ABSTIME) != 0 ? sim_at(clock, ns_of(*request)) : sim_now() + ns_of(*request);
-  sleep_until(wake, Call::kClockNanosleep);
+  if (!sleep_until(wake, Call::kClockNanosleep)) return g_real.clock_nanosleep(clock, flags, request, remaining);
   if (remaining != nullptr && (flags & TIMER_ABSTIME) == 0) *remaining = {};
   return 0;
 }
 
 SHIM_EXPORT int usleep(useconds_t us) {
   if (!on()) return g_real.usleep(us);
-  sleep_until(sim_now() + static_cast<int64_t>(us) * 1000, Call::kUsleep);
+  if (!sleep_until(sim_now() + static_cast<int64_t>(us) * 1000, Call::kUsleep)) return g_real.usleep(us);
   return 0;
 }
 
 SHIM_EXPORT unsigned sleep(unsigned seconds) {
   if (!on()) return g_real.sleep(seconds);
-  sleep_until(sim_now() + static_cast<int64_t>(seconds) * kSecond, Call::kSleep);
+  if (!sleep_until(sim_now() + static_cast<int64_t>(seconds) * kSecond, Call::kSleep)) return g_real.sleep(seconds);
   return 0;
 }
 
@@ -789,7 +798,8 @@ static int epoll_for(int epfd, struct epoll_event* events, int max, int timeout_
   ThreadSlot* slot = self();
   settle_all();
   int r = g_real.epoll_wait(epfd, events, max, 0);
-  if (slot == nullptr || r != 0 || timeout_ms == 0) return r;
+  if (r != 0 || timeout_ms == 0) return r;
+  if (slot == nullptr) return g_real.epoll_wait(epfd, events, max, timeout_ms);
   const int64_t deadline = timeout_ms < 0 ? kNever : sim_now() + static_cast<int64_t>(timeout_ms) * 1'000'000;
   for (;;) {
     park(slot, lockstep::kNextEvent | (deadline != kNever ? lockstep::kUntilTime : 0u), deadline, Call::kEpollWait);
