@@ -19,6 +19,7 @@
 #include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/select.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <sys/time.h>
@@ -66,6 +67,12 @@ struct Real {
   int (*epoll_pwait)(int, struct epoll_event*, int, int, const sigset_t*);
   ssize_t (*read)(int, void*, size_t);
   ssize_t (*write)(int, const void*, size_t);
+  ssize_t (*recv)(int, void*, size_t, int);
+  ssize_t (*recvfrom)(int, void*, size_t, int, struct sockaddr*, socklen_t*);
+  ssize_t (*recvmsg)(int, struct msghdr*, int);
+  ssize_t (*send)(int, const void*, size_t, int);
+  ssize_t (*sendto)(int, const void*, size_t, int, const struct sockaddr*, socklen_t);
+  ssize_t (*sendmsg)(int, const struct msghdr*, int);
   int (*timerfd_create)(int, int);
   int (*timerfd_settime)(int, int, const struct itimerspec*, struct itimerspec*);
   int (*timerfd_gettime)(int, struct itimerspec*);
@@ -625,6 +632,12 @@ void set_up() noexcept {
   resolve(g_real.epoll_pwait, "epoll_pwait");
   resolve(g_real.read, "read");
   resolve(g_real.write, "write");
+  resolve(g_real.recv, "recv");
+  resolve(g_real.recvfrom, "recvfrom");
+  resolve(g_real.recvmsg, "recvmsg");
+  resolve(g_real.send, "send");
+  resolve(g_real.sendto, "sendto");
+  resolve(g_real.sendmsg, "sendmsg");
   resolve(g_real.timerfd_create, "timerfd_create");
   resolve(g_real.timerfd_settime, "timerfd_settime");
   resolve(g_real.timerfd_gettime, "timerfd_gettime");
@@ -820,12 +833,53 @@ SHIM_EXPORT int epoll_pwait(int epfd, struct epoll_event* events, int max, int t
   return epoll_for(epfd, events, max, timeout_ms);
 }
 
+// Before a blocking read of any other descriptor (pipe, socket, terminal) that has nothing: the
+// thread waits for the next events until it has (its writer is another controller thread or
+// process, or the world outside, which simulation time does not wait for). `dontwait`: the call
+// itself does not block.
+static void wait_readable(int fd, bool dontwait) noexcept {
+  if (dontwait) return;
+  struct pollfd p {fd, POLLIN, 0};
+  const struct timespec zero {};
+  if (g_real.ppoll(&p, 1, &zero, nullptr) != 0) return;  // readable, closed, or not pollable
+  if ((::fcntl(fd, F_GETFL) & O_NONBLOCK) != 0) return;
+  ThreadSlot* slot = self();
+  if (slot == nullptr) return;
+  touch(slot, Call::kRead);
+  do {
+    park(slot, lockstep::kNextEvent, kNever, Call::kRead);
+    p.revents = 0;
+  } while (on() && g_real.ppoll(&p, 1, &zero, nullptr) == 0);
+}
+
 SHIM_EXPORT ssize_t read(int fd, void* buffer, size_t n) {
   if (!on()) return g_real.read(fd, buffer, n);
   if (VirtualTimer* timer = timer_of(fd)) return timer_read(*timer, buffer, n);
   const int bus = bus_of_fd(fd);
-  if (bus < 0) return g_real.read(fd, buffer, n);
-  return bus_read(bus, fd, buffer, n);
+  if (bus >= 0) return bus_read(bus, fd, buffer, n);
+  wait_readable(fd, false);
+  return g_real.read(fd, buffer, n);
+}
+
+SHIM_EXPORT ssize_t recv(int fd, void* buffer, size_t n, int flags) {
+  if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
+  return g_real.recv(fd, buffer, n, flags);
+}
+
+SHIM_EXPORT ssize_t recvfrom(int fd, void* buffer, size_t n, int flags, struct sockaddr* from, socklen_t* from_size) {
+  if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
+  return g_real.recvfrom(fd, buffer, n, flags, from, from_size);
+}
+
+SHIM_EXPORT ssize_t recvmsg(int fd, struct msghdr* message, int flags) {
+  if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
+  return g_real.recvmsg(fd, message, flags);
+}
+
+// Bytes for another controller thread or process (a pipe, a socket): an event, so that a thread
+// waiting to read them looks again before simulation time advances.
+static void peer_io() noexcept {
+  if (on() && t_slot != nullptr) g_clock->events.fetch_add(1, std::memory_order_acq_rel);
 }
 
 SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
@@ -834,7 +888,27 @@ SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
   if (bus >= 0 && r > 0) {
     g_clock->buses[bus].client_written.fetch_add(static_cast<uint64_t>(r), std::memory_order_acq_rel);
     if (ThreadSlot* slot = self()) touch(slot, Call::kBusWrite);
+  } else if (r > 0) {
+    peer_io();
   }
+  return r;
+}
+
+SHIM_EXPORT ssize_t send(int fd, const void* buffer, size_t n, int flags) {
+  const ssize_t r = g_real.send(fd, buffer, n, flags);
+  if (r > 0) peer_io();
+  return r;
+}
+
+SHIM_EXPORT ssize_t sendto(int fd, const void* buffer, size_t n, int flags, const struct sockaddr* to, socklen_t to_size) {
+  const ssize_t r = g_real.sendto(fd, buffer, n, flags, to, to_size);
+  if (r > 0) peer_io();
+  return r;
+}
+
+SHIM_EXPORT ssize_t sendmsg(int fd, const struct msghdr* message, int flags) {
+  const ssize_t r = g_real.sendmsg(fd, message, flags);
+  if (r > 0) peer_io();
   return r;
 }
 

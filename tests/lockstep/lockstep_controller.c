@@ -10,6 +10,8 @@
 // MODE timer: a timer thread (timerfd, 1 kHz, blocking read) wakes the main thread through a
 //   condition variable; the main thread reads its replies as DynamixelSDK does (non-blocking
 //   read() in a loop, timed out on CLOCK_REALTIME).
+// MODE sem: a thread paced by nanosleep (1 ms) posts a semaphore the main thread waits on.
+// MODE pipe: a thread paced by usleep (1 ms) writes a byte to a pipe the main thread reads (blocking).
 // MODE busy: spins without any call the shim intercepts (the watchdog must name it).
 //
 // Prints "cycles=N replies=N timeouts=N end_s=S" when SECONDS of CLOCK_MONOTONIC have passed.
@@ -18,6 +20,8 @@
 #include <math.h>
 #include <poll.h>
 #include <pthread.h>
+#include <semaphore.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -138,12 +142,36 @@ static void* timer_thread(void* argument) {
   return NULL;
 }
 
+static sem_t semaphore;
+static int pipe_fds[2];
+
+static void* sem_thread(void* argument) {
+  (void)argument;
+  const struct timespec period = {0, 1000000};
+  while (!done) {
+    nanosleep(&period, NULL);
+    sem_post(&semaphore);
+  }
+  return NULL;
+}
+
+static void* pipe_thread(void* argument) {
+  (void)argument;
+  const char byte = 't';
+  while (!done) {
+    usleep(1000);
+    if (write(pipe_fds[1], &byte, 1) != 1) break;
+  }
+  return NULL;
+}
+
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: %s single|timer|busy PORT SECONDS\n", argv[0]);
+    fprintf(stderr, "usage: %s single|timer|sem|pipe|busy PORT SECONDS\n", argv[0]);
     return 2;
   }
   const char* mode = argv[1];
+  signal(SIGPIPE, SIG_IGN);
   const double seconds = atof(argv[3]);
   set_up_port(argv[2]);
   const double start = now_s(CLOCK_MONOTONIC);
@@ -174,6 +202,28 @@ int main(int argc, char** argv) {
       ++cycles;
     }
     done = 1;
+    pthread_join(thread, NULL);
+  } else if (strcmp(mode, "sem") == 0 || strcmp(mode, "pipe") == 0) {
+    const int use_sem = strcmp(mode, "sem") == 0;
+    pthread_t thread;
+    if (use_sem) {
+      sem_init(&semaphore, 0, 0);
+    } else if (pipe(pipe_fds) != 0) {
+      return 1;
+    }
+    pthread_create(&thread, NULL, use_sem ? sem_thread : pipe_thread, NULL);
+    while (now_s(CLOCK_MONOTONIC) - start < seconds) {
+      if (use_sem) {
+        sem_wait(&semaphore);
+      } else {
+        char byte;
+        if (read(pipe_fds[0], &byte, 1) != 1) break;
+      }
+      cycle(cycles, now_s(CLOCK_MONOTONIC) - start, 0);
+      ++cycles;
+    }
+    done = 1;
+    if (!use_sem) close(pipe_fds[0]);  // the writer's next write fails (EPIPE ignored below)
     pthread_join(thread, NULL);
   } else if (strcmp(mode, "busy") == 0) {
     volatile uint64_t spin = 0;

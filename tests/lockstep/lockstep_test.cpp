@@ -103,6 +103,21 @@ TEST(Lockstep, TimerThreadControllerGivesTheSameHashesTwice) {
   EXPECT_EQ(first.output, second.output);
 }
 
+TEST(Lockstep, SemaphoreAndPipeThreadControllersGiveTheSameHashesTwice) {
+  for (const std::string mode : {"sem", "pipe"}) {
+    const std::string controller = kController + " " + mode + " /dev/ttyUSB0 2";
+    const LockstepRun first = run_lockstep(controller);
+    const LockstepRun second = run_lockstep(controller);
+    ASSERT_EQ(first.code, 0) << mode << first.output << first.doppel_output;
+    ASSERT_EQ(second.code, 0) << mode << second.output << second.doppel_output;
+    EXPECT_EQ(value(first.output, "timeouts"), "0") << mode << first.output;
+    EXPECT_GT(std::stol(value(first.output, "cycles")), 500) << mode << first.output;
+    expect_hash_lines(first, 2);
+    EXPECT_EQ(first.hashes, second.hashes) << mode;
+    EXPECT_EQ(first.output, second.output) << mode;
+  }
+}
+
 TEST(Lockstep, ReferenceWalkGivesTheSameHashesTwice) {
   const std::string walk = kWalk + " --port /dev/ttyUSB0 --seconds 4";
   const LockstepRun first = run_lockstep(walk);
