@@ -616,7 +616,10 @@ void after_fork_in_child() noexcept {
   t_slot = nullptr;  // the parent's; this process registers its thread on its first call
 }
 
-void set_up() noexcept {
+// libc's functions, resolved on first need: another constructor of this library (shim.cpp's) or
+// of the program may call an interposed function before load() ran.
+std::atomic<bool> g_resolved{false};
+void resolve_reals() noexcept {
   resolve(g_real.clock_gettime, "clock_gettime");
   resolve(g_real.gettimeofday, "gettimeofday");
   resolve(g_real.time, "time");
@@ -655,6 +658,11 @@ void set_up() noexcept {
   resolve(g_real.sem_post, "sem_post", "GLIBC_2.34");
   resolve(g_real.join, "pthread_join", "GLIBC_2.34");
   resolve(g_real.clockjoin, "pthread_clockjoin_np", "GLIBC_2.34");
+  g_resolved.store(true, std::memory_order_release);
+}
+
+void set_up() noexcept {
+  if (!g_resolved.load(std::memory_order_acquire)) resolve_reals();
   for (auto& bus : g_port_bus) bus.store(-2, std::memory_order_relaxed);
   for (auto& fd : g_bus_fd) fd.store(-1, std::memory_order_relaxed);
 
@@ -726,7 +734,13 @@ void lockstep_flushing(int fd, int queue, bool done) noexcept {
 using namespace doppel::shim;
 namespace lockstep = doppel::lockstep;
 
+#define NEED_REAL()                                                        \
+  do {                                                                     \
+    if (!g_resolved.load(std::memory_order_acquire)) resolve_reals();      \
+  } while (false)
+
 SHIM_EXPORT int clock_gettime(clockid_t clock, struct timespec* ts) noexcept {
+  NEED_REAL();
   if (!on() || !virtual_clock(clock)) return g_real.clock_gettime(clock, ts);
   count_clock_read();
   *ts = timespec_of(clock_at(clock, sim_now()));
@@ -734,6 +748,7 @@ SHIM_EXPORT int clock_gettime(clockid_t clock, struct timespec* ts) noexcept {
 }
 
 SHIM_EXPORT int gettimeofday(struct timeval* tv, void* tz) noexcept {
+  NEED_REAL();
   if (!on()) return g_real.gettimeofday(tv, tz);
   count_clock_read();
   const int64_t ns = clock_at(CLOCK_REALTIME, sim_now());
@@ -743,6 +758,7 @@ SHIM_EXPORT int gettimeofday(struct timeval* tv, void* tz) noexcept {
 }
 
 SHIM_EXPORT time_t time(time_t* out) noexcept {
+  NEED_REAL();
   if (!on()) return g_real.time(out);
   count_clock_read();
   const time_t t = static_cast<time_t>(clock_at(CLOCK_REALTIME, sim_now()) / kSecond);
@@ -751,6 +767,7 @@ SHIM_EXPORT time_t time(time_t* out) noexcept {
 }
 
 SHIM_EXPORT int nanosleep(const struct timespec* request, struct timespec* remaining) {
+  NEED_REAL();
   if (!on() || request == nullptr) return g_real.nanosleep(request, remaining);
   if (request->tv_nsec < 0 || request->tv_nsec >= kSecond || request->tv_sec < 0) {
     errno = EINVAL;
@@ -762,6 +779,7 @@ SHIM_EXPORT int nanosleep(const struct timespec* request, struct timespec* remai
 }
 
 SHIM_EXPORT int clock_nanosleep(clockid_t clock, int flags, const struct timespec* request, struct timespec* remaining) {
+  NEED_REAL();
   if (!on() || !virtual_clock(clock) || request == nullptr) return g_real.clock_nanosleep(clock, flags, request, remaining);
   if (request->tv_nsec < 0 || request->tv_nsec >= kSecond) return EINVAL;
   const int64_t wake = (flags & TIMER_ABSTIME) != 0 ? sim_at(clock, ns_of(*request)) : sim_now() + ns_of(*request);
@@ -771,28 +789,33 @@ SHIM_EXPORT int clock_nanosleep(clockid_t clock, int flags, const struct timespe
 }
 
 SHIM_EXPORT int usleep(useconds_t us) {
+  NEED_REAL();
   if (!on()) return g_real.usleep(us);
   if (!sleep_until(sim_now() + static_cast<int64_t>(us) * 1000, Call::kUsleep)) return g_real.usleep(us);
   return 0;
 }
 
 SHIM_EXPORT unsigned sleep(unsigned seconds) {
+  NEED_REAL();
   if (!on()) return g_real.sleep(seconds);
   if (!sleep_until(sim_now() + static_cast<int64_t>(seconds) * kSecond, Call::kSleep)) return g_real.sleep(seconds);
   return 0;
 }
 
 SHIM_EXPORT int poll(struct pollfd* fds, nfds_t n, int timeout_ms) {
+  NEED_REAL();
   if (!on()) return g_real.poll(fds, n, timeout_ms);
   return poll_for(fds, n, timeout_ms < 0 ? -1 : static_cast<int64_t>(timeout_ms) * 1'000'000, Call::kPoll);
 }
 
 SHIM_EXPORT int ppoll(struct pollfd* fds, nfds_t n, const struct timespec* timeout, const sigset_t* mask) {
+  NEED_REAL();
   if (!on()) return g_real.ppoll(fds, n, timeout, mask);
   return poll_for(fds, n, timeout_of(timeout), Call::kPpoll);
 }
 
 SHIM_EXPORT int select(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, struct timeval* timeout) {
+  NEED_REAL();
   if (!on() || nfds > FD_SETSIZE) return g_real.select(nfds, rd, wr, ex, timeout);
   const int64_t t = timeout == nullptr ? -1 : static_cast<int64_t>(timeout->tv_sec) * kSecond + timeout->tv_usec * 1000;
   const int r = select_for(nfds, rd, wr, ex, t, Call::kSelect);
@@ -801,6 +824,7 @@ SHIM_EXPORT int select(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, struct time
 }
 
 SHIM_EXPORT int pselect(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, const struct timespec* timeout, const sigset_t* mask) {
+  NEED_REAL();
   if (!on() || nfds > FD_SETSIZE) return g_real.pselect(nfds, rd, wr, ex, timeout, mask);
   return select_for(nfds, rd, wr, ex, timeout_of(timeout), Call::kPselect);
 }
@@ -824,11 +848,13 @@ static int epoll_for(int epfd, struct epoll_event* events, int max, int timeout_
 }
 
 SHIM_EXPORT int epoll_wait(int epfd, struct epoll_event* events, int max, int timeout_ms) {
+  NEED_REAL();
   if (!on()) return g_real.epoll_wait(epfd, events, max, timeout_ms);
   return epoll_for(epfd, events, max, timeout_ms);
 }
 
 SHIM_EXPORT int epoll_pwait(int epfd, struct epoll_event* events, int max, int timeout_ms, const sigset_t* mask) {
+  NEED_REAL();
   if (!on()) return g_real.epoll_pwait(epfd, events, max, timeout_ms, mask);
   return epoll_for(epfd, events, max, timeout_ms);
 }
@@ -853,6 +879,7 @@ static void wait_readable(int fd, bool dontwait) noexcept {
 }
 
 SHIM_EXPORT ssize_t read(int fd, void* buffer, size_t n) {
+  NEED_REAL();
   if (!on()) return g_real.read(fd, buffer, n);
   if (VirtualTimer* timer = timer_of(fd)) return timer_read(*timer, buffer, n);
   const int bus = bus_of_fd(fd);
@@ -862,16 +889,19 @@ SHIM_EXPORT ssize_t read(int fd, void* buffer, size_t n) {
 }
 
 SHIM_EXPORT ssize_t recv(int fd, void* buffer, size_t n, int flags) {
+  NEED_REAL();
   if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
   return g_real.recv(fd, buffer, n, flags);
 }
 
 SHIM_EXPORT ssize_t recvfrom(int fd, void* buffer, size_t n, int flags, struct sockaddr* from, socklen_t* from_size) {
+  NEED_REAL();
   if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
   return g_real.recvfrom(fd, buffer, n, flags, from, from_size);
 }
 
 SHIM_EXPORT ssize_t recvmsg(int fd, struct msghdr* message, int flags) {
+  NEED_REAL();
   if (on()) wait_readable(fd, (flags & MSG_DONTWAIT) != 0);
   return g_real.recvmsg(fd, message, flags);
 }
@@ -883,6 +913,7 @@ static void peer_io() noexcept {
 }
 
 SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
+  NEED_REAL();
   const int bus = g_clock != nullptr ? bus_of_fd(fd) : -1;
   const ssize_t r = g_real.write(fd, buffer, n);
   if (bus >= 0 && r > 0) {
@@ -895,24 +926,28 @@ SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
 }
 
 SHIM_EXPORT ssize_t send(int fd, const void* buffer, size_t n, int flags) {
+  NEED_REAL();
   const ssize_t r = g_real.send(fd, buffer, n, flags);
   if (r > 0) peer_io();
   return r;
 }
 
 SHIM_EXPORT ssize_t sendto(int fd, const void* buffer, size_t n, int flags, const struct sockaddr* to, socklen_t to_size) {
+  NEED_REAL();
   const ssize_t r = g_real.sendto(fd, buffer, n, flags, to, to_size);
   if (r > 0) peer_io();
   return r;
 }
 
 SHIM_EXPORT ssize_t sendmsg(int fd, const struct msghdr* message, int flags) {
+  NEED_REAL();
   const ssize_t r = g_real.sendmsg(fd, message, flags);
   if (r > 0) peer_io();
   return r;
 }
 
 SHIM_EXPORT int timerfd_create(int clock, int flags) noexcept {
+  NEED_REAL();
   const int fd = g_real.timerfd_create(clock, flags);
   if (fd < 0 || fd >= kMaxFds || !on() || !virtual_clock(clock)) return fd;
   VirtualTimer& timer = g_timers[fd];
@@ -932,6 +967,7 @@ static void current_setting(VirtualTimer& timer, struct itimerspec* out) noexcep
 }
 
 SHIM_EXPORT int timerfd_settime(int fd, int flags, const struct itimerspec* value, struct itimerspec* old) noexcept {
+  NEED_REAL();
   VirtualTimer* timer = on() ? timer_of(fd) : nullptr;
   if (timer == nullptr || value == nullptr) return g_real.timerfd_settime(fd, flags, value, old);
   if (value->it_value.tv_nsec < 0 || value->it_value.tv_nsec >= kSecond || value->it_interval.tv_nsec < 0 ||
@@ -952,6 +988,7 @@ SHIM_EXPORT int timerfd_settime(int fd, int flags, const struct itimerspec* valu
 }
 
 SHIM_EXPORT int timerfd_gettime(int fd, struct itimerspec* value) noexcept {
+  NEED_REAL();
   VirtualTimer* timer = on() ? timer_of(fd) : nullptr;
   if (timer == nullptr || value == nullptr) return g_real.timerfd_gettime(fd, value);
   current_setting(*timer, value);
@@ -959,6 +996,7 @@ SHIM_EXPORT int timerfd_gettime(int fd, struct itimerspec* value) noexcept {
 }
 
 SHIM_EXPORT int pthread_create(pthread_t* thread, const pthread_attr_t* attr, void* (*routine)(void*), void* argument) {
+  NEED_REAL();
   if (!on()) return g_real.pthread_create(thread, attr, routine, argument);
   auto* start = static_cast<ThreadStart*>(malloc(sizeof(ThreadStart)));
   if (start == nullptr) return EAGAIN;
@@ -973,6 +1011,7 @@ SHIM_EXPORT int pthread_create(pthread_t* thread, const pthread_attr_t* attr, vo
 }
 
 SHIM_EXPORT int pthread_cond_wait(pthread_cond_t* cond, pthread_mutex_t* mutex) {
+  NEED_REAL();
   if (self() == nullptr || g_real.cond_clockwait == nullptr) return g_real.cond_wait(cond, mutex);
   return peer_wait(cond, kNever, Call::kCondWait, Marked::kSpurious, [&](const struct timespec* until) {
     return g_real.cond_clockwait(cond, mutex, CLOCK_MONOTONIC, until);
@@ -980,6 +1019,7 @@ SHIM_EXPORT int pthread_cond_wait(pthread_cond_t* cond, pthread_mutex_t* mutex) 
 }
 
 SHIM_EXPORT int pthread_cond_timedwait(pthread_cond_t* cond, pthread_mutex_t* mutex, const struct timespec* abstime) {
+  NEED_REAL();
   if (self() == nullptr || g_real.cond_clockwait == nullptr) {
     return g_real.cond_timedwait(cond, mutex, abstime);
   }
@@ -990,6 +1030,7 @@ SHIM_EXPORT int pthread_cond_timedwait(pthread_cond_t* cond, pthread_mutex_t* mu
 
 SHIM_EXPORT int pthread_cond_clockwait(pthread_cond_t* cond, pthread_mutex_t* mutex, clockid_t clock,
                                        const struct timespec* abstime) {
+  NEED_REAL();
   if (self() == nullptr || g_real.cond_clockwait == nullptr || !virtual_clock(clock)) {
     return g_real.cond_clockwait(cond, mutex, clock, abstime);
   }
@@ -999,11 +1040,13 @@ SHIM_EXPORT int pthread_cond_clockwait(pthread_cond_t* cond, pthread_mutex_t* mu
 }
 
 SHIM_EXPORT int pthread_cond_signal(pthread_cond_t* cond) {
+  NEED_REAL();
   mark_woken(cond);
   return g_real.cond_signal(cond);
 }
 
 SHIM_EXPORT int pthread_cond_broadcast(pthread_cond_t* cond) {
+  NEED_REAL();
   mark_woken(cond);
   return g_real.cond_broadcast(cond);
 }
@@ -1024,16 +1067,19 @@ static int sem_wait_until(sem_t* sem, int64_t deadline, Call call) noexcept {
 }
 
 SHIM_EXPORT int sem_wait(sem_t* sem) {
+  NEED_REAL();
   if (self() == nullptr || g_real.sem_clockwait == nullptr) return g_real.sem_wait(sem);
   return sem_wait_until(sem, kNever, Call::kSemWait);
 }
 
 SHIM_EXPORT int sem_timedwait(sem_t* sem, const struct timespec* abstime) {
+  NEED_REAL();
   if (self() == nullptr || g_real.sem_clockwait == nullptr) return g_real.sem_timedwait(sem, abstime);
   return sem_wait_until(sem, deadline_of(CLOCK_REALTIME, abstime), Call::kSemTimedwait);
 }
 
 SHIM_EXPORT int sem_clockwait(sem_t* sem, clockid_t clock, const struct timespec* abstime) {
+  NEED_REAL();
   if (self() == nullptr || g_real.sem_clockwait == nullptr || !virtual_clock(clock)) {
     return g_real.sem_clockwait(sem, clock, abstime);
   }
@@ -1041,11 +1087,13 @@ SHIM_EXPORT int sem_clockwait(sem_t* sem, clockid_t clock, const struct timespec
 }
 
 SHIM_EXPORT int sem_post(sem_t* sem) {
+  NEED_REAL();
   mark_woken(sem, true);
   return g_real.sem_post(sem);
 }
 
 SHIM_EXPORT int pthread_join(pthread_t thread, void** result) {
+  NEED_REAL();
   if (self() == nullptr || g_real.clockjoin == nullptr) return g_real.join(thread, result);
   return peer_wait(reinterpret_cast<const void*>(thread), kNever, Call::kJoin, Marked::kSticky, [&](const struct timespec* until) {
     return g_real.clockjoin(thread, result, CLOCK_MONOTONIC, until);
