@@ -46,6 +46,7 @@ struct Options {
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  double sensor_levels_hz = 0.0;         // --sensor-levels HZ: sensor levels per second of simulation time (docs/multilevel.md); 0 = off
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
