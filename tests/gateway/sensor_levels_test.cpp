@@ -24,6 +24,7 @@
 #include "physics/world.h"
 #include "reference_client.h"
 #include "robot_runtime.h"
+#include "sensor_levels_feed.h"
 
 namespace doppel::gateway {
 namespace {
@@ -239,6 +240,40 @@ TEST(SensorLevelsGateway, ADriversPresentPositionIsThePublishedDecodedValue) {
     EXPECT_DOUBLE_EQ(driver_rad, s.decoded().present_position_rad()) << "ID " << s.id();
     EXPECT_NEAR(driver_rad, s.truth().angle_rad(), kCount) << "ID " << s.id();
   }
+}
+
+// The levels thread's pass hands each new sample to its sink once, as one message per robot that
+// survives serialization (what the publisher sends).
+TEST(SensorLevelsGateway, TheFeedHandsEachNewSampleToItsSinkOnce) {
+  Rig rig(100.0);
+  std::vector<std::string> sent;
+  SensorLevelsFeed feed({&rig.robot()}, [&](std::size_t robot, const levels::SensorLevels& message) {
+    EXPECT_EQ(robot, 0u);
+    sent.push_back(message.SerializeAsString());
+  });
+  EXPECT_EQ(feed.poll_once(), 1u) << "the power-on sample";
+  EXPECT_EQ(feed.poll_once(), 0u) << "nothing new";
+  for (int i = 0; i < 10; ++i) rig.step(true);
+  EXPECT_EQ(feed.poll_once(), 1u);
+  ASSERT_EQ(sent.size(), 2u);
+  levels::SensorLevels parsed;
+  ASSERT_TRUE(parsed.ParseFromString(sent[1]));
+  EXPECT_EQ(parsed.sim_time_ns(), 10'000'000);
+  EXPECT_EQ(parsed.servos_size(), 20);
+  EXPECT_EQ(parsed.feet_size(), 2);
+  // And on its own thread, while the simulation goes on.
+  feed.start();
+  for (int i = 0; i < 200; ++i) {
+    rig.step(true);
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);  // a loaded machine
+  while (feed.messages() <= 2 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  feed.stop();
+  EXPECT_GT(feed.messages(), 2u);
+  EXPECT_LE(feed.messages(), 2u + 20u);
 }
 
 }  // namespace
