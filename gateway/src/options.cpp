@@ -106,6 +106,9 @@ Options:
                          ...on this IPv4 address (default 127.0.0.1: this machine only; name another
                          address only for control software on another machine).
   --no-truth-iceoryx     Publish the world model over UDP only (no iceoryx RouDi needed).
+  --sensor-levels HZ     Publish every servo's, IMU's and foot board's registers decoded to SI units
+                         beside the simulation's true values, HZ times per simulated second
+                         (0.1..1000), as topic sensor_levels on the same transport (docs/multilevel.md).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -166,6 +169,7 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--truth-udp-port", options.truth_udp_port)->transform(number_in<uint16_t>(1, 65471));
   app.add_option("--truth-udp-address", options.truth_udp_address)->check(CLI::ValidIPV4);
   app.add_flag("--no-truth-iceoryx{false}", options.truth_iceoryx);
+  app.add_option("--sensor-levels", options.sensor_levels_hz)->transform(number_in<double>(0.1, 1000.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

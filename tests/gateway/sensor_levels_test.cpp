@@ -25,6 +25,8 @@
 #include "reference_client.h"
 #include "robot_runtime.h"
 #include "sensor_levels_feed.h"
+#include "truth/subscriber.h"
+#include "truth/transport.h"
 
 namespace doppel::gateway {
 namespace {
@@ -242,38 +244,43 @@ TEST(SensorLevelsGateway, ADriversPresentPositionIsThePublishedDecodedValue) {
   }
 }
 
-// The levels thread's pass hands each new sample to its sink once, as one message per robot that
-// survives serialization (what the publisher sends).
-TEST(SensorLevelsGateway, TheFeedHandsEachNewSampleToItsSinkOnce) {
+// A feed's pass hands each new sample to its sink once, as one message per robot that survives
+// serialization; through the truth transport (UDP to loopback only) it arrives as topic
+// `sensor_levels` of robot 0.
+TEST(SensorLevelsGateway, TheFeedHandsEachNewSampleOnceAndPublishesItOnTheTruthTransport) {
   Rig rig(100.0);
+  SensorLevelsFeed feed({&rig.robot()});
   std::vector<std::string> sent;
-  SensorLevelsFeed feed({&rig.robot()}, [&](std::size_t robot, const levels::SensorLevels& message) {
+  const SensorLevelsFeed::Sink sink = [&](std::size_t robot, const levels::SensorLevels& message) {
     EXPECT_EQ(robot, 0u);
     sent.push_back(message.SerializeAsString());
-  });
-  EXPECT_EQ(feed.poll_once(), 1u) << "the power-on sample";
-  EXPECT_EQ(feed.poll_once(), 0u) << "nothing new";
+  };
+  EXPECT_EQ(feed.poll(sink), 1u) << "the power-on sample";
+  EXPECT_EQ(feed.poll(sink), 0u) << "nothing new";
   for (int i = 0; i < 10; ++i) rig.step(true);
-  EXPECT_EQ(feed.poll_once(), 1u);
+  EXPECT_EQ(feed.poll(sink), 1u);
   ASSERT_EQ(sent.size(), 2u);
   levels::SensorLevels parsed;
   ASSERT_TRUE(parsed.ParseFromString(sent[1]));
   EXPECT_EQ(parsed.sim_time_ns(), 10'000'000);
   EXPECT_EQ(parsed.servos_size(), 20);
   EXPECT_EQ(parsed.feet_size(), 2);
-  // And on its own thread, while the simulation goes on.
-  feed.start();
-  for (int i = 0; i < 200; ++i) {
-    rig.step(true);
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);  // a loaded machine
-  while (feed.messages() <= 2 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  feed.stop();
-  EXPECT_GT(feed.messages(), 2u);
-  EXPECT_LE(feed.messages(), 2u + 20u);
+
+  truth::UdpReceiver receiver(0);
+  truth::TransportOptions transport_options;
+  transport_options.iceoryx = false;
+  transport_options.udp_base_port = receiver.port();
+  truth::Transport transport(transport_options);
+  for (int i = 0; i < 10; ++i) rig.step(true);
+  EXPECT_EQ(feed.publish(transport), 1u);
+  const std::optional<truth::Datagram> datagram = receiver.receive(10.0);
+  ASSERT_TRUE(datagram);
+  EXPECT_EQ(datagram->robot, 0u);
+  EXPECT_EQ(datagram->topic, "sensor_levels");
+  ASSERT_TRUE(parsed.ParseFromString(datagram->payload));
+  EXPECT_EQ(parsed.sim_time_ns(), 20'000'000);
+  EXPECT_EQ(parsed.robot_name(), rig.config().name);
+  EXPECT_EQ(feed.messages(), 3u);
 }
 
 }  // namespace
