@@ -476,9 +476,11 @@ std::string Gateway::summary() const {
   if (truth_ != nullptr) {
     const truth::TruthStats stats = truth_->stats();
     if (levels_feed_ != nullptr) out << "  sensor levels: " << levels_feed_->messages() << " messages\n";
-    out << "  world model: " << stats.messages << " messages (iceoryx " << stats.transport.iceoryx_sent << " sent, "
-        << stats.transport.iceoryx_dropped << " dropped; UDP " << stats.transport.udp_sent << " sent, "
-        << stats.transport.udp_failed << " failed), " << stats.samples_dropped << " world samples dropped\n";
+    if (options_.world_model) {
+      out << "  world model: " << stats.messages << " messages, " << stats.samples_dropped << " world samples dropped\n";
+    }
+    out << "  truth transport: iceoryx " << stats.transport.iceoryx_sent << " sent, " << stats.transport.iceoryx_dropped
+        << " dropped; UDP " << stats.transport.udp_sent << " sent, " << stats.transport.udp_failed << " failed\n";
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
   if (recorder_ != nullptr) {

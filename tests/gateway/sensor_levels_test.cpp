@@ -22,6 +22,7 @@
 #include "gateway/robot_config.h"
 #include "physics/engines.h"
 #include "physics/world.h"
+#include "doppel_process.h"
 #include "reference_client.h"
 #include "robot_runtime.h"
 #include "sensor_levels_feed.h"
@@ -281,6 +282,51 @@ TEST(SensorLevelsGateway, TheFeedHandsEachNewSampleOnceAndPublishesItOnTheTruthT
   EXPECT_EQ(parsed.sim_time_ns(), 20'000'000);
   EXPECT_EQ(parsed.robot_name(), rig.config().name);
   EXPECT_EQ(feed.messages(), 3u);
+}
+
+// End to end: the real doppel (the default robot, FUmanoid 2011 with RX servos, held until torque
+// on the ODE world) publishes sensor levels over UDP to loopback; a Protocol 1.0 driver reads every
+// Present Position over the pty between two messages. The held robot trembles by at most 2 units
+// (physics_integration_test), so the driver's value is the published decoded value within 2 units,
+// and every decoded angle is its true angle within one unit (RX-28/64: 300/1024 deg).
+TEST(SensorLevelsDoppel, ADriverReadsWhatTheSensorLevelsTopicSays) {
+  truth::UdpReceiver receiver(0);
+  testing::DoppelProcess doppel({"--timing", "fast", "--no-truth-iceoryx", "--truth-udp-port",
+                                 std::to_string(receiver.port()), "--sensor-levels", "50"});
+  const double unit_rad = 300.0 / 1024 * kPi / 180;
+  auto next = [&] {
+    levels::SensorLevels message;
+    for (int i = 0; i < 100; ++i) {
+      const std::optional<truth::Datagram> datagram = receiver.receive(30.0);
+      if (!datagram) break;
+      if (datagram->topic == "sensor_levels" && message.ParseFromString(datagram->payload)) return message;
+    }
+    ADD_FAILURE() << "no sensor_levels message: " << doppel.output();
+    return message;
+  };
+  const levels::SensorLevels before = next();
+  ASSERT_EQ(before.servos_size(), 21);
+  testing::SerialClient driver(doppel.link(), 1'000'000);
+  std::vector<int> raw;
+  for (const levels::ServoLevels& s : before.servos()) {
+    const testing::Bytes reply = driver.transact(testing::p1_instruction(static_cast<uint8_t>(s.id()), 0x02, {36, 2}), 8, 1000);
+    ASSERT_EQ(reply.size(), 8u) << "ID " << s.id();
+    raw.push_back(reply[5] | (reply[6] << 8));
+  }
+  const levels::SensorLevels after = next();
+  ASSERT_EQ(after.servos_size(), 21);
+  EXPECT_GT(after.sim_time_ns(), before.sim_time_ns());
+  for (int i = 0; i < after.servos_size(); ++i) {
+    const levels::ServoLevels& s = after.servos(i);
+    EXPECT_NEAR(raw[i], s.decoded().present_position_raw(), 2) << "ID " << s.id();
+    EXPECT_NEAR((raw[i] - 512) * unit_rad, s.decoded().present_position_rad(), 2 * unit_rad) << "ID " << s.id();
+    EXPECT_NEAR(s.decoded().present_position_rad(), s.truth().angle_rad(), unit_rad) << "ID " << s.id();
+  }
+  ASSERT_EQ(after.imus_size(), 1);
+  EXPECT_EQ(after.imus(0).model(), "FUMANOID-IMU");
+  ASSERT_EQ(after.feet_size(), 2);
+  doppel.stop(2);
+  EXPECT_NE(doppel.output().find("sensor levels: "), std::string::npos) << doppel.output();
 }
 
 }  // namespace
