@@ -554,9 +554,18 @@ std::vector<std::vector<uint16_t>> RobotRuntime::model_numbers() const {
 }
 
 bool RobotRuntime::sensor_levels(levels::SensorLevels& out) {
-  bool fresh = false;
-  for (auto& bus : buses_) fresh = bus->update_sensor_levels() || fresh;
-  if (!fresh) return false;
+  // One message per sample period: once every bus has a new sample (the buses sample the same grid
+  // of simulation time, each on its own thread).
+  levels_fresh_.resize(buses_.size(), false);
+  bool enabled = false, all_fresh = true;
+  for (std::size_t b = 0; b < buses_.size(); ++b) {
+    if (!buses_[b]->sensor_levels_enabled()) continue;
+    enabled = true;
+    if (buses_[b]->update_sensor_levels()) levels_fresh_[b] = true;
+    all_fresh = all_fresh && levels_fresh_[b];
+  }
+  if (!enabled || !all_fresh) return false;
+  std::fill(levels_fresh_.begin(), levels_fresh_.end(), false);
   out.Clear();
   out.set_robot(static_cast<uint32_t>(index_));
   out.set_robot_name(config_.name);

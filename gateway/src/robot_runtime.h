@@ -236,8 +236,8 @@ class RobotRuntime {
   // While the bus threads are stopped: the EEPROM areas now.
   RobotEeprom eeprom_now() const;
   std::vector<std::vector<uint16_t>> model_numbers() const;
-  // The levels thread: when some bus published a new sensor-levels sample, fills `out` (cleared
-  // first) with every bus' newest one and returns true. Not rt-safe (protobuf allocates).
+  // The levels thread: once every bus published a new sensor-levels sample since the last
+  // message, fills `out` (cleared first) with every bus' newest one and returns true. Not rt-safe (protobuf allocates).
   bool sensor_levels(levels::SensorLevels& out);
   // Every bus' servo table (robot fields left to the caller). Any thread but the bus threads.
   std::vector<control::BusTable> servo_tables();
@@ -249,7 +249,8 @@ class RobotRuntime {
   std::size_t index_;
   std::unique_ptr<body::SimulatedBody> body_;  // before the buses, which refer to it
   std::vector<std::unique_ptr<BusRuntime>> buses_;
-  uint64_t levels_sequence_ = 0;  // levels thread
+  uint64_t levels_sequence_ = 0;     // levels thread
+  std::vector<bool> levels_fresh_;  // levels thread: bus b has a sample not yet sent
 };
 
 }  // namespace doppel::gateway
