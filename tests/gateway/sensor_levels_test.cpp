@@ -14,9 +14,11 @@
 #include <numbers>
 #include <thread>
 
+#include "body/kinematic_body.h"
 #include "body/physics_body.h"
 #include "darwin_op_framework.h"
 #include "dynamixel/models.h"
+#include "dynamixel/protocol2_models.h"
 #include "gateway/gateway.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -243,6 +245,50 @@ TEST(SensorLevelsGateway, ADriversPresentPositionIsThePublishedDecodedValue) {
     EXPECT_DOUBLE_EQ(driver_rad, s.decoded().present_position_rad()) << "ID " << s.id();
     EXPECT_NEAR(driver_rad, s.truth().angle_rad(), kCount) << "ID " << s.id();
   }
+}
+
+// Wolfgang's four buses sample on their own threads: the robot's message waits until every bus has
+// its new sample, so there is one message per sample period with all buses of the same step.
+TEST(SensorLevelsGateway, ARobotWithSeveralBusesSendsOneMessagePerSample) {
+  const RobotConfig config = load_robot("wolfgang", DOPPEL_ROBOTS_DIR);
+  ASSERT_GT(config.buses.size(), 1u);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-levels-buses-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  Options options;
+  options.link_dir = dir.string();
+  options.sensor_levels_hz = 100.0;
+  {
+    RobotRuntime robot(config, 0, std::make_unique<body::KinematicBody>(), options);
+    levels::SensorLevels message;
+    EXPECT_TRUE(robot.sensor_levels(message)) << "the power-on samples";
+    int messages = 0;
+    for (int step = 1; step <= 1000; ++step) {
+      robot.sense(int64_t{step} * 1'000'000);
+      robot.bus(0).on_tick();
+      if (step % 10 == 0) {
+        EXPECT_FALSE(robot.sensor_levels(message)) << "bus 0 alone, step " << step;
+      }
+      for (std::size_t b = 1; b < robot.bus_count(); ++b) robot.bus(b).on_tick();
+      if (!robot.sensor_levels(message)) continue;
+      ++messages;
+      EXPECT_EQ(message.sim_time_ns(), int64_t{step} * 1'000'000);
+      for (const levels::ServoLevels& s : message.servos()) EXPECT_EQ(s.sim_time_ns(), message.sim_time_ns()) << s.name();
+    }
+    EXPECT_EQ(messages, 100);
+    std::size_t servos = 0;
+    for (const BusConfig& bus : config.buses) {
+      for (const DeviceConfig& device : bus.devices) {
+        if (device.firmware == dynamixel::Protocol::kV2 &&
+            dynamixel::p2_model_spec(device.model).kind == dynamixel::P2DeviceKind::kServo) {
+          ++servos;
+        }
+      }
+    }
+    EXPECT_EQ(static_cast<std::size_t>(message.servos_size()), servos);
+    EXPECT_EQ(message.imus_size(), 1);
+    EXPECT_EQ(message.feet_size(), 2);
+  }
+  std::filesystem::remove_all(dir);
 }
 
 // A feed's pass hands each new sample to its sink once, as one message per robot that survives
