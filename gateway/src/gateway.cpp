@@ -32,6 +32,7 @@
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
+#include "sensor_levels_feed.h"
 
 namespace doppel::gateway {
 
@@ -154,7 +155,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
                                                 0.5 * field.field_length_m + field.border_strip_width_m,
                                                 0.5 * field.field_width_m + field.border_strip_width_m);
-  if (options.world_model && world_ != nullptr) start_truth(configs, in_world);
+  if ((options.world_model && world_ != nullptr) || options.sensor_levels_hz > 0.0) start_truth(configs, in_world);
   if (options.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
   }
@@ -214,10 +215,16 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
   try {
     truth_ = std::make_unique<truth::TruthService>(truth_options);
   } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("--world-model: ") + e.what());
+    throw std::runtime_error(std::string(options_.world_model ? "--world-model: " : "--sensor-levels: ") + e.what());
+  }
+  if (options_.sensor_levels_hz > 0.0) {
+    std::vector<RobotRuntime*> robots;
+    for (auto& robot : robots_) robots.push_back(robot.get());
+    levels_feed_ = std::make_unique<SensorLevelsFeed>(std::move(robots));
+    truth_->add_poller([feed = levels_feed_.get()](truth::Transport& transport) { feed->publish(transport); });
   }
   for (std::size_t r = 0; r < configs.size(); ++r) {
-    if (!in_world[r]) continue;
+    if (!in_world[r] || !options_.world_model) continue;
     truth::RobotBinding binding;
     binding.in_world = *in_world[r];
     binding.team = kick_off_placement(r).team;
@@ -607,8 +614,16 @@ std::string Gateway::describe() const {
   if (cameras_ != nullptr) {
     out << cameras_->describe();
   }
-  if (truth_ != nullptr) {
+  if (truth_ != nullptr && options_.world_model) {
     out << truth_->describe();
+  }
+  if (levels_feed_ != nullptr) {
+    const truth::TransportOptions& transport = truth_->transport_options();
+    out << "doppel: sensor levels " << options_.sensor_levels_hz << " times per simulated second on";
+    if (transport.iceoryx) out << " iceoryx (" << truth::kServiceId << ", robot<N>, " << kSensorLevelsTopic << ")";
+    if (transport.iceoryx && transport.udp) out << " and";
+    if (transport.udp) out << " UDP " << transport.udp_address << ":" << transport.udp_base_port << "+N";
+    out << " (doppel-truth --topic " << kSensorLevelsTopic << ")\n";
   }
   if (control_api_ != nullptr) {
     out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
@@ -644,9 +659,12 @@ std::string Gateway::summary() const {
   }
   if (truth_ != nullptr) {
     const truth::TruthStats stats = truth_->stats();
-    out << "  world model: " << stats.messages << " messages (iceoryx " << stats.transport.iceoryx_sent << " sent, "
-        << stats.transport.iceoryx_dropped << " dropped; UDP " << stats.transport.udp_sent << " sent, "
-        << stats.transport.udp_failed << " failed), " << stats.samples_dropped << " world samples dropped\n";
+    if (levels_feed_ != nullptr) out << "  sensor levels: " << levels_feed_->messages() << " messages\n";
+    if (options_.world_model) {
+      out << "  world model: " << stats.messages << " messages, " << stats.samples_dropped << " world samples dropped\n";
+    }
+    out << "  truth transport: iceoryx " << stats.transport.iceoryx_sent << " sent, " << stats.transport.iceoryx_dropped
+        << " dropped; UDP " << stats.transport.udp_sent << " sent, " << stats.transport.udp_failed << " failed\n";
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
   if (recorder_ != nullptr) {

@@ -144,6 +144,9 @@ Options:
   --lockstep-watchdog S  Wall seconds a controller thread may run without a wait doppel sees before
                          it is reported (default 5).
   --lockstep-epoch S     CLOCK_REALTIME at simulation time 0, Unix seconds (default: when doppel starts).
+  --sensor-levels HZ     Publish every servo's, IMU's and foot board's registers decoded to SI units
+                         beside the simulation's true values, HZ times per simulated second
+                         (0.1..1000), as topic sensor_levels on the same transport (docs/multilevel.md).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -230,6 +233,7 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--hashes-file", options.hashes_file)->check(not_empty("the file name"));
   app.add_option("--lockstep-watchdog", options.lockstep_watchdog_s)->transform(number_in<double>(0.1, 3600.0));
   app.add_option("--lockstep-epoch", options.lockstep_epoch_s)->transform(number_in<double>(0.0, 1e11));
+  app.add_option("--sensor-levels", options.sensor_levels_hz)->transform(number_in<double>(0.1, 1000.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -55,6 +55,7 @@ class FieldServices;
 class CameraFeed;
 class SimController;
 class LiveRobots;
+class SensorLevelsFeed;
 
 class Gateway {
  public:
@@ -112,7 +113,8 @@ class Gateway {
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
-  std::unique_ptr<truth::TruthService> truth_;  // --world-model; after cameras_: gone before their iceoryx
+  std::unique_ptr<SensorLevelsFeed> levels_feed_;  // --sensor-levels: a poller of truth_, so it outlives it
+  std::unique_ptr<truth::TruthService> truth_;  // --world-model, --sensor-levels; after cameras_: gone before their iceoryx
   std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
