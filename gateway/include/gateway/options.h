@@ -10,6 +10,7 @@
 #include "bus/link_directory.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
+#include "physics/world.h"
 
 namespace doppel::gateway {
 
@@ -46,7 +47,10 @@ struct Options {
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  bool record_progress = true;           // the recorder's progress line on a terminal (a scenario run has its own)
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
+  // Where robot r starts (a scenario's start poses); unset or beyond the list: the kick-off placement.
+  std::vector<std::optional<physics::RobotPlacement>> placements;
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };
