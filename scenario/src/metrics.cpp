@@ -19,7 +19,7 @@ void MetricTrack::start(const Eigen::Isometry3d& X_WR) noexcept {
 }
 
 void MetricTrack::step(double time_s, double dt_s, const Eigen::Isometry3d& X_WR, double tilt_rad,
-                       double supply_power_w) noexcept {
+                       double supply_power_w, double drawn_w) noexcept {
   const Eigen::Vector2d moved = X_WR.translation().head<2>() - start_xy_;
   const Eigen::Vector2d ahead(std::cos(start_yaw_), std::sin(start_yaw_));
   metrics_.distance_m = moved.norm();
@@ -36,6 +36,7 @@ void MetricTrack::step(double time_s, double dt_s, const Eigen::Isometry3d& X_WR
     metrics_.fall_time_s = time_s;
   }
   metrics_.energy_j += supply_power_w * dt_s;
+  metrics_.energy_drawn_j += drawn_w * dt_s;
   metrics_.time_s = time_s;
 }
 

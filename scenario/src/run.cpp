@@ -57,13 +57,16 @@ class ScenarioObserver final : public gateway::StepObserver {
     }
     const int64_t t_ns = sim_time_ns - start_ns_;  // scenario time: 0 when the run began
     for (std::size_t r = 0; r < tracks_.size(); ++r) {
-      double power_w = 0.0;
+      double power_w = 0.0, drawn_w = 0.0;
       for (const physics::MotorHandle motor : motors_[r]) {
         const physics::MotorState state = world.motor(motor);
-        power_w += state.voltage_v * state.supply_current_a;
+        const double p = state.voltage_v * state.supply_current_a;
+        power_w += p;
+        drawn_w += p > 0.0 ? p : 0.0;
       }
-      tracks_[r].step(static_cast<double>(t_ns) * 1e-9, dt_s, world.robot_pose(r), world.tilt_rad(r), power_w);
+      tracks_[r].step(static_cast<double>(t_ns) * 1e-9, dt_s, world.robot_pose(r), world.tilt_rad(r), power_w, drawn_w);
     }
+    ball_ = world.ball_position();
     // Events take effect from the next step on, so an event at t acts from t.
     while (next_ < events_.size() && events_[next_].at_ns <= t_ns) {
       const Event& event = events_[next_];
@@ -91,6 +94,7 @@ class ScenarioObserver final : public gateway::StepObserver {
   const std::vector<MetricTrack>& tracks() const noexcept { return tracks_; }
   const std::vector<Event>& events() const noexcept { return events_; }
   const std::vector<int64_t>& applied_ns() const noexcept { return applied_ns_; }
+  const Eigen::Vector3d& ball() const noexcept { return ball_; }
 
  private:
   const Scenario& scenario_;
@@ -102,6 +106,7 @@ class ScenarioObserver final : public gateway::StepObserver {
   std::vector<MetricTrack> tracks_;
   bool started_ = false, finished_ = false;
   int64_t start_ns_ = 0;
+  Eigen::Vector3d ball_ = Eigen::Vector3d::Zero();
   std::atomic<int64_t> sim_time_ns_{0};
   std::atomic<bool> done_{false};
 };
@@ -410,6 +415,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     }
     if (scenario.metrics.energy) {
       entry["energy_j"] = m.energy_j;
+      entry["energy_drawn_j"] = m.energy_drawn_j;
       entry["mean_power_w"] = m.time_s > 0.0 ? m.energy_j / m.time_s : 0.0;
     }
     if (scenario.metrics.peak_tilt) {
@@ -422,6 +428,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     metrics.push_back(entry);
   }
   result["metrics"] = metrics;
+  result["ball_end_m"] = {observer.ball().x(), observer.ball().y(), observer.ball().z()};
   return result;
 }
 

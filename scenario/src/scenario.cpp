@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 #include <numbers>
 #include <set>
 #include <stdexcept>
@@ -219,8 +221,9 @@ std::string substitute(const std::string& argument, std::size_t robot, const Sub
     if (key == "link_dir") {
       out += values.link_dir;
     } else if (key == "seconds") {
-      std::string text = std::to_string(values.seconds);
-      out += text;
+      std::ostringstream text;
+      text << std::setprecision(15) << values.seconds;  // 20, 2.5: as a person writes them
+      out += text.str();
     } else if (key == "seed") {
       out += std::to_string(values.seed);
     } else if (key.rfind("param:", 0) == 0) {

@@ -24,7 +24,7 @@ TEST(ScenarioMetrics, DistanceForwardAndSidewaysFollowTheStartHeading) {
   MetricTrack track;
   const double yaw = std::numbers::pi / 2;
   track.start(pose(-1.0, 0.5, yaw));
-  track.step(1.0, 0.001, pose(-1.3, 0.9, yaw), 0.0, 0.0);
+  track.step(1.0, 0.001, pose(-1.3, 0.9, yaw), 0.0, 0.0, 0.0);
   const RobotMetrics& m = track.metrics();
   EXPECT_NEAR(m.distance_m, 0.5, 1e-12);  // 3-4-5
   EXPECT_NEAR(m.forward_m, 0.4, 1e-12);
@@ -37,7 +37,7 @@ TEST(ScenarioMetrics, DistanceForwardAndSidewaysFollowTheStartHeading) {
 TEST(ScenarioMetrics, WalkingBackwardsIsNegativeForward) {
   MetricTrack track;
   track.start(pose(0, 0, 0));
-  track.step(1.0, 0.001, pose(-0.2, 0, 0.3), 0.0, 0.0);
+  track.step(1.0, 0.001, pose(-0.2, 0, 0.3), 0.0, 0.0, 0.0);
   EXPECT_NEAR(track.metrics().forward_m, -0.2, 1e-12);
   EXPECT_NEAR(track.metrics().distance_m, 0.2, 1e-12);
   EXPECT_NEAR(track.metrics().end_yaw_rad, 0.3, 1e-12) << "the end heading is the robot's, the distances the start's";
@@ -48,8 +48,8 @@ TEST(ScenarioMetrics, FallTimeIsTheFirstStepBeyond45DegreesAndPeakTiltIsTheLarge
   MetricTrack track;
   track.start(pose(0, 0, 0));
   const double deg = std::numbers::pi / 180;
-  for (int i = 1; i <= 90; ++i) track.step(0.01 * i, 0.01, pose(0, 0, 0), i * deg, 0.0);
-  for (int i = 91; i <= 100; ++i) track.step(0.01 * i, 0.01, pose(0, 0, 0), 80 * deg, 0.0);
+  for (int i = 1; i <= 90; ++i) track.step(0.01 * i, 0.01, pose(0, 0, 0), i * deg, 0.0, 0.0);
+  for (int i = 91; i <= 100; ++i) track.step(0.01 * i, 0.01, pose(0, 0, 0), 80 * deg, 0.0, 0.0);
   const RobotMetrics& m = track.metrics();
   ASSERT_TRUE(m.fall_time_s.has_value());
   EXPECT_NEAR(*m.fall_time_s, 0.46, 1e-12) << "46 deg is the first tilt beyond 45 deg";
@@ -61,7 +61,7 @@ TEST(ScenarioMetrics, FallTimeIsTheFirstStepBeyond45DegreesAndPeakTiltIsTheLarge
 TEST(ScenarioMetrics, ExactlyAt45DegreesIsNotFallen) {
   MetricTrack track;
   track.start(pose(0, 0, 0));
-  track.step(0.1, 0.1, pose(0, 0, 0), kFallTiltRad, 0.0);
+  track.step(0.1, 0.1, pose(0, 0, 0), kFallTiltRad, 0.0, 0.0);
   EXPECT_FALSE(track.metrics().fall_time_s.has_value());
 }
 
@@ -70,10 +70,11 @@ TEST(ScenarioMetrics, EnergyIsSupplyPowerIntegratedOverTime) {
   // 5 W back into the supply: 54.2 J net.
   MetricTrack track;
   track.start(pose(0, 0, 0));
-  for (int i = 1; i <= 2000; ++i) track.step(i * 0.001, 0.001, pose(0, 0, 0), 0.0, 20 * 14.8 * 0.1);
+  for (int i = 1; i <= 2000; ++i) track.step(i * 0.001, 0.001, pose(0, 0, 0), 0.0, 20 * 14.8 * 0.1, 20 * 14.8 * 0.1);
   EXPECT_NEAR(track.metrics().energy_j, 59.2, 1e-9);
-  for (int i = 2001; i <= 3000; ++i) track.step(i * 0.001, 0.001, pose(0, 0, 0), 0.0, -5.0);
+  for (int i = 2001; i <= 3000; ++i) track.step(i * 0.001, 0.001, pose(0, 0, 0), 0.0, -5.0, 0.0);
   EXPECT_NEAR(track.metrics().energy_j, 54.2, 1e-9);
+  EXPECT_NEAR(track.metrics().energy_drawn_j, 59.2, 1e-9) << "regeneration does not count as drawn";
 }
 
 TEST(ScenarioMetrics, HeadingIsTheProjectedXAxis) {

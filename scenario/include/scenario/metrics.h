@@ -23,6 +23,7 @@ struct RobotMetrics {
   double peak_tilt_time_s = 0.0;
   std::optional<double> fall_time_s;  // first time the tilt exceeded kFallTiltRad
   double energy_j = 0.0;         // integral of the servos' summed supply power (V x I), net
+  double energy_drawn_j = 0.0;   // the same counting only what each servo drew (no regeneration)
   double time_s = 0.0;           // simulated time measured
 };
 
@@ -31,8 +32,10 @@ class MetricTrack {
   // The robot's pose at the start (time 0).
   void start(const Eigen::Isometry3d& X_WR) noexcept;
   // After a step of `dt_s` ending at `time_s`: the robot's pose, its tilt, and the power its servos
-  // drew from their supply during the step (sum of supply voltage x supply current, W).
-  void step(double time_s, double dt_s, const Eigen::Isometry3d& X_WR, double tilt_rad, double supply_power_w) noexcept;
+  // drew from their supply during the step (sum of supply voltage x supply current, W; `drawn_w`
+  // the sum of the servos' positive powers only).
+  void step(double time_s, double dt_s, const Eigen::Isometry3d& X_WR, double tilt_rad, double supply_power_w,
+            double drawn_w) noexcept;
   const RobotMetrics& metrics() const noexcept { return metrics_; }
 
  private:
