@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <numbers>
 #include <ostream>
@@ -152,7 +154,6 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
       values.links.back().push_back(gateway::link_path(gateway_options.link_dir, r, b));
     }
   }
-  // The world is built; find each robot's motors in it through a throwaway observer pass below.
   std::vector<std::vector<std::string>> argvs;
   for (const ControllerSpec& controller : scenario.controllers) {
     std::vector<std::string> argv;
@@ -168,7 +169,9 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     if (controller.doppel_run) {
       const std::string shim = find_program("doppel-run", scenario.folder, options.tool_dirs);
       if (shim.empty()) throw std::runtime_error(controller.location + ": doppel_run: doppel-run not found");
-      std::vector<std::string> wrapped = {shim, "--link-dir", gateway_options.link_dir, "--"};
+      // No "--" before the program: doppel-run (CLI11 prefix_command) passes a "--" on to it. The
+      // program is an absolute path, so option parsing ends at it.
+      std::vector<std::string> wrapped = {shim, "--link-dir", gateway_options.link_dir};
       wrapped.insert(wrapped.end(), argv.begin(), argv.end());
       argv = std::move(wrapped);
     }
@@ -193,8 +196,8 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     for (std::size_t c = 0; c < argvs.size(); ++c) {
       controllers.push_back(std::make_unique<ControllerProcess>(argvs[c], work_dir + "/controller" + std::to_string(c)));
     }
-  } catch (const std::exception& e) {
-    controllers.clear();
+  } catch (...) {
+    controllers.clear();  // those already started
     gateway.stop();
     throw;
   }

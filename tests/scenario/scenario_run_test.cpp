@@ -103,6 +103,20 @@ TEST_F(ScenarioRun, APushAtItsTimeTipsARobotOver) {
   EXPECT_LT(calm["metrics"][0]["distance_m"].get<double>(), 0.05);
 }
 
+// doppel_run: the controller opens the device name it hard-codes (/dev/ttyUSB0) and reaches the
+// robot through doppel-run's shim: its servos draw power once it switched them on (a held robot's
+// draw nothing, first test).
+TEST_F(ScenarioRun, ThroughDoppelRunAControllerReachesTheRobotByItsUsbDeviceName) {
+  const json result = run(std::string(R"(name: "shim" duration_s: 1.5
+    robot { name: "fumanoid-2011" }
+    metrics { energy: true }
+    controller { argv: ")") + DOPPEL_STAND_STIFF + R"(" argv: "/dev/ttyUSB0" doppel_run: true })");
+  const json& c = result["controllers"][0];
+  EXPECT_NE(c["argv"][0].get<std::string>().find("doppel-run"), std::string::npos);
+  EXPECT_NE(c["stdout_tail"].get<std::string>().find("torque on"), std::string::npos) << c.dump(2);
+  EXPECT_GT(result["metrics"][0]["energy_drawn_j"].get<double>(), 0.1) << result.dump(2);
+}
+
 TEST_F(ScenarioRun, AControllerThatExitsEndsTheRunWithItsStatusAndStderr) {
   const json result = run(R"(name: "quits" duration_s: 600
     robot { name: "fumanoid-2011" }
