@@ -19,6 +19,7 @@
 #include "physics/field.h"
 #include "physics/world.h"
 #include "eeprom_state.h"
+#include "field_services.h"
 #include "control/http_api.h"
 #include "base/monotonic_clock.h"
 #include "record/recorder.h"
@@ -156,6 +157,8 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   if (options.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
   }
+  field_ = std::make_unique<FieldServices>(options_);
+  controller_->set_field_services(field_.get());
   if (options.viewer) {
     // The viewer's page beside the API; without its files (no libjs-three) the API alone.
     control::StaticFiles files = control::default_static_files();
@@ -266,6 +269,8 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
 
 Gateway::~Gateway() { stop(); }
 
+teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }
+
 uint16_t Gateway::control_port() const noexcept { return control_api_ != nullptr ? control_api_->port() : 0; }
 
 void Gateway::start() {
@@ -284,6 +289,7 @@ void Gateway::start() {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
   });
+  field_->start();
   if (control_api_ != nullptr) {
     control_api_->start();
   }
@@ -369,6 +375,9 @@ void Gateway::stop() {
   if (control_api_ != nullptr) {
     control_api_->stop();  // no request waits for a simulation thread that is gone
   }
+  if (field_ != nullptr) {
+    field_->stop();
+  }
   stop_ = true;
   if (latency_files_ != nullptr) {
     latency_files_->stop();
@@ -450,6 +459,7 @@ std::string Gateway::describe() const {
       out << "doppel: viewer on http://" << control_api_->address() << ":" << control_api_->port() << "/\n";
     }
   }
+  out << field_->describe();
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
       << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";

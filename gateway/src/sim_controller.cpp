@@ -5,6 +5,7 @@
 
 #include "camera/image_io.h"
 #include "camera/lens.h"
+#include "field_services.h"
 #include "robot_runtime.h"
 #include "truth/truth_service.h"
 
@@ -443,6 +444,31 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
     pending_sequence_ = 0;
   }
   if (step_done) finish(step_sequence_, 200);
+}
+
+std::optional<control::GameStatus> SimController::game() {
+  if (field_ == nullptr) return std::nullopt;
+  return field_->game_status();
+}
+
+control::Outcome SimController::game_command(const control::GameCommand& command) {
+  if (field_ == nullptr) return control::SimControl::game_command(command);
+  return field_->game_command(command);
+}
+
+std::optional<control::TeamcommStatus> SimController::teamcomm() {
+  if (field_ == nullptr) return std::nullopt;
+  return field_->teamcomm_status();
+}
+
+control::Outcome SimController::teamcomm_add(const control::TeamcommRobot& robot) {
+  if (field_ == nullptr) return control::SimControl::teamcomm_add(robot);
+  return field_->teamcomm_add(robot);
+}
+
+control::Outcome SimController::teamcomm_remove(int team, int player) {
+  if (field_ == nullptr) return control::SimControl::teamcomm_remove(team, player);
+  return field_->teamcomm_remove(team, player);
 }
 
 }  // namespace doppel::gateway

@@ -31,6 +31,7 @@ class TruthService;
 namespace doppel::gateway {
 
 class RobotRuntime;
+class FieldServices;
 
 inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
 inline constexpr std::size_t kSimMaxJoints = 64;
@@ -109,6 +110,14 @@ class SimController final : public control::SimControl {
   void set_world_model(truth::TruthService* truth) noexcept { truth_ = truth; }
   control::WorldModelAnswer world_model(std::size_t robot) override;
   control::WorldModelAnswer set_world_model(std::size_t robot, const control::WorldModelSettings& settings) override;
+  // The GameController and the hub (field_services.h) answer the game and teamcomm requests;
+  // `field` outlives the controller. Setup, before the API serves.
+  void set_field_services(FieldServices* field) noexcept { field_ = field; }
+  std::optional<control::GameStatus> game() override;
+  control::Outcome game_command(const control::GameCommand& command) override;
+  std::optional<control::TeamcommStatus> teamcomm() override;
+  control::Outcome teamcomm_add(const control::TeamcommRobot& robot) override;
+  control::Outcome teamcomm_remove(int team, int player) override;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -135,6 +144,7 @@ class SimController final : public control::SimControl {
   void publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept;
 
   physics::World* world_;
+  FieldServices* field_ = nullptr;
   std::vector<Robot> robots_;
   truth::TruthService* truth_ = nullptr;
   std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)

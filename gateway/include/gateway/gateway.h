@@ -34,9 +34,14 @@ class LinkDirectory;
 class LatencyTimerFiles;
 }
 
+namespace doppel::teamcomm {
+class Hub;
+}
+
 namespace doppel::gateway {
 
 class RobotRuntime;
+class FieldServices;
 class CameraFeed;
 class SimController;
 
@@ -69,6 +74,9 @@ class Gateway {
   std::string describe() const;  // the links and the devices behind them, for the user
   uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
   std::string summary() const;   // per-bus counters, for the user after stop()
+  // The team-communication hub (--teamcomm), for whoever registers robots while doppel runs (the
+  // session handshake): Hub::add_robot and remove_robot are thread-safe. Null without --teamcomm.
+  teamcomm::Hub* teamcomm_hub() noexcept;
 
   // Before start(): `observer` (outlives the gateway's threads) sees every step. Null: none.
   void set_step_observer(StepObserver* observer) noexcept { step_observer_ = observer; }
@@ -94,6 +102,7 @@ class Gateway {
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::unique_ptr<truth::TruthService> truth_;  // --world-model; after cameras_: gone before their iceoryx
+  std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
