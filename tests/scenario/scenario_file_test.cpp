@@ -2,6 +2,7 @@
 // refused with a message naming file, line and field before anything runs.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 
@@ -37,6 +38,16 @@ TEST(ScenarioFile, TheShippedWalkForwardLoads) {
   EXPECT_EQ(s.params.at("speed"), "0.05");
   EXPECT_EQ(s.params.at("period"), "0.5");
   EXPECT_TRUE(s.metrics.distance && s.metrics.energy && s.metrics.control_cycle) << "no metrics block: all of them";
+}
+
+TEST(ScenarioFile, EveryShippedScenarioLoads) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(DOPPEL_SOURCE_SCENARIOS_DIR)) {
+    if (entry.path().extension() != ".textproto") continue;
+    ++files;
+    EXPECT_NO_THROW(load_scenario(entry.path().string(), kRobots)) << entry.path();
+  }
+  EXPECT_GE(files, 2);
 }
 
 TEST(ScenarioFile, AFullFileKeepsEverything) {
