@@ -23,6 +23,7 @@
 #include "control/http_api.h"
 #include "base/monotonic_clock.h"
 #include "record/recorder.h"
+#include "live_robots.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
@@ -36,8 +37,6 @@ std::string link_path(const std::string& link_dir, std::size_t robot, std::size_
   return robot == 0 ? link_dir + "/" + name : link_dir + "/robot" + std::to_string(robot) + "/" + name;
 }
 
-namespace {
-
 // Where robot r stands at kick-off: teams alternate, each on its own half, facing the centre.
 physics::RobotPlacement kick_off_placement(std::size_t r) {
   physics::RobotPlacement placement;
@@ -48,8 +47,6 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
   placement.team = second_team ? 1 : 0;
   return placement;
 }
-
-}  // namespace
 
 std::vector<RobotConfig> load_robots(const Options& options) {
   const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
@@ -180,6 +177,26 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
   }
   if (!options.record_path.empty()) start_recorder(configs);
+  // Robots added and removed while doppel runs (the session handshake); these are robots 0..n-1.
+  std::vector<control::RobotAdded> started;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    control::RobotAdded robot{static_cast<uint32_t>(r), configs[r].name, {}};
+    for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
+      const std::string& link = robots_[r]->bus(b).link();
+      robot.links.push_back({"bus", "ttyDXL" + std::to_string(b), link});
+      robot.links.push_back({"latency_timer", "ttyDXL" + std::to_string(b), bus::LatencyTimerFiles::path_for_link(link)});
+    }
+    for (std::size_t c = 0; cameras_ != nullptr && in_world[r] && c < configs[r].cameras.size(); ++c) {
+      const std::string name = (r > 0 ? "robot" + std::to_string(r) + "-" : "") + configs[r].cameras[c].config.name;
+      robot.links.push_back({"camera", name, "iceoryx:DoppelCamera/" + name + "/frames"});
+    }
+    started.push_back(std::move(robot));
+  }
+  live_ = std::make_unique<LiveRobots>(
+      LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(),
+                        0.5 * field.field_length_m + field.border_strip_width_m,
+                        0.5 * field.field_width_m + field.border_strip_width_m},
+      std::move(started));
   in_world_ = std::move(in_world);
 }
 
@@ -215,6 +232,8 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
   }
   controller_->set_world_model(truth_.get());
 }
+
+control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 
 void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
   recording::RunInfo run;
@@ -285,6 +304,7 @@ void Gateway::start() {
   if (cameras_ != nullptr) {
     cameras_->start();
   }
+  live_->simulation_started();
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
@@ -372,6 +392,9 @@ void Gateway::keep_state() noexcept {
 }
 
 void Gateway::stop() {
+  if (live_ != nullptr) {
+    live_->close();  // the robots added while running go first, while the simulation thread still runs
+  }
   if (control_api_ != nullptr) {
     control_api_->stop();  // no request waits for a simulation thread that is gone
   }
@@ -387,6 +410,9 @@ void Gateway::stop() {
   }
   if (truth_ != nullptr) {
     truth_->stop();  // after the simulation thread: nothing captures any more
+  }
+  if (live_ != nullptr) {
+    live_->simulation_stopped();
   }
   if (cameras_ != nullptr) {
     cameras_->stop();
@@ -411,11 +437,13 @@ void Gateway::simulate() noexcept {
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
   while (!stop_.load(std::memory_order_relaxed)) {
+    live_->run_pending();  // a robot added or removed: this tick may overrun
     // Paused (doppel-ctl pause), the world and the sensors' time stand still; the buses answer on.
     if (controller_->begin_tick()) {
       for (auto& robot : robots_) {
         robot->drive(dt_s);
       }
+      live_->drive(dt_s);
       if (world_ != nullptr) {
         world_->step();
         sim_time_ns = world_->time_ns();
@@ -434,6 +462,7 @@ void Gateway::simulate() noexcept {
       if (truth_ != nullptr) {
         truth_->capture(*world_, sim_time_ns);
       }
+      live_->sense(sim_time_ns);
     }
     controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
@@ -473,6 +502,9 @@ std::string Gateway::summary() const {
   std::ostringstream out;
   for (const auto& robot : robots_) {
     out << robot->summary();
+  }
+  if (live_ != nullptr) {
+    out << live_->summary();
   }
   if (cameras_ != nullptr) {
     out << cameras_->summary();

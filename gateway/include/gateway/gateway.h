@@ -22,6 +22,7 @@ class World;
 
 namespace doppel::control {
 class HttpApi;
+class RobotHost;
 }
 namespace doppel::record {
 class Recorder;
@@ -44,6 +45,7 @@ class RobotRuntime;
 class FieldServices;
 class CameraFeed;
 class SimController;
+class LiveRobots;
 
 // Watches (and may act on) the world from the simulation thread after every step that advanced
 // it: a scenario run's schedule and metrics (scenario/). Implementations must be rt-safe: no
@@ -70,6 +72,10 @@ class Gateway {
 
   void start();  // starts the bus and simulation threads (and the state thread with a state directory)
   void stop();   // stops and joins them, then saves every robot's EEPROM state; idempotent
+
+  // Adds and removes robots while doppel runs (control/robot_host.h; docs/robots-at-run-time.md).
+  // Any thread; valid for the gateway's lifetime.
+  control::RobotHost& robot_host() noexcept;
 
   std::string describe() const;  // the links and the devices behind them, for the user
   uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
@@ -106,6 +112,7 @@ class Gateway {
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
+  std::unique_ptr<LiveRobots> live_;  // robots added while running; last: goes first, using the parts above
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
   std::thread state_thread_;
