@@ -9,11 +9,13 @@
 #include <iostream>
 #include <mutex>
 #include <stdexcept>
+#include <string_view>
 #include <thread>
 
 #include "gateway/gateway.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
+#include "scenario/run.h"
 
 namespace {
 
@@ -23,6 +25,9 @@ const char* signal_name(int signal_number) { return signal_number == SIGINT ? "S
 
 int main(int argc, char** argv) {
   using namespace doppel::gateway;
+  if (argc > 1 && std::string_view(argv[1]) == "scenario") {  // doppel scenario run FILE (docs/scenarios.md)
+    return doppel::scenario::scenario_main(argc - 1, argv + 1, std::cout, std::cerr);
+  }
   Options options;
   try {
     options = parse_options(argc, argv);

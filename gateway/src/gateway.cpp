@@ -78,7 +78,8 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       if (configs[r].body) {
         in_world[r] = bodies.size();
         bodies.push_back(*configs[r].body);
-        placements.push_back(kick_off_placement(r));
+        placements.push_back(r < options.placements.size() && options.placements[r] ? *options.placements[r]
+                                                                                    : kick_off_placement(r));
       }
     }
   }
@@ -203,6 +204,11 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
                         0.5 * field.field_width_m + field.border_strip_width_m},
       std::move(started));
   if (options.lockstep) set_up_lockstep();
+  in_world_ = std::move(in_world);
+}
+
+std::optional<std::size_t> Gateway::world_index(std::size_t robot) const {
+  return robot < in_world_.size() ? in_world_[robot] : std::nullopt;
 }
 
 void Gateway::start_truth(const std::vector<RobotConfig>& configs,
@@ -325,7 +331,7 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
   recorder_options.compression = options_.record_compression == "lz4"    ? mcap::Compression::kLz4
                                  : options_.record_compression == "none" ? mcap::Compression::kNone
                                                                          : mcap::Compression::kZstd;
-  recorder_options.progress = ::isatty(STDERR_FILENO) == 1;
+  recorder_options.progress = options_.record_progress && ::isatty(STDERR_FILENO) == 1;
   try {
     recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_.get(),
                                                    &std::cerr);
@@ -495,6 +501,9 @@ void Gateway::step_world(int64_t& sim_time_ns) noexcept {
   if (world_ != nullptr) {
     world_->step();
     sim_time_ns = world_->time_ns();
+    if (step_observer_ != nullptr) {
+      step_observer_->after_step(*world_, sim_time_ns);
+    }
   } else {
     sim_time_ns += kSimulationStepNs;
   }

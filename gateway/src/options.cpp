@@ -20,6 +20,7 @@ CLI::Validator not_empty(std::string what) {
 
 std::string usage() {
   return R"(Usage: doppel [OPTIONS]
+       doppel scenario run FILE [--seed N] [--param NAME=VALUE]...   (docs/scenarios.md)
 
 Emulates the Dynamixel buses of one or more robots on pseudo-terminals, so that unmodified
 servo-bus drivers can talk to a simulated robot. Runs until SIGINT or SIGTERM.

@@ -123,7 +123,8 @@ void TextFile::check_string_lengths(const Message& message) const {
         check_string_lengths(repeated ? reflection->GetRepeatedMessage(message, field, i)
                                       : reflection->GetMessage(message, field));
       } else if (field->cpp_type() == FieldDescriptor::CPPTYPE_STRING) {
-        const bool is_path = field->name() == "file" || field->name() == "package_path";
+        const bool is_path = field->name() == "file" || field->name() == "package_path" ||
+                             field->name() == "argv" || field->name() == "value";  // scenario: commands, parameters
         const std::size_t limit =
             field->name() == "description" ? kMaxDescriptionChars : (is_path ? kMaxPathChars : kMaxNameChars);
         std::string scratch;

@@ -57,6 +57,17 @@ class SimController;
 class LiveRobots;
 class SensorLevelsFeed;
 
+// Watches (and may act on) the world from the simulation thread after every step that advanced
+// it: a scenario run's schedule and metrics (scenario/). Implementations must be rt-safe: no
+// allocation, lock or log.
+class StepObserver {
+ public:
+  virtual ~StepObserver() = default;
+  // `sim_time_ns`: the world's time after the step; robot r of the gateway is world robot r when
+  // every robot has a body (Gateway::world_index says so for each).
+  virtual void after_step(physics::World& world, int64_t sim_time_ns) noexcept = 0;
+};
+
 class Gateway {
  public:
   // Configures every robot of `options`. Throws (std::invalid_argument, std::runtime_error) with a
@@ -92,6 +103,12 @@ class Gateway {
   int64_t sim_time_ns() const noexcept { return sim_time_ns_.load(std::memory_order_relaxed); }
   // The lockstep clock file controllers are started with (doppel-run --lockstep); "" without --lockstep.
   std::string lockstep_clock_path() const;
+  // Before start(): `observer` (outlives the gateway's threads) sees every step. Null: none.
+  void set_step_observer(StepObserver* observer) noexcept { step_observer_ = observer; }
+  // Robot r's index in the physics world; nullopt when it moves kinematically.
+  std::optional<std::size_t> world_index(std::size_t robot) const;
+  // The physics world (setup: look-ups such as find_motor); null when no robot has a body.
+  const physics::World* world() const noexcept { return world_.get(); }
 
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
   // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
@@ -132,6 +149,8 @@ class Gateway {
   HashCallback hash_callback_;
   std::ofstream hashes_file_;
   bool viewer_page_ = false;  // control_api_ serves the viewer's page too
+  StepObserver* step_observer_ = nullptr;
+  std::vector<std::optional<std::size_t>> in_world_;  // per robot
 };
 
 // The robots of `options`, loaded in order (robot names looked up in robots_dir or the default).

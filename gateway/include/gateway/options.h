@@ -11,6 +11,7 @@
 #include "control/world_model_settings.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
+#include "physics/world.h"
 #include "teamcomm/link_model.h"
 
 namespace doppel::gateway {
@@ -48,6 +49,7 @@ struct Options {
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  bool record_progress = true;           // the recorder's progress line on a terminal (a scenario run has its own)
   // The world-model sensor (truth/, docs/multilevel.md): --world-model gives every simulated robot
   // one with these settings (--world-model-rate, -fov, -range, --world-model-nearest-ball imply it);
   // published over iceoryx (unless --no-truth-iceoryx) and UDP to --truth-udp-address:BASE+N.
@@ -65,6 +67,8 @@ struct Options {
   std::optional<double> lockstep_epoch_s;  // CLOCK_REALTIME at simulation time 0; unset = doppel's start
   double sensor_levels_hz = 0.0;         // --sensor-levels HZ: sensor levels per second of simulation time (docs/multilevel.md), published on the truth transport; 0 = off
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
+  // Where robot r starts (a scenario's start poses); unset or beyond the list: the kick-off placement.
+  std::vector<std::optional<physics::RobotPlacement>> placements;
   // The GameController inside doppel (docs/gamecontroller.md): off unless --gamecontroller (or
   // doppel-ctl game on); packets to 127.0.0.1 unless the user names another destination.
   bool gamecontroller = false;

@@ -23,7 +23,7 @@ class TextFile {
   static constexpr std::size_t kMaxBytes = 16 * 1024 * 1024;
   static constexpr std::size_t kMaxDescriptionChars = 1024;
   static constexpr std::size_t kMaxNameChars = 64;
-  static constexpr std::size_t kMaxPathChars = 1024;  // fields named `file` and `package_path`
+  static constexpr std::size_t kMaxPathChars = 1024;  // fields named `file`, `package_path`, `argv`, `value`
 
   const std::string& path() const noexcept { return path_; }
   // The parsed message (the type given to parse_into()).
