@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cinttypes>
+#include <cstdio>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -26,6 +28,10 @@
 
 namespace doppel::scenario {
 namespace {
+
+// CLOCK_REALTIME of a lockstep controller at simulation time 0 (2026-01-01 00:00:00 UTC): fixed, so
+// that a controller which stamps its logs with the date behaves the same in every run.
+constexpr double kLockstepEpochS = 1767225600.0;
 
 using nlohmann::json;
 
@@ -79,9 +85,6 @@ std::vector<std::string> default_tool_dirs() {
 }
 
 json run_scenario(const Scenario& scenario, const RunOptions& options, const std::atomic<bool>* stop_requested) {
-  if (scenario.lockstep) {
-    throw std::invalid_argument(scenario.source + ": lockstep: this doppel cannot run in lockstep yet; set lockstep: false");
-  }
   const uint64_t seed = options.seed.value_or(scenario.seed);
   const double duration_s = options.duration_s.value_or(scenario.duration_s);
   const int64_t duration_ns = static_cast<int64_t>(std::llround(duration_s * 1e9));
@@ -116,6 +119,12 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   gateway_options.state_dir = "";  // every run starts from the robot files
   gateway_options.fresh = true;
   gateway_options.physics = scenario.engine;
+  if (scenario.lockstep) {
+    // Simulation time only advances while the controllers wait (docs/lockstep.md); a fixed epoch
+    // makes their CLOCK_REALTIME the same in every run, so equal runs hash equal.
+    gateway_options.lockstep = true;
+    gateway_options.lockstep_epoch_s = kLockstepEpochS;
+  }
   if (scenario.metrics.control_cycle) {
     gateway_options.record_path = work_dir + "/run.mcap";
     gateway_options.record_compression = "none";
@@ -166,12 +175,12 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
                                "' not found (not an executable file; bare names are looked up beside doppel's tools and on PATH)");
     }
     argv[0] = program;
-    if (controller.doppel_run) {
+    if (controller.doppel_run || scenario.lockstep) {
       const std::string shim = find_program("doppel-run", scenario.folder, options.tool_dirs);
       if (shim.empty()) throw std::runtime_error(controller.location + ": doppel_run: doppel-run not found");
-      // No "--" before the program: doppel-run (CLI11 prefix_command) passes a "--" on to it. The
-      // program is an absolute path, so option parsing ends at it.
       std::vector<std::string> wrapped = {shim, "--link-dir", gateway_options.link_dir};
+      if (scenario.lockstep) wrapped.push_back("--lockstep");
+      wrapped.push_back("--");
       wrapped.insert(wrapped.end(), argv.begin(), argv.end());
       argv = std::move(wrapped);
     }
@@ -188,6 +197,15 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   }
   ScenarioObserver observer(scenario, schedule(scenario, seed), duration_ns, std::move(motors));
   gateway.set_step_observer(&observer);
+  // The run hash of every simulated second, handed over on the simulation thread: room for all of
+  // them is made here, so that thread never allocates; read after stop() has joined it.
+  std::vector<std::pair<int64_t, uint64_t>> hashes;
+  if (scenario.lockstep) {
+    hashes.reserve(static_cast<std::size_t>(duration_s) + 2);
+    gateway.on_second_hash([&hashes](int64_t second, uint64_t hash) {
+      if (hashes.size() < hashes.capacity()) hashes.emplace_back(second, hash);
+    });
+  }
 
   const auto wall_start = std::chrono::steady_clock::now();
   gateway.start();
@@ -238,6 +256,15 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   result["file"] = scenario.source;
   result["seed"] = seed;
   result["lockstep"] = scenario.lockstep;
+  if (scenario.lockstep) {
+    json lines = json::array();
+    for (const auto& [second, hash] : hashes) {
+      char hex[17];
+      std::snprintf(hex, sizeof(hex), "%016" PRIx64, hash);
+      lines.push_back({{"second", second}, {"hash", hex}});
+    }
+    result["hashes"] = lines;
+  }
   result["physics"] = std::string(physics::engine_name(scenario.engine));
   result["duration_s"] = duration_s;
   result["sim_time_s"] = tidy(static_cast<double>(observer.sim_time_ns()) * 1e-9);

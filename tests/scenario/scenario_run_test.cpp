@@ -190,6 +190,30 @@ TEST_F(ScenarioRun, TheCommandPrintsOneJsonObjectOfTheDocumentedShape) {
   EXPECT_FALSE(result.contains("hashes")) << "hashes only under lockstep";
 }
 
+// The shipped walk under lockstep (issue 15: "two lockstep runs, identical hashes"): the reference
+// walk runs through doppel-run --lockstep, the result carries one hash per simulated second, and a
+// second run of the same scenario gives the same hashes and the same walk to the last bit.
+TEST_F(ScenarioRun, TheShippedWalkUnderLockstepGivesTheSameHashesTwice) {
+  const Scenario scenario = load_scenario(DOPPEL_SOURCE_SCENARIOS_DIR "/walk-forward.textproto", kRobots);
+  ASSERT_TRUE(scenario.lockstep) << "the shipped walk runs in lockstep";
+  RunOptions options;
+  options.tool_dirs = default_tool_dirs();
+  options.duration_s = 4.0;
+  const json first = run_scenario(scenario, options);
+  const json second = run_scenario(scenario, options);
+  for (const json* result : {&first, &second}) {
+    EXPECT_EQ((*result)["ended"], "duration") << result->dump();
+    EXPECT_DOUBLE_EQ((*result)["sim_time_s"].get<double>(), 4.0);
+    ASSERT_TRUE(result->contains("hashes"));
+    ASSERT_EQ((*result)["hashes"].size(), 4u) << (*result)["hashes"].dump();
+    for (int s = 0; s < 4; ++s) EXPECT_EQ((*result)["hashes"][s]["second"], s + 1);
+    EXPECT_FALSE((*result)["metrics"][0]["fallen"].get<bool>());
+  }
+  EXPECT_EQ(first["hashes"], second["hashes"]);
+  EXPECT_EQ(first["metrics"][0]["end"], second["metrics"][0]["end"]) << "the same walk to the last bit";
+  EXPECT_EQ(first["metrics"][0]["energy_j"], second["metrics"][0]["energy_j"]);
+}
+
 TEST_F(ScenarioRun, TheCommandRefusesBadInputWithExitCodes) {
   const auto exit_of = [](std::vector<std::string> args, std::string& message) {
     std::ostringstream out, err;
