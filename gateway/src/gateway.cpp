@@ -196,10 +196,18 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       const std::string name = (r > 0 ? "robot" + std::to_string(r) + "-" : "") + configs[r].cameras[c].config.name;
       robot.links.push_back({"camera", name, "iceoryx:DoppelCamera/" + name + "/frames"});
     }
+    for (const char* topic : {"world_model", "sensor_levels"}) {
+      const bool published = std::string_view(topic) == "world_model" ? truth_ != nullptr && truth_->settings(r).has_value()
+                                                                       : levels_feed_ != nullptr;
+      if (!published) continue;
+      for (const std::string& location : truth::topic_locations(truth_->transport_options(), r, topic)) {
+        robot.links.push_back({topic, topic, location});
+      }
+    }
     started.push_back(std::move(robot));
   }
   live_ = std::make_unique<LiveRobots>(
-      LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(),
+      LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(), truth_.get(),
                         0.5 * field.field_length_m + field.border_strip_width_m,
                         0.5 * field.field_width_m + field.border_strip_width_m},
       std::move(started));

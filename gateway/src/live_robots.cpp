@@ -18,6 +18,9 @@
 #include "gateway/gateway.h"
 #include "physics/world.h"
 #include "robot_runtime.h"
+#include "truth/transport.h"
+#include "truth/truth_service.h"
+#include "truth/world_model.h"
 
 namespace doppel::gateway {
 
@@ -45,6 +48,7 @@ struct LiveRobots::Live {
   std::unique_ptr<bus::LatencyTimerFiles> latency;
   std::atomic<bool> stop{false};          // its bus threads
   bool threads = false;
+  bool world_model = false;               // TruthService::add_robot
   control::RobotAdded added;
 };
 
@@ -152,10 +156,17 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRe
     return Refusal{"", "this doppel runs in lockstep (--lockstep): its robots are fixed at start (docs/lockstep.md)"};
   }
   if (request.world_model) {
-    return Refusal{"world_model", "the world-model sensor is not available in this doppel"};
+    if (parts_.truth == nullptr) {
+      return Refusal{"world_model", "this doppel has no truth transport: start it with --world-model (or --sensor-levels) "
+                                    "for world models of robots added while it runs"};
+    }
+    if (const std::string problem = truth::settings_problem(*request.world_model); !problem.empty()) {
+      return Refusal{"world_model", problem};
+    }
   }
   if (request.sensor_levels) {
-    return Refusal{"sensor_levels", "decoded and true sensor values are not available in this doppel"};
+    return Refusal{"sensor_levels", "sensor levels are published for the robots doppel started with (--sensor-levels), "
+                                    "not yet for robots added while it runs"};
   }
   if (request.robot.empty() == request.description.empty()) {
     return request.robot.empty() ? Refusal{"robot", "name a robot (robot) or give its description (description)"}
@@ -303,6 +314,21 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     tear_down(robot);
     return Refusal{"", std::string("robot '") + robot.config.name + "': " + e.what()};
   }
+  if (request.world_model) {
+    truth::RobotBinding binding;  // as Gateway::start_truth binds the robots doppel started with
+    binding.in_world = *robot.in_world;
+    binding.team = plan.placement.team;
+    if (!robot.config.cameras.empty()) {  // the head camera: the file's first
+      binding.has_camera = true;
+      binding.camera_body = robot.config.cameras.front().body;
+      binding.X_BC = camera::camera_pose_W(robot.config.cameras.front().config.mount, Eigen::Isometry3d::Identity());
+    }
+    if (const std::string problem = parts_.truth->add_robot(index, binding, *request.world_model); !problem.empty()) {
+      tear_down(robot);
+      return Refusal{"world_model", problem};
+    }
+    robot.world_model = true;
+  }
 
   control::RobotAdded& added = robot.added;
   added.robot = static_cast<uint32_t>(index);
@@ -315,6 +341,11 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
   }
   for (const CameraSetup& setup : plan.cameras) {
     added.links.push_back({"camera", setup.config.name, camera_location(setup.config.name)});
+  }
+  if (robot.world_model) {
+    for (const std::string& location : truth::topic_locations(parts_.truth->transport_options(), index, "world_model")) {
+      added.links.push_back({"world_model", "world_model", location});
+    }
   }
   control::RobotAdded result = added;
   live_[index] = std::move(live);
@@ -356,6 +387,8 @@ void LiveRobots::close() {
 
 void LiveRobots::tear_down(Live& live) noexcept {
   try {
+    if (live.world_model) parts_.truth->remove_robot(live.index);
+    live.world_model = false;
     if (live.shown) parts_.controller->hide(live.index);
     live.shown = false;
     for (const std::size_t id : live.camera_ids) parts_.cameras->hide(id);  // the streams and their services go

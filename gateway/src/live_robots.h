@@ -32,6 +32,10 @@ class LinkDirectory;
 class LatencyTimerFiles;
 }  // namespace doppel::bus
 
+namespace doppel::truth {
+class TruthService;
+}  // namespace doppel::truth
+
 namespace doppel::gateway {
 
 class CameraFeed;
@@ -49,6 +53,7 @@ class LiveRobots final : public control::RobotHost {
     bus::LinkDirectory* links = nullptr;
     CameraFeed* cameras = nullptr;        // null: no camera (--no-camera)
     SimController* controller = nullptr;
+    truth::TruthService* truth = nullptr;  // null: no truth transport (--world-model, --sensor-levels), no world model
     double carpet_half_length_m = 0.0;    // where a robot may be placed: |x| and |y| within these
     double carpet_half_width_m = 0.0;
   };

@@ -19,7 +19,9 @@
 
 #include "control/robot_host.h"
 #include "gateway/gateway.h"
+#include "proto/truth.pb.h"
 #include "reference_client.h"
+#include "truth/subscriber.h"
 #include "sim_time.h"
 
 #include <httplib.h>  // after Eigen (gateway.h): a macro of it breaks Eigen's headers
@@ -264,11 +266,89 @@ TEST_F(LiveRobots, BadRequestsAreRefusedNamingTheFieldAndLeaveNothingBehind) {
   expect_refused(camera, "cameras");  // this doppel runs with --no-camera
   RobotRequest world_model = named("fumanoid-2011");
   world_model.world_model = control::WorldModelSettings{};
-  expect_refused(world_model, "world_model");
+  expect_refused(world_model, "world_model");  // this doppel runs without --world-model: no truth transport
   RobotRequest levels = named("fumanoid-2011");
   levels.sensor_levels = true;
   expect_refused(levels, "sensor_levels");
   expect_ping_answered(*first_, "the first robot after the refusals");
+}
+
+// doppel --world-model (UDP only): a robot added with a world model gets one; its link names the
+// UDP port, its messages arrive there under its own index with its own pose where the request put
+// it, and they stop when it is removed. A bad setting is refused naming world_model, nothing built.
+TEST(LiveRobotsWorldModel, AnAddedRobotsWorldModelArrivesWhereItsLinkSaysAndStopsWithIt) {
+  char pattern[] = "/tmp/doppel-live-wm-XXXXXX";
+  ASSERT_NE(::mkdtemp(pattern), nullptr);
+  const std::string dir = pattern;
+  truth::UdpReceiver robot0(0);
+  std::unique_ptr<truth::UdpReceiver> robot1;
+  try {
+    robot1 = std::make_unique<truth::UdpReceiver>(static_cast<uint16_t>(robot0.port() + 1));
+  } catch (const std::exception& e) {
+    GTEST_SKIP() << "the UDP port after " << robot0.port() << " is taken: " << e.what();
+  }
+  gateway::Options options;
+  options.link_dir = dir + "/links";
+  options.robots = {"fumanoid-2011"};
+  options.robots_dir = DOPPEL_ROBOTS_DIR;
+  options.timing = bus::TimingMode::kFast;
+  options.camera = false;
+  options.viewer = false;
+  options.state_dir.clear();
+  options.world_model = true;
+  options.truth_iceoryx = false;
+  options.truth_udp_port = robot0.port();
+  auto gateway = std::make_unique<gateway::Gateway>(options);
+  gateway->start();
+
+  RobotRequest bad = named("fumanoid-2011");
+  bad.world_model = control::WorldModelSettings{};
+  bad.world_model->fov_deg = 200.0;
+  const control::AddResult refused = gateway->robot_host().add_robot(bad);
+  ASSERT_TRUE(std::holds_alternative<Refusal>(refused));
+  EXPECT_EQ(std::get<Refusal>(refused).field, "world_model");
+  EXPECT_NE(std::get<Refusal>(refused).message.find("fov_deg"), std::string::npos) << std::get<Refusal>(refused).message;
+  EXPECT_EQ(gateway->robot_host().robots().size(), 1u);
+
+  RobotRequest request = named("fumanoid-2011");
+  request.x_m = 1.5;
+  request.y_m = -1.0;
+  request.yaw_rad = 0.5;
+  request.world_model = control::WorldModelSettings{};
+  request.world_model->rate_hz = 50.0;
+  const control::AddResult result = gateway->robot_host().add_robot(request);
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
+  const RobotAdded& added = std::get<RobotAdded>(result);
+  ASSERT_EQ(added.robot, 1u);
+  const control::Link* link = find_link(added, "world_model", "world_model");
+  ASSERT_NE(link, nullptr);
+  EXPECT_EQ(link->location, "udp:127.0.0.1:" + std::to_string(robot1->port()));
+
+  std::optional<proto::truth::WorldModel> heard;
+  for (int i = 0; i < 300 && !heard; ++i) {
+    const std::optional<truth::Datagram> d = robot1->receive(0.2);
+    if (!d || d->topic != "world_model") continue;
+    EXPECT_EQ(d->robot, 1u);
+    proto::truth::WorldModel m;
+    ASSERT_TRUE(m.ParseFromString(d->payload));
+    if (m.world_time_ns() > 200'000'000) heard = m;  // settled onto the carpet
+  }
+  ASSERT_TRUE(heard.has_value()) << "no world-model message of the added robot on port " << robot1->port();
+  EXPECT_EQ(heard->robot(), 1u);
+  EXPECT_NEAR(heard->pose().x_m(), 1.5, 0.01);  // held by the handler where it was placed
+  EXPECT_NEAR(heard->pose().y_m(), -1.0, 0.01);
+  EXPECT_NEAR(heard->pose().yaw_rad(), 0.5, 0.01);
+  bool sees_robot0 = false;
+  for (const auto& other : heard->robots()) sees_robot0 = sees_robot0 || other.index() == 0;
+  EXPECT_TRUE(sees_robot0) << "the robot doppel started with is among the others";
+
+  ASSERT_FALSE(gateway->robot_host().remove_robot(1).has_value());
+  while (robot1->receive(0.3)) {
+  }  // what was on its way
+  EXPECT_FALSE(robot1->receive(1.0).has_value()) << "no messages after the robot was removed";
+  gateway.reset();
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
 }
 
 TEST_F(LiveRobots, ASeventhRobotIsRefused) {

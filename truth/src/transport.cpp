@@ -22,6 +22,15 @@ std::string iceoryx_location(std::size_t robot, std::string_view topic) {
   return std::string("iceoryx:") + kServiceId + "/robot" + std::to_string(robot) + "/" + std::string(topic);
 }
 
+std::vector<std::string> topic_locations(const TransportOptions& options, std::size_t robot, std::string_view topic) {
+  std::vector<std::string> locations;
+  if (options.iceoryx) locations.push_back(iceoryx_location(robot, topic));
+  if (options.udp) {
+    locations.push_back("udp:" + options.udp_address + ":" + std::to_string(options.udp_base_port + robot));
+  }
+  return locations;
+}
+
 struct Transport::Publisher {
   explicit Publisher(std::size_t robot, const std::string& topic)
       : port(iox::capro::ServiceDescription(id(kServiceId), id("robot" + std::to_string(robot)), id(topic)), options()) {}

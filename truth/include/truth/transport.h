@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 #include <string_view>
 #include <utility>
 
@@ -29,6 +30,11 @@ struct TransportOptions {
   uint16_t udp_base_port = kDefaultUdpBasePort;   // robot N sends to base + N
   std::string udp_address = "127.0.0.1";           // IPv4 address; another than loopback only when the user names it
 };
+
+// Where robot `robot`'s messages of `topic` can be received, as control::Link locations: its
+// iceoryx service (when `options.iceoryx`) and "udp:ADDRESS:PORT" (when `options.udp`; every topic
+// of a robot shares its port, each datagram a truth.Packet naming the topic).
+std::vector<std::string> topic_locations(const TransportOptions& options, std::size_t robot, std::string_view topic);
 
 struct TransportStats {
   uint64_t iceoryx_sent = 0;
