@@ -138,8 +138,8 @@ INSTANTIATE_TEST_SUITE_P(
         Bad{R"(robot: "op3" world_model { angle_sigma_rad: inf })", "add_robot.world_model.angle_sigma_rad", "got inf"},
         Bad{R"(robot: "op3" world_model { dropout: 1 })", "add_robot.world_model.dropout", "[0, 1)"},
         Bad{R"(robot: "op3" world_model { latency_s: 1.5 })", "add_robot.world_model.latency_s", "[0, 1]"}),
-    [](const ::testing::TestParamInfo<Bad>& info) {
-      std::string name = std::to_string(info.index) + "_" + info.param.field;
+    [](const ::testing::TestParamInfo<Bad>& param) {
+      std::string name = std::to_string(param.index) + "_" + param.param.field;
       for (char& ch : name) {
         ch = std::isalnum(static_cast<unsigned char>(ch)) ? ch : '_';
       }

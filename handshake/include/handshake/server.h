@@ -25,6 +25,8 @@
 
 namespace doppel::handshake {
 
+namespace wire = doppel::proto::handshake;
+
 inline constexpr uint16_t kDefaultPort = 7590;
 inline constexpr const char* kSocketName = "handshake.sock";  // in doppel's link directory
 
@@ -44,13 +46,13 @@ struct ServerOptions {
 class Sessions {
  public:
   explicit Sessions(control::RobotHost& host) : host_(host) {}
-  proto::handshake::ServerMessage handle(const proto::handshake::ClientMessage& request);
+  wire::ServerMessage handle(const wire::ClientMessage& request);
 
  private:
-  proto::handshake::ServerMessage add(const proto::handshake::AddRobot& request);
-  proto::handshake::ServerMessage remove(const proto::handshake::RemoveRobot& request);
-  proto::handshake::ServerMessage reattach(const proto::handshake::Reattach& request);
-  proto::handshake::ServerMessage list();
+  wire::ServerMessage add(const wire::AddRobot& request);
+  wire::ServerMessage remove(const wire::RemoveRobot& request);
+  wire::ServerMessage reattach(const wire::Reattach& request);
+  wire::ServerMessage list();
 
   control::RobotHost& host_;
   std::mutex mutex_;
