@@ -242,6 +242,9 @@ std::string proto_field_path(std::string_view host_field) {
   }
   std::string out = "add_robot.";
   std::string_view rest = host_field;
+  if (rest == "cameras") {
+    return out + "camera";  // the list as a whole
+  }
   if (rest.starts_with("cameras[")) {
     out += "camera[";
     rest.remove_prefix(8);

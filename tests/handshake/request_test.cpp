@@ -163,6 +163,7 @@ TEST(HandshakeRequest, HostFieldNamesBecomeProtoPaths) {
   EXPECT_EQ(proto_field_path(""), "add_robot");
   EXPECT_EQ(proto_field_path("robot"), "add_robot.robot");
   EXPECT_EQ(proto_field_path("description"), "add_robot.description");
+  EXPECT_EQ(proto_field_path("cameras"), "add_robot.camera");
   EXPECT_EQ(proto_field_path("cameras[0].name"), "add_robot.camera[0].name");
   EXPECT_EQ(proto_field_path("cameras[12].width_px"), "add_robot.camera[12].width_px");
   EXPECT_EQ(proto_field_path("cameras[1].noise_gaussian_sigma"), "add_robot.camera[1].noise.gaussian_sigma");
