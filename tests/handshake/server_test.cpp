@@ -56,6 +56,7 @@ class HandshakeServer : public ::testing::TestWithParam<Transport> {
     options.first_request_timeout = 400ms;
     options.frame_timeout = 400ms;
     options.max_frame_bytes = 4096;
+    options.write_timeout = 400ms;
     start(options);
   }
   TestClient connect() {
@@ -242,6 +243,20 @@ TEST_P(HandshakeServer, AClientThatSpokeMayStayIdle) {
   EXPECT_TRUE(c.call(request("list_robots {}")).has_robot_list());
   EXPECT_FALSE(c.receive(1500ms));  // well past the first-request timeout: no error, not closed
   EXPECT_TRUE(c.call(request("list_robots {}")).has_robot_list());
+}
+
+TEST_P(HandshakeServer, AClientThatReadsNoRepliesIsClosed) {
+  TestClient c = connect();
+  const std::string one = TestClient::frame(request("list_robots {}").SerializeAsString());
+  std::string many;
+  for (int i = 0; i < 256; ++i) {
+    many += one;
+  }
+  // Requests until neither the server's replies nor the requests fit the socket buffers any more.
+  const std::size_t sent = c.flood(many, 64u << 20);
+  EXPECT_LT(sent, 64u << 20);
+  EXPECT_TRUE(c.write_refused());  // the server gave up on its reply (write_timeout) and closed
+  expect_serving();
 }
 
 TEST_P(HandshakeServer, AClientThatVanishesMidFrameLeavesNothingBehind) {

@@ -103,6 +103,32 @@ class TestClient {
     return *reply;
   }
 
+  // Sends `bytes` repeatedly without reading any reply until the socket accepts no more (the
+  // server stopped reading because its replies are not read) or `limit` bytes went; returns the bytes sent.
+  std::size_t flood(std::string_view bytes, std::size_t limit) {
+    std::size_t total = 0;
+    while (total < limit) {
+      const ssize_t n = ::send(fd_, bytes.data(), bytes.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
+      if (n <= 0) {
+        break;
+      }
+      total += static_cast<std::size_t>(n);
+    }
+    return total;
+  }
+  // True once a write fails because the server closed the connection, within `timeout`; never reads.
+  bool write_refused(std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      const char byte = 0;
+      if (::send(fd_, &byte, 1, MSG_DONTWAIT | MSG_NOSIGNAL) < 0 && (errno == EPIPE || errno == ECONNRESET)) {
+        return true;
+      }
+      ::usleep(20000);
+    }
+    return false;
+  }
+
   // True when the server closes the connection (end of stream) within `timeout`; replies before
   // that are skipped.
   bool closed_by_server(std::chrono::milliseconds timeout = std::chrono::seconds(20)) {
