@@ -175,6 +175,68 @@ Answer replay_request(SimControl& control, const std::string& method, const std:
   return {200, after ? replay_json(*after) : json(nullptr)};
 }
 
+// GET/PUT /api/robots/N/world_model: a robot's world-model sensor settings; PUT changes the fields
+// it names (the others stay), each checked for its type here and for its range by the sensor.
+Answer world_model_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
+  constexpr std::string_view kRobots = "robots/", kWorldModel = "/world_model";
+  const std::string index = action.substr(kRobots.size(), action.size() - kRobots.size() - kWorldModel.size());
+  if (index.empty() || index.size() > 6 || index.find_first_not_of("0123456789") != std::string::npos) {
+    return {404, error_body("no such path: /api/" + action + " (/api/robots/N/world_model, N a robot's index)")};
+  }
+  const auto robot = static_cast<std::size_t>(std::stoul(index));
+  WorldModelAnswer answer = control.world_model(robot);
+  if (answer.status == 200 && method == "PUT") {
+    try {
+      const json request = parse_object(body);
+      only_fields(request, {"enabled", "rate_hz", "fov_deg", "max_range_m", "nearest_ball_only", "position_sigma_m",
+                            "angle_sigma_rad", "dropout", "latency_s", "seed"});
+      WorldModelSettings settings = answer.settings;
+      auto flag = [&](const char* field, bool& to) {
+        if (!request.contains(field)) return;
+        if (!request.at(field).is_boolean()) throw Refused{400, "field '" + std::string(field) + "' must be true or false"};
+        to = request.at(field).get<bool>();
+      };
+      auto real = [&](const char* field, double& to) {
+        if (request.contains(field)) to = number(request, field);
+      };
+      flag("enabled", settings.enabled);
+      flag("nearest_ball_only", settings.nearest_ball_only);
+      real("rate_hz", settings.rate_hz);
+      real("fov_deg", settings.fov_deg);
+      real("max_range_m", settings.max_range_m);
+      real("position_sigma_m", settings.position_sigma_m);
+      real("angle_sigma_rad", settings.angle_sigma_rad);
+      real("dropout", settings.dropout);
+      real("latency_s", settings.latency_s);
+      if (request.contains("seed")) {
+        const json& seed = request.at("seed");
+        if (!seed.is_number_unsigned() && !(seed.is_number_integer() && seed.get<int64_t>() >= 0)) {
+          throw Refused{400, "field 'seed' must be a whole number >= 0"};
+        }
+        settings.seed = seed.get<uint64_t>();
+      }
+      answer = control.set_world_model(robot, settings);
+    } catch (const Refused& refused) {
+      return {refused.status, error_body(refused.message)};
+    }
+  } else if (method != "GET" && method != "PUT") {
+    return {405, error_body("/api/robots/N/world_model is read with GET and changed with PUT")};
+  }
+  if (answer.status != 200) return {answer.status, error_body(answer.error)};
+  const WorldModelSettings& s = answer.settings;
+  return {200, json{{"robot", robot},
+                    {"enabled", s.enabled},
+                    {"rate_hz", s.rate_hz},
+                    {"fov_deg", s.fov_deg},
+                    {"max_range_m", s.max_range_m},
+                    {"nearest_ball_only", s.nearest_ball_only},
+                    {"position_sigma_m", s.position_sigma_m},
+                    {"angle_sigma_rad", s.angle_sigma_rad},
+                    {"dropout", s.dropout},
+                    {"latency_s", s.latency_s},
+                    {"seed", s.seed}}};
+}
+
 }  // namespace
 
 json replay_json(const ReplayStatus& status) {
@@ -281,6 +343,9 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
   const std::string action = path.substr(kPrefix.size());
   if (action == "replay") return replay_request(control, method, body);
+  if (action.rfind("robots/", 0) == 0 && action.size() > 19 && action.substr(action.size() - 12) == "/world_model") {
+    return world_model_request(control, method, action, body);
+  }
   if (action == "analysis") {
     if (method != "GET") return {405, error_body("/api/analysis is read with GET")};
     const std::optional<std::string> analysis = control.bus_analysis();
@@ -363,6 +428,7 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
   });
   server_->Get(R"(/api/.*)", serve);
   server_->Post(R"(/api/.*)", serve);
+  server_->Put(R"(/api/.*)", serve);
   if (port == 0) {
     const int bound = server_->bind_to_any_port(address);
     if (bound <= 0) throw std::runtime_error("cannot listen on " + address + " (any port)");

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -54,6 +55,23 @@ int main(int argc, char** argv) {
   CLI::App* ball = app.add_subcommand("ball", "put the ball at rest at X Y (m)");
   ball->add_option("X", x)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
   ball->add_option("Y", y)->required()->transform(doppel::number_in<double>(-1e3, 1e3));
+  uint32_t wm_robot = 0;
+  std::optional<bool> wm_enabled, wm_nearest;
+  std::optional<double> wm_rate, wm_fov, wm_range, wm_position_sigma, wm_angle_sigma, wm_dropout, wm_latency;
+  std::optional<uint64_t> wm_seed;
+  CLI::App* world_model = app.add_subcommand(
+      "world-model", "show ROBOT's world-model sensor settings (doppel --world-model), or change those given");
+  world_model->add_option("ROBOT", wm_robot, "the robot's index")->required()->transform(doppel::number_in<uint32_t>(0, 999));
+  world_model->add_option("--enabled", wm_enabled, "publish (true) or not (false)");
+  world_model->add_option("--rate", wm_rate, "messages per second of simulation time, (0, 1000]");
+  world_model->add_option("--fov", wm_fov, "field of view in degrees about the camera's axis: 0 = all around, else (0, 180)");
+  world_model->add_option("--max-range", wm_range, "metres; 0 = no limit");
+  world_model->add_option("--nearest-ball", wm_nearest, "report only the nearest ball seen (true/false)");
+  world_model->add_option("--position-sigma", wm_position_sigma, "Gaussian noise on positions, m");
+  world_model->add_option("--angle-sigma", wm_angle_sigma, "Gaussian noise on headings, rad");
+  world_model->add_option("--dropout", wm_dropout, "probability that a seen object is missing, [0, 1)");
+  world_model->add_option("--latency", wm_latency, "the message describes the world this long ago, [0, 1] s");
+  world_model->add_option("--seed", wm_seed, "the noise sequence");
   CLI11_PARSE(app, argc, argv);
 
   const std::string command = app.get_subcommands().front()->get_name();
@@ -62,6 +80,25 @@ int main(int argc, char** argv) {
   if (command == "place") body = {{"robot", robot_ref(robot)}, {"x", x}, {"y", y}, {"yaw", yaw}};
   if (command == "push") body = {{"robot", robot_ref(robot)}, {"fx", fx}, {"fy", fy}, {"fz", fz}, {"ms", push_ms}};
   if (command == "ball") body = {{"x", x}, {"y", y}};
+  bool change = false;
+  if (command == "world-model") {
+    auto put = [&](const char* field, const auto& value) {
+      if (value) {
+        body[field] = *value;
+        change = true;
+      }
+    };
+    put("enabled", wm_enabled);
+    put("rate_hz", wm_rate);
+    put("fov_deg", wm_fov);
+    put("max_range_m", wm_range);
+    put("nearest_ball_only", wm_nearest);
+    put("position_sigma_m", wm_position_sigma);
+    put("angle_sigma_rad", wm_angle_sigma);
+    put("dropout", wm_dropout);
+    put("latency_s", wm_latency);
+    put("seed", wm_seed);
+  }
 
   httplib::Client client(url);
   if (!client.is_valid()) {
@@ -70,8 +107,11 @@ int main(int argc, char** argv) {
   }
   client.set_connection_timeout(2);
   client.set_read_timeout(static_cast<time_t>(doppel::control::kMaxStepMs / 1000 + 30));
-  const std::string path = "/api/" + command;
-  httplib::Result result = command == "state" ? client.Get(path) : client.Post(path, body.dump(), "application/json");
+  const std::string path =
+      command == "world-model" ? "/api/robots/" + std::to_string(wm_robot) + "/world_model" : "/api/" + command;
+  httplib::Result result = command == "state" || (command == "world-model" && !change) ? client.Get(path)
+                           : command == "world-model" ? client.Put(path, body.dump(), "application/json")
+                                                       : client.Post(path, body.dump(), "application/json");
   if (!result) {
     std::fprintf(stderr, "doppel-ctl: cannot reach doppel at %s (%s); is it running, with its viewer on (--viewer)?\n",
                  url.c_str(), httplib::to_string(result.error()).c_str());

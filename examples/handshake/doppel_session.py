@@ -125,6 +125,10 @@ def main():
     parser.add_argument("--format", help="camera pixel format (rgb24, yuyv, uyvy, bayer_rggb, ...)")
     parser.add_argument("--fps", type=float, help="camera frames per second")
     parser.add_argument("--no-camera", action="store_true", help="ask for no camera")
+    parser.add_argument("--world-model", action="store_true", help="ask for the world-model sensor (docs/multilevel.md)")
+    parser.add_argument("--world-model-fov", type=float, metavar="DEG", help="its field of view, below 180 (0 = all around)")
+    parser.add_argument("--world-model-sigma", type=float, metavar="M", help="its position noise (standard deviation)")
+    parser.add_argument("--sensor-levels", action="store_true", help="ask for decoded and true sensor values")
     parser.add_argument("--x", type=float, help="where the robot stands, x in m (field frame)")
     parser.add_argument("--y", type=float, help="where the robot stands, y in m")
     parser.add_argument("--id", type=int, default=1, help="servo ID to ping (default 1)")
@@ -153,6 +157,14 @@ def main():
                              ("fps", args.fps)):
             if value is not None:
                 setattr(camera, field, value)
+
+    if args.world_model or args.world_model_fov is not None or args.world_model_sigma is not None:
+        add.world_model.SetInParent()  # present = the robot gets one
+        if args.world_model_fov is not None:
+            add.world_model.fov_deg = args.world_model_fov
+        if args.world_model_sigma is not None:
+            add.world_model.position_sigma_m = args.world_model_sigma
+    add.sensor_levels = args.sensor_levels
 
     endpoint = {"tcp": args.tcp} if args.tcp else {"unix_path": args.unix or default_socket()}
     try:

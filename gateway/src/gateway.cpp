@@ -24,6 +24,7 @@
 #include "record/recorder.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
+#include "truth/truth_service.h"
 
 namespace doppel::gateway {
 
@@ -82,6 +83,11 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
     world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
     world_options.field = physics::field_shapes();
+    for (const Eigen::Vector2d& ball : session.extra_balls) {
+      physics::BallOptions extra = world_options.ball;
+      extra.position_m = Eigen::Vector3d(ball.x(), ball.y(), 0.0);
+      world_options.extra_balls.push_back(extra);
+    }
     int files_sweeps = 0;
     for (const RobotConfig& config : configs) files_sweeps = std::max(files_sweeps, config.solver_iterations.value_or(0));
     world_options.solver_iterations =
@@ -145,6 +151,10 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
                                                 0.5 * field.field_length_m + field.border_strip_width_m,
                                                 0.5 * field.field_width_m + field.border_strip_width_m);
+  if (options.world_model && world_ != nullptr) start_truth(configs, in_world);
+  if (options.world_model && world_ == nullptr) {
+    std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
+  }
   if (options.viewer) {
     // The viewer's page beside the API; without its files (no libjs-three) the API alone.
     control::StaticFiles files = control::default_static_files();
@@ -166,6 +176,35 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
   }
   if (!options.record_path.empty()) start_recorder(configs);
+}
+
+void Gateway::start_truth(const std::vector<RobotConfig>& configs,
+                          const std::vector<std::optional<std::size_t>>& in_world) {
+  truth::TruthOptions truth_options;
+  truth_options.transport.iceoryx = options_.truth_iceoryx;
+  truth_options.transport.udp_base_port = options_.truth_udp_port;
+  truth_options.transport.udp_address = options_.truth_udp_address;
+  truth_options.verbose = options_.verbose;
+  try {
+    truth_ = std::make_unique<truth::TruthService>(truth_options);
+  } catch (const std::exception& e) {
+    throw std::runtime_error(std::string("--world-model: ") + e.what());
+  }
+  for (std::size_t r = 0; r < configs.size(); ++r) {
+    if (!in_world[r]) continue;
+    truth::RobotBinding binding;
+    binding.in_world = *in_world[r];
+    binding.team = kick_off_placement(r).team;
+    if (!configs[r].cameras.empty()) {  // the head camera: the file's first
+      binding.has_camera = true;
+      binding.camera_body = configs[r].cameras.front().body;
+      binding.X_BC = camera::camera_pose_W(configs[r].cameras.front().config.mount, Eigen::Isometry3d::Identity());
+    }
+    if (const std::string problem = truth_->add_robot(r, binding, options_.world_model_settings); !problem.empty()) {
+      throw std::runtime_error("--world-model: " + problem);
+    }
+  }
+  controller_->set_world_model(truth_.get());
 }
 
 void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
@@ -244,6 +283,9 @@ void Gateway::start() {
   }
   if (recorder_ != nullptr) {
     recorder_->start();
+  }
+  if (truth_ != nullptr) {
+    truth_->start();
   }
   if (!state_files_.empty()) {
     state_thread_ = std::thread([this] {
@@ -328,6 +370,9 @@ void Gateway::stop() {
   if (simulation_thread_.joinable()) {
     simulation_thread_.join();
   }
+  if (truth_ != nullptr) {
+    truth_->stop();  // after the simulation thread: nothing captures any more
+  }
   if (cameras_ != nullptr) {
     cameras_->stop();
   }
@@ -368,6 +413,9 @@ void Gateway::simulate() noexcept {
       for (auto& robot : robots_) {
         robot->sense(sim_time_ns);
       }
+      if (truth_ != nullptr) {
+        truth_->capture(*world_, sim_time_ns);
+      }
     }
     controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
@@ -382,6 +430,9 @@ std::string Gateway::describe() const {
   }
   if (cameras_ != nullptr) {
     out << cameras_->describe();
+  }
+  if (truth_ != nullptr) {
+    out << truth_->describe();
   }
   if (control_api_ != nullptr) {
     out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
@@ -406,6 +457,12 @@ std::string Gateway::summary() const {
   }
   if (cameras_ != nullptr) {
     out << cameras_->summary();
+  }
+  if (truth_ != nullptr) {
+    const truth::TruthStats stats = truth_->stats();
+    out << "  world model: " << stats.messages << " messages (iceoryx " << stats.transport.iceoryx_sent << " sent, "
+        << stats.transport.iceoryx_dropped << " dropped; UDP " << stats.transport.udp_sent << " sent, "
+        << stats.transport.udp_failed << " failed), " << stats.samples_dropped << " world samples dropped\n";
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
   if (recorder_ != nullptr) {

@@ -101,6 +101,23 @@ Options:
   --record-cameras HZ    Also record each camera's still (PNG) HZ times a second (0.1..30).
   --record-compression zstd|lz4|none
                          Chunk compression of the recording (default zstd).
+  --world-model          Give every simulated robot a world-model sensor (docs/multilevel.md): its own
+                         pose, the balls, goal posts, side poles, field landmarks and the other robots,
+                         in the field frame and relative to the robot, 30 times a second of simulation
+                         time, published over iceoryx ("DoppelTruth", "robot<N>", "world_model") and
+                         UDP; read them with doppel-truth. Noise, dropout and latency: doppel-ctl
+                         world-model.
+  --world-model-rate HZ  Messages per second of simulation time (0.1..1000; default 30).
+  --world-model-fov DEG  Horizontal field of view about the head camera's optical axis (the heading
+                         without a camera), 1..179; default 0: all around.
+  --world-model-range M  Objects farther than M metres are not seen (default 0: no limit).
+  --world-model-nearest-ball
+                         Of several balls (a session's extra balls), report only the nearest seen.
+  --truth-udp-port BASE  Robot N's world model goes to UDP port BASE+N (default 7600).
+  --truth-udp-address ADDR
+                         ...on this IPv4 address (default 127.0.0.1: this machine only; name another
+                         address only for control software on another machine).
+  --no-truth-iceoryx     Publish the world model over UDP only (no iceoryx RouDi needed).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -157,6 +174,15 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
+  control::WorldModelSettings& world_model = options.world_model_settings;
+  app.add_flag("--world-model", options.world_model);
+  CLI::Option* rate = app.add_option("--world-model-rate", world_model.rate_hz)->transform(number_in<double>(0.1, 1000.0));
+  CLI::Option* fov = app.add_option("--world-model-fov", world_model.fov_deg)->transform(number_in<double>(1.0, 179.0));
+  CLI::Option* range = app.add_option("--world-model-range", world_model.max_range_m)->transform(number_in<double>(0.0, 100.0));
+  CLI::Option* nearest = app.add_flag("--world-model-nearest-ball", world_model.nearest_ball_only);
+  app.add_option("--truth-udp-port", options.truth_udp_port)->transform(number_in<uint16_t>(1, 65471));
+  app.add_option("--truth-udp-address", options.truth_udp_address)->check(CLI::ValidIPV4);
+  app.add_flag("--no-truth-iceoryx{false}", options.truth_iceoryx);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -171,6 +197,7 @@ Options parse_options(int argc, const char* const* argv) {
   if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
     throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
   }
+  if (rate->count() + fov->count() + range->count() + nearest->count() > 0) options.world_model = true;
   if (options.state_dir.empty()) {
     options.state_dir = default_state_dir();
   }

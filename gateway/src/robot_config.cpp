@@ -12,7 +12,9 @@
 #include "camera/pixel_format.h"
 #include "dynamixel/models.h"
 #include "dynamixel/protocol2_models.h"
+#include "physics/field.h"
 #include "physics/robot_model.h"
+#include "physics/world.h"
 #include "proto/robot_file.h"
 #include "proto/session_file.h"
 #include "urdf/urdf_import.h"
@@ -377,6 +379,25 @@ SessionConfig check_session(const proto::SessionFile& file) {
     camera_config.mount.X_WC = X_WM * camera::camera_looking_along_x(Eigen::Vector3d::Zero());
     check_camera_settings(file, world_camera, camera_config);
     config.world_cameras.push_back(std::move(setup));
+  }
+  if (session.ball_size() > static_cast<int>(physics::kMaxExtraBalls)) {
+    file.fail(session, "ball", static_cast<int>(physics::kMaxExtraBalls),
+              "at most " + std::to_string(physics::kMaxExtraBalls) + " extra balls");
+  }
+  const physics::FieldSpec field;
+  for (int b = 0; b < session.ball_size(); ++b) {
+    const proto::Ball& ball = session.ball(b);
+    if (!ball.has_position_m()) file.fail(session, "ball", b, "missing position_m (the ball's x, y in the field frame)");
+    const proto::Vector3& p = ball.position_m();
+    if (!finite(p)) file.fail(ball, "position_m", -1, "must be finite");
+    const double half_length = 0.5 * field.field_length_m + field.border_strip_width_m;
+    const double half_width = 0.5 * field.field_width_m + field.border_strip_width_m;
+    if (std::abs(p.x()) > half_length || std::abs(p.y()) > half_width) {
+      file.fail(ball, "position_m", -1, "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
+                                            ") is off the carpet (|x| <= " + std::to_string(half_length) +
+                                            ", |y| <= " + std::to_string(half_width) + " m)");
+    }
+    config.extra_balls.emplace_back(p.x(), p.y());
   }
   return config;
 }

@@ -6,6 +6,7 @@
 #include "camera/image_io.h"
 #include "camera/lens.h"
 #include "robot_runtime.h"
+#include "truth/truth_service.h"
 
 namespace doppel::gateway {
 namespace {
@@ -310,6 +311,20 @@ control::Outcome SimController::push(std::size_t robot, double fx_n, double fy_n
 
 control::Outcome SimController::ball(double x_m, double y_m) {
   return submit({Kind::kBall, 0, 0, x_m, y_m}, kAnswerTimeout);
+}
+
+control::WorldModelAnswer SimController::world_model(std::size_t robot) {
+  if (truth_ == nullptr) return control::SimControl::world_model(robot);
+  const std::optional<control::WorldModelSettings> settings = truth_->settings(robot);
+  if (!settings) return {404, "robot " + std::to_string(robot) + " has no world-model sensor (no body in the world)", {}};
+  return {200, "", *settings};
+}
+
+control::WorldModelAnswer SimController::set_world_model(std::size_t robot, const control::WorldModelSettings& settings) {
+  const control::WorldModelAnswer now = world_model(robot);
+  if (now.status != 200) return now;
+  if (const std::string problem = truth_->set_settings(robot, settings); !problem.empty()) return {400, problem, now.settings};
+  return {200, "", settings};
 }
 
 void SimController::finish(uint64_t sequence, int status) noexcept {

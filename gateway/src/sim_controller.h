@@ -24,6 +24,10 @@
 #include "physics/scene_view.h"
 #include "physics/world.h"
 
+namespace doppel::truth {
+class TruthService;
+}
+
 namespace doppel::gateway {
 
 class RobotRuntime;
@@ -100,6 +104,11 @@ class SimController final : public control::SimControl {
   // once per kStillPeriod per camera (the same still otherwise), and encodes it as PNG.
   control::CameraStill camera_still(const std::string& name) override;
   static constexpr std::chrono::milliseconds kStillPeriod{250};
+  // The world-model sensors (truth/), served by world_model() and set_world_model(); null: none.
+  // Setup, before the control API starts.
+  void set_world_model(truth::TruthService* truth) noexcept { truth_ = truth; }
+  control::WorldModelAnswer world_model(std::size_t robot) override;
+  control::WorldModelAnswer set_world_model(std::size_t robot, const control::WorldModelSettings& settings) override;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -127,6 +136,7 @@ class SimController final : public control::SimControl {
 
   physics::World* world_;
   std::vector<Robot> robots_;
+  truth::TruthService* truth_ = nullptr;
   std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)
   // Per robot (in the world): its IMUs, foot boards and cameras, found at setup.
   template <typename Handle>

@@ -152,8 +152,14 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
     }
     backend_->add_static(ShapeSpec{shape.type, shape.X_WS, shape.size_m, shape.hull}, MaterialSpec{0.5, 0.5});
   }
-  if (options_.ball.present) {
-    const BallOptions& ball = options_.ball;
+  if (options_.extra_balls.size() > kMaxExtraBalls) {
+    throw std::invalid_argument("World: at most " + std::to_string(kMaxExtraBalls) + " extra balls");
+  }
+  auto add_ball = [this](const BallOptions& ball) {
+    if (!(ball.radius_m > 0.0) || !(ball.mass_kg > 0.0) || !std::isfinite(ball.position_m.x()) ||
+        !std::isfinite(ball.position_m.y())) {
+      throw std::invalid_argument("World: a ball needs a positive radius and mass and a finite position");
+    }
     const ShapeSpec sphere{ShapeType::kSphere, Eigen::Isometry3d::Identity(), {ball.radius_m, 0.0, 0.0}, nullptr};
     BodyDesc desc;
     desc.shapes = &sphere;
@@ -163,8 +169,10 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
     desc.X_WB.translation() = Eigen::Vector3d(ball.position_m.x(), ball.position_m.y(), ball.radius_m);
     desc.material = ball.material;
     desc.group = kGroupBall;
-    ball_body_ = backend_->add_body(desc);
-  }
+    return backend_->add_body(desc);
+  };
+  if (options_.ball.present) ball_body_ = add_ball(options_.ball);
+  for (const BallOptions& ball : options_.extra_balls) extra_ball_bodies_.push_back(add_ball(ball));
   robots_.resize(robots.size());
   for (size_t r = 0; r < robots.size(); ++r) {
     robots_[r].model = std::move(robots[r]);
@@ -484,6 +492,12 @@ void World::reset_ball() noexcept {
   Eigen::Vector3d p = options_.ball.position_m;
   p.z() = options_.ball.radius_m;
   place_ball(p, Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < extra_ball_bodies_.size(); ++i) {
+    const BallOptions& ball = options_.extra_balls[i];
+    Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+    X.translation() = Eigen::Vector3d(ball.position_m.x(), ball.position_m.y(), ball.radius_m);
+    backend_->set_body_state(extra_ball_bodies_[i], X, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  }
 }
 
 void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexcept {
@@ -648,6 +662,15 @@ Eigen::Vector3d World::ball_position() const noexcept {
   return ball_body_ >= 0 ? Eigen::Vector3d(backend_->body(ball_body_).X_WB.translation()) : Eigen::Vector3d::Zero();
 }
 
+size_t World::ball_count() const noexcept { return (ball_body_ >= 0 ? 1U : 0U) + extra_ball_bodies_.size(); }
+
+Eigen::Vector3d World::ball_position(size_t index) const noexcept {
+  const size_t first_extra = ball_body_ >= 0 ? 1U : 0U;
+  if (index < first_extra) return ball_position();
+  if (index - first_extra >= extra_ball_bodies_.size()) return Eigen::Vector3d::Zero();
+  return backend_->body(extra_ball_bodies_[index - first_extra]).X_WB.translation();
+}
+
 void World::place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d& velocity_m_s) noexcept {
   if (ball_body_ < 0) return;
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
@@ -656,7 +679,7 @@ void World::place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d&
 }
 
 void World::fill_scene(SceneView& view) const {
-  size_t count = options_.field.size() + (ball_body_ >= 0 ? 1U : 0U);
+  size_t count = options_.field.size() + ball_count();
   for (const RobotSlot& robot : robots_) {
     for (const BodyModel& body : robot.model.bodies) {
       count += body.shapes.size();
@@ -683,6 +706,11 @@ void World::fill_scene(SceneView& view) const {
   if (ball_body_ >= 0) {
     view.shapes[i++] = VisualShape{ShapeType::kSphere, ObjectKind::kBall, backend_->body(ball_body_).X_WB,
                                    Eigen::Vector3d(options_.ball.radius_m, 0.0, 0.0), kBallOrange, kBallObjectId, nullptr};
+  }
+  for (size_t b = 0; b < extra_ball_bodies_.size(); ++b) {
+    view.shapes[i++] = VisualShape{ShapeType::kSphere, ObjectKind::kBall, backend_->body(extra_ball_bodies_[b]).X_WB,
+                                   Eigen::Vector3d(options_.extra_balls[b].radius_m, 0.0, 0.0), kBallOrange,
+                                   static_cast<uint16_t>(kBallObjectId + 1 + b), nullptr};
   }
   for (const VisualShape& shape : options_.field) {
     view.shapes[i++] = shape;

@@ -84,7 +84,8 @@ struct ClientRun {
 
 ClientRun run_client(const std::string& endpoint_args) {
   const std::string command = "/usr/bin/python3 " DOPPEL_SESSION_SCRIPT " --python-dir " DOPPEL_PYTHON_DIR " " +
-                              endpoint_args + " --robot op3 --camera head --width 320 --height 240 --format yuyv 2>&1";
+                              endpoint_args + " --robot op3 --camera head --width 320 --height 240 --format yuyv"
+                              " --world-model-fov 90 --world-model-sigma 0.05 --sensor-levels 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) {
     return {-1, "popen failed"};
@@ -135,6 +136,11 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   EXPECT_EQ(request.cameras[0].width_px, 320u);
   EXPECT_EQ(request.cameras[0].height_px, 240u);
   EXPECT_EQ(request.cameras[0].format, "yuyv");
+  ASSERT_TRUE(request.world_model);
+  EXPECT_EQ(request.world_model->fov_deg, 90.0);
+  EXPECT_EQ(request.world_model->position_sigma_m, 0.05);
+  EXPECT_EQ(request.world_model->rate_hz, control::WorldModelSettings{}.rate_hz);
+  EXPECT_TRUE(request.sensor_levels);
   EXPECT_EQ(host.removed(), std::vector<uint32_t>{1});
 }
 

@@ -15,6 +15,8 @@
 //   GET  /api/replay                                  -> a replay's playback (replay_json); 404 when live
 //   POST /api/replay {"position_s": 3.5, "speed": 0.5, "playing": true}   any of the three
 //   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
+//   GET  /api/robots/N/world_model                    -> robot N's world-model sensor settings
+//   PUT  /api/robots/N/world_model {"fov_deg": 90, "dropout": 0.1, ...}   the fields to change
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
@@ -56,7 +58,7 @@ StaticFiles default_static_files();
 std::string static_files_problem(const StaticFiles& files);
 
 // A request as the API takes it, for tests of the checks without a socket: `method` "GET" or
-// "POST", `path` as in the table above, `body` the request body. Returns the HTTP status and the
+// "POST" or "PUT", `path` as in the table above, `body` the request body. Returns the HTTP status and the
 // JSON answer.
 struct Answer {
   int status = 200;

@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "control/world_model_settings.h"
+
 namespace doppel::control {
 
 struct JointState {
@@ -167,6 +169,13 @@ struct Outcome {
   static Outcome fail(int status, std::string error) { return {status, std::move(error)}; }
 };
 
+// A robot's world-model sensor settings, or an HTTP status and a message naming the problem.
+struct WorldModelAnswer {
+  int status = 200;  // 200, 400 a bad setting (the message names the field), 404 no such robot or sensor
+  std::string error;
+  WorldModelSettings settings;
+};
+
 class SimControl {
  public:
   virtual ~SimControl() = default;
@@ -194,6 +203,16 @@ class SimControl {
   virtual std::vector<BusTable> buses() { return {}; }
   // The latest image of robot camera `name` (as RobotState::cameras names it), a few per second.
   virtual CameraStill camera_still(const std::string& name) { return {404, "no camera '" + name + "'", "", 0.0}; }
+  // Robot `robot`'s world-model sensor (docs/multilevel.md): its settings, and a change of them
+  // applied from its next message on (checked completely; a bad value is refused naming its field).
+  virtual WorldModelAnswer world_model(std::size_t robot) {
+    (void)robot;
+    return {404, "no world-model sensor in this simulation (doppel --world-model)", {}};
+  }
+  virtual WorldModelAnswer set_world_model(std::size_t robot, const WorldModelSettings& settings) {
+    (void)settings;
+    return world_model(robot);
+  }
   // A replay's playback (none for a live simulation: the API then answers 404).
   virtual std::optional<ReplayStatus> replay() { return std::nullopt; }
   // Applies a checked change (control/http_api.cpp checks the fields and ranges against replay()).

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -24,6 +25,9 @@ class HttpApi;
 }
 namespace doppel::record {
 class Recorder;
+}
+namespace doppel::truth {
+class TruthService;
 }
 namespace doppel::bus {
 class LinkDirectory;
@@ -62,6 +66,7 @@ class Gateway {
  private:
   void simulate() noexcept;
   void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
+  void start_truth(const std::vector<RobotConfig>& configs, const std::vector<std::optional<std::size_t>>& in_world);
   void start_recorder(const std::vector<RobotConfig>& configs);  // --record: opens the file; throws
 
   Options options_;
@@ -70,6 +75,7 @@ class Gateway {
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
+  std::unique_ptr<truth::TruthService> truth_;  // --world-model; after cameras_: gone before their iceoryx
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "bus/link_directory.h"
+#include "control/world_model_settings.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
 
@@ -55,6 +56,14 @@ struct Options {
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none
+  // The world-model sensor (truth/, docs/multilevel.md): --world-model gives every simulated robot
+  // one with these settings (--world-model-rate, -fov, -range, --world-model-nearest-ball imply it);
+  // published over iceoryx (unless --no-truth-iceoryx) and UDP to --truth-udp-address:BASE+N.
+  bool world_model = false;
+  control::WorldModelSettings world_model_settings;
+  uint16_t truth_udp_port = 7600;                // --truth-udp-port BASE (truth::kDefaultUdpBasePort)
+  std::string truth_udp_address = "127.0.0.1";   // --truth-udp-address ADDR
+  bool truth_iceoryx = true;                     // --no-truth-iceoryx: UDP only (no RouDi needed)
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit

@@ -74,6 +74,7 @@ struct WorldCameraSetup {
 struct SessionConfig {
   std::string source;                          // file it was read from
   std::vector<WorldCameraSetup> world_cameras;  // cameras fixed in the field, in file order
+  std::vector<Eigen::Vector2d> extra_balls;     // balls 1, 2, ... (x, y on the carpet, field frame), in file order
 };
 
 // The default robots directory: $DOPPEL_ROBOTS_DIR, else the robots/ folder of the source tree.

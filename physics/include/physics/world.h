@@ -45,6 +45,8 @@ struct RobotPlacement {
   uint8_t team = 0;                                      // team marker colour: 0 cyan, 1 magenta
 };
 
+inline constexpr size_t kMaxExtraBalls = 7;
+
 struct BallOptions {
   bool present = true;                                   // add a dynamic ball
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // centre; z is set to the radius
@@ -75,6 +77,10 @@ struct WorldOptions {
                                        // it is not); off by default, docs/physics.md says why
   MaterialSpec ground{0.8, 0.0};   // carpet
   BallOptions ball;
+  // More balls (a session's scene, e.g. for the world-model sensor's nearest-ball rule): ball 1, 2,
+  // ... after `ball`, which stays "the ball" of every single-ball call. At most kMaxExtraBalls; an
+  // entry's `present` is ignored. Extra ball i has object_id kBallObjectId + 1 + i (field.h).
+  std::vector<BallOptions> extra_balls;
   // Static field objects, normally field_shapes() of field.h: every shape except carpet, lines and
   // rings becomes a static collision shape (goals, nets, poles: friction 0.5, restitution 0.5);
   // all are copied into the scene view.
@@ -174,7 +180,7 @@ class World {
   Eigen::Isometry3d robot_pose(size_t robot) const noexcept;
   // Angle between the robot frame's z axis and the vertical, rad (0 upright, pi/2 lying). rt-safe.
   double tilt_rad(size_t robot) const noexcept;
-  // Puts the ball back where the options placed it, at rest. rt-safe.
+  // Puts the ball (and the extra balls) back where the options placed them, at rest. rt-safe.
   void reset_ball() noexcept;
   // Sets a motor's winding temperature (tests, scenarios). rt-safe.
   void set_motor_temperature(MotorHandle motor, double temperature_c) noexcept;
@@ -190,6 +196,10 @@ class World {
   // Joint position of link `link` of a robot (rad or m, the file's convention, not the servo's).
   double link_position(size_t robot, size_t link) const noexcept;
   Eigen::Vector3d ball_position() const noexcept;
+  // Every ball: the ball (index 0, if present) and then the extra balls. rt-safe.
+  size_t ball_count() const noexcept;
+  // Centre of ball `index` (< ball_count()), world frame. rt-safe.
+  Eigen::Vector3d ball_position(size_t index) const noexcept;
   // Puts the ball's centre at `position_m` with velocity `velocity_m_s` (a kick, a referee's
   // placement); no-op without a ball. rt-safe.
   void place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d& velocity_m_s) noexcept;
@@ -224,6 +234,7 @@ class World {
   std::vector<FootSlot> feet_;
   std::vector<ContactForce> contact_buffer_;
   int ball_body_ = -1;
+  std::vector<int> extra_ball_bodies_;  // WorldOptions::extra_balls, in order
 };
 
 }  // namespace doppel::physics
