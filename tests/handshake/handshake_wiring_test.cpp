@@ -45,7 +45,10 @@ TEST(HandshakeOptions, EachOptionChangesItsPart) {
   EXPECT_FALSE(parse({"--no-handshake"}).handshake);
   EXPECT_THROW(parse({"--handshake-port", "65536"}), std::invalid_argument);
   EXPECT_THROW(parse({"--handshake-socket", ""}), std::invalid_argument);
-  EXPECT_NE(usage().find("--handshake-socket PATH"), std::string::npos);
+  for (const char* option : {"--handshake-socket PATH", "--handshake-port PORT", "--handshake-address ADDR",
+                             "--no-handshake-tcp", "--no-handshake "}) {
+    EXPECT_NE(usage().find(option), std::string::npos) << option;
+  }
 }
 
 class LinkDir : public ::testing::Test {
