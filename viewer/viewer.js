@@ -605,6 +605,65 @@
     poll('/api/replay', STATE_PERIOD_MS, applyReplay);
   }).catch(() => {});
 
+  // --- GameController (GET/POST /api/game, docs/gamecontroller.md) --------------------------------
+  let lastGame = null;
+  function cell(row, text, cls) {
+    const td = row.insertCell();
+    td.textContent = text;
+    if (cls) td.className = cls;
+  }
+  function applyGame(game) {
+    lastGame = game;
+    $('game').hidden = false;
+    const a = game.teams[0], b = game.teams[1];
+    const kickOff = game.kick_off_team === 255 ? 'drop ball' : `team ${game.kick_off_team}`;
+    const secondary = game.secondary_state !== 'normal' ? ` · ${game.secondary_state} (team ${game.secondary_team})` : '';
+    $('game-status').textContent = `${game.state.toUpperCase()} · A (team ${a.number}) ${a.score} : ${b.score} B (team ${b.number}) · ` +
+        `kick-off ${kickOff} · ${game.first_half ? '1st' : '2nd'} half ${game.secs_remaining} s${secondary}`;
+    const sending = $('game-sending');
+    sending.textContent = !game.on ? 'off' : game.sending ? `sending to ${game.destination}` :
+        (game.stepped_aside ? `stepped aside: ${game.stepped_aside}` : 'not sending');
+    sending.className = game.on && !game.sending && game.stepped_aside ? 'aside' : '';
+    document.querySelectorAll('#game-states button').forEach((button) => {
+      button.classList.toggle('active', button.dataset.state === game.state);
+    });
+    const penalties = $('game-penalties').tBodies[0];
+    penalties.innerHTML = '';
+    game.teams.forEach((team) => team.penalties.forEach((p) => {
+      const row = penalties.insertRow();
+      cell(row, team.number); cell(row, p.player); cell(row, p.reason, 'text'); cell(row, p.seconds_left);
+    }));
+    const returns = $('game-returns').tBodies[0];
+    returns.innerHTML = '';
+    game.returns.forEach((r) => {
+      const row = returns.insertRow();
+      cell(row, r.team); cell(row, r.player); cell(row, r.message, 'text'); cell(row, r.count); cell(row, fixed(r.age_s, 1));
+    });
+  }
+  async function gameCommand(body) {
+    try {
+      applyGame(await api('POST', '/api/game', body));
+      clearError();
+    } catch (e) {
+      showError(e.message);
+    }
+  }
+  document.querySelectorAll('#game-states button').forEach((button) => {
+    button.addEventListener('click', () => gameCommand({ command: 'state', state: button.dataset.state }));
+  });
+  $('game-goal-a').addEventListener('click', () => gameCommand({ command: 'goal', team: 'A' }));
+  $('game-goal-b').addEventListener('click', () => gameCommand({ command: 'goal', team: 'B' }));
+  $('game-on').addEventListener('click', () => gameCommand({ command: 'on' }));
+  $('game-off').addEventListener('click', () => gameCommand({ command: 'off' }));
+  const gamePlayer = () => ({ team: $('game-team').value, player: Number($('game-player').value) });
+  $('game-penalize').addEventListener('click', () => gameCommand({ command: 'penalize', ...gamePlayer() }));
+  $('game-unpenalize').addEventListener('click', () => gameCommand({ command: 'unpenalize', ...gamePlayer() }));
+  fetch('/api/game', { cache: 'no-store' }).then(async (response) => {
+    if (!response.ok) return;  // no GameController here (a replay)
+    applyGame(await response.json());
+    poll('/api/game', 500, applyGame);
+  }).catch(() => {});
+
   // --- bus analysis of a replay (GET /api/analysis: analyzer/, docs/analyzer.md) --------------------
   // Drawn once (the recording does not change); the period plot's cursor follows the replay.
   const SPLIT_PARTS = [  // the time split's parts (analyzer KindStats), in the order they add up
@@ -816,6 +875,8 @@
       return ink;
     }),
     buses: () => lastBuses,
+    game: () => lastGame,
+    gameShown: () => !$('game').hidden,
     scene: () => lastScene,
     error: () => ($('error').hidden ? '' : $('error').textContent),
     // Where field point (x, y, z) is on the page (CSS pixels), to click on it.

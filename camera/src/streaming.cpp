@@ -572,4 +572,6 @@ StreamStats CameraStream::stats() const noexcept {
 
 const CameraConfig& CameraStream::config() const noexcept { return impl_->config; }
 
+bool camera_offered(const std::string& name) { return detail::service_offered(name, detail::kFramesEvent); }
+
 }  // namespace doppel::camera

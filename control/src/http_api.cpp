@@ -237,7 +237,216 @@ Answer world_model_request(SimControl& control, const std::string& method, const
                     {"seed", s.seed}}};
 }
 
+// A team: "A" / "B" (index 0 / 1) or its team number.
+int game_team(const json& request, const GameStatus& status, bool drop_ball_allowed = false) {
+  if (!request.contains("team")) throw Refused{400, "missing field 'team' (A, B or a team number)"};
+  const json& team = request.at("team");
+  if (team.is_string()) {
+    const std::string name = team.get<std::string>();
+    if (name == "A" || name == "a") return 0;
+    if (name == "B" || name == "b") return 1;
+    if (drop_ball_allowed && name == "drop_ball") return -1;
+  } else if (team.is_number_integer() || team.is_number_unsigned()) {
+    const int64_t number = team.get<int64_t>();
+    if (number == status.teams[0].number) return 0;
+    if (number == status.teams[1].number) return 1;
+  }
+  throw Refused{400, "field 'team' must be A, B or a team number of this game (" + std::to_string(status.teams[0].number) +
+                         ", " + std::to_string(status.teams[1].number) + ")" + (drop_ball_allowed ? " or drop_ball" : "") +
+                         ", got " + team.dump()};
+}
+
+uint32_t whole(const json& request, const std::string& field, uint32_t least, uint32_t most) {
+  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
+  const json& value = request.at(field);
+  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field '" + field + "' must be a whole number"};
+  const int64_t x = value.get<int64_t>();
+  if (x < least || x > most) {
+    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) +
+                           ", got " + std::to_string(x)};
+  }
+  return static_cast<uint32_t>(x);
+}
+
+std::string text(const json& request, const std::string& field, const std::set<std::string>& allowed) {
+  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
+  const json& value = request.at(field);
+  std::string names;
+  for (const std::string& name : allowed) names += (names.empty() ? "" : ", ") + name;
+  if (!value.is_string() || allowed.count(value.get<std::string>()) == 0) {
+    throw Refused{400, "field '" + field + "' must be one of " + names + ", got " + value.dump()};
+  }
+  return value.get<std::string>();
+}
+
+GameCommand game_command(const json& request, const GameStatus& status) {
+  GameCommand command;
+  command.command = text(request, "command",
+                         {"on", "off", "state", "goal", "score", "kickoff", "penalize", "unpenalize", "set_play", "timeout", "normal"});
+  const std::string& c = command.command;
+  if (c == "on" || c == "off" || c == "normal") {
+    only_fields(request, {"command"});
+  } else if (c == "state") {
+    only_fields(request, {"command", "state"});
+    command.state = text(request, "state", {"initial", "ready", "set", "playing", "finished"});
+  } else if (c == "goal" || c == "timeout") {
+    only_fields(request, {"command", "team"});
+    command.team = game_team(request, status);
+  } else if (c == "score") {
+    only_fields(request, {"command", "team", "score"});
+    command.team = game_team(request, status);
+    command.score = whole(request, "score", 0, 255);
+  } else if (c == "kickoff") {
+    only_fields(request, {"command", "team"});
+    command.team = game_team(request, status, true);
+  } else if (c == "penalize" || c == "unpenalize") {
+    only_fields(request, c == "penalize" ? std::set<std::string>{"command", "team", "player", "seconds", "reason"}
+                                         : std::set<std::string>{"command", "team", "player"});
+    command.team = game_team(request, status);
+    command.player = whole(request, "player", 1, kMaxGamePlayers);
+    if (c == "penalize") {
+      if (request.contains("seconds")) command.seconds = whole(request, "seconds", 0, 255);
+      if (request.contains("reason")) {
+        std::set<std::string> names;
+        for (const GamePenaltyName& penalty : kGamePenalties) names.insert(penalty.name);
+        const std::string reason = text(request, "reason", names);
+        for (const GamePenaltyName& penalty : kGamePenalties) {
+          if (reason == penalty.name) command.penalty = penalty.code;
+        }
+      }
+    }
+  } else {  // set_play
+    only_fields(request, {"command", "kind", "team", "mode"});
+    command.set_play =
+        text(request, "kind", {"direct_free_kick", "indirect_free_kick", "penalty_kick", "corner_kick", "goal_kick", "throw_in"});
+    command.team = game_team(request, status);
+    if (request.contains("mode")) command.mode = whole(request, "mode", 0, 255);
+  }
+  return command;
+}
+
+Answer game_request(SimControl& control, const std::string& method, const std::string& body) {
+  const std::optional<GameStatus> status = control.game();
+  if (!status) return {404, error_body("no GameController here: /api/game is served by doppel (docs/gamecontroller.md)")};
+  if (method == "GET") return {200, game_json(*status)};
+  if (method != "POST") return {405, error_body("/api/game is read with GET and changed with POST")};
+  try {
+    const Outcome outcome = control.game_command(game_command(parse_object(body), *status));
+    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+  } catch (const Refused& refused) {
+    return {refused.status, error_body(refused.message)};
+  }
+  const std::optional<GameStatus> after = control.game();
+  return {200, after ? game_json(*after) : json(nullptr)};
+}
+
+// /api/teamcomm, /api/teamcomm/robots, /api/teamcomm/robots/TEAM/PLAYER.
+Answer teamcomm_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
+  const std::optional<TeamcommStatus> status = control.teamcomm();
+  if (!status) return {404, error_body("no team-communication hub: doppel --teamcomm starts one (docs/teamcomm.md)")};
+  try {
+    if (action == "teamcomm") {
+      if (method != "GET") return {405, error_body("/api/teamcomm is read with GET")};
+      return {200, teamcomm_json(*status)};
+    }
+    if (action == "teamcomm/robots") {
+      if (method == "GET") return {200, teamcomm_json(*status)["robots"]};
+      if (method != "POST") return {405, error_body("/api/teamcomm/robots is read with GET and added to with POST")};
+      const json request = parse_object(body);
+      only_fields(request, {"team", "player", "port"});
+      TeamcommRobot robot;
+      robot.team = static_cast<int>(whole(request, "team", 0, 255));
+      robot.player = static_cast<int>(whole(request, "player", 0, 255));
+      robot.port = static_cast<uint16_t>(whole(request, "port", 1, 65535));
+      const Outcome outcome = control.teamcomm_add(robot);
+      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+    } else {
+      // teamcomm/robots/TEAM/PLAYER
+      const std::string rest = action.substr(std::string("teamcomm/robots/").size());
+      const auto slash = rest.find('/');
+      const auto number = [](const std::string& part, const char* what) {
+        if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
+          throw Refused{400, std::string(what) + " '" + part + "' in the path must be a number within 0..255"};
+        }
+        return std::stoi(part);
+      };
+      if (slash == std::string::npos) throw Refused{404, "no such path: /api/" + action + " (use /api/teamcomm/robots/TEAM/PLAYER)"};
+      const int team = number(rest.substr(0, slash), "team");
+      const int player = number(rest.substr(slash + 1), "player");
+      if (method != "DELETE") return {405, error_body("/api/teamcomm/robots/TEAM/PLAYER is removed with DELETE")};
+      const Outcome outcome = control.teamcomm_remove(team, player);
+      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+    }
+  } catch (const Refused& refused) {
+    return {refused.status, error_body(refused.message)};
+  }
+  const std::optional<TeamcommStatus> after = control.teamcomm();
+  return {200, after ? teamcomm_json(*after) : json(nullptr)};
+}
+
 }  // namespace
+
+json game_json(const GameStatus& status) {
+  json teams = json::array();
+  for (const GameTeam& team : status.teams) {
+    json penalties = json::array();
+    for (const GamePenalty& p : team.penalties) {
+      penalties.push_back({{"player", p.player}, {"penalty", p.penalty}, {"reason", p.reason}, {"seconds_left", p.seconds_left}});
+    }
+    teams.push_back({{"number", team.number}, {"score", team.score}, {"penalties", penalties}});
+  }
+  json returns = json::array();
+  for (const GameReturn& r : status.returns) {
+    returns.push_back({{"team", r.team}, {"player", r.player}, {"message", r.message}, {"count", r.count}, {"age_s", r.age_s}});
+  }
+  json out = {{"on", status.on},
+              {"sending", status.sending},
+              {"stepped_aside", status.stepped_aside},
+              {"destination", status.destination},
+              {"return_address", status.return_address},
+              {"watch", status.watch},
+              {"watch_error", status.watch_error},
+              {"state", status.state},
+              {"first_half", status.first_half},
+              {"kick_off_team", status.kick_off_team},
+              {"secondary_state", status.secondary_state},
+              {"secondary_team", status.secondary_team},
+              {"secondary_mode", status.secondary_mode},
+              {"secs_remaining", status.secs_remaining},
+              {"packet_number", status.packet_number},
+              {"sent", status.sent},
+              {"teams", teams},
+              {"returns", returns},
+              {"bad_returns", status.bad_returns}};
+  out["foreign"] = status.foreign ? json{{"from", status.foreign_from},
+                                         {"packets", status.foreign_packets},
+                                         {"state", status.foreign_state},
+                                         {"teams", status.foreign_teams},
+                                         {"scores", status.foreign_scores},
+                                         {"age_s", status.foreign_age_s}}
+                                  : json(nullptr);
+  return out;
+}
+
+json teamcomm_json(const TeamcommStatus& status) {
+  const auto robot = [](const TeamcommRobot& r) { return json{{"team", r.team}, {"player", r.player}, {"port", r.port}}; };
+  json robots = json::array();
+  for (const TeamcommRobot& r : status.robots) robots.push_back(robot(r));
+  json links = json::array();
+  for (const TeamcommLink& l : status.links) {
+    links.push_back({{"from", robot(l.from)},
+                     {"to", robot(l.to)},
+                     {"relayed", l.relayed},
+                     {"dropped", l.dropped},
+                     {"delayed", l.delayed},
+                     {"queue_full", l.queue_full},
+                     {"send_errors", l.send_errors}});
+  }
+  return {{"listen", status.listen},     {"robot_address", status.robot_address}, {"loss", status.loss},
+          {"delay_ms", status.delay_ms}, {"jitter_ms", status.jitter_ms},         {"received", status.received},
+          {"unknown_sender", status.unknown_sender}, {"oversized", status.oversized}, {"robots", robots},
+          {"links", links}};
+}
 
 json replay_json(const ReplayStatus& status) {
   return {{"start_s", status.start_s}, {"end_s", status.end_s}, {"position_s", status.position_s},
@@ -346,6 +555,8 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
   if (action.rfind("robots/", 0) == 0 && action.size() > 19 && action.substr(action.size() - 12) == "/world_model") {
     return world_model_request(control, method, action, body);
   }
+  if (action == "game") return game_request(control, method, body);
+  if (action == "teamcomm" || action.rfind("teamcomm/robots", 0) == 0) return teamcomm_request(control, method, action, body);
   if (action == "analysis") {
     if (method != "GET") return {405, error_body("/api/analysis is read with GET")};
     const std::optional<std::string> analysis = control.bus_analysis();
@@ -429,6 +640,7 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
   server_->Get(R"(/api/.*)", serve);
   server_->Post(R"(/api/.*)", serve);
   server_->Put(R"(/api/.*)", serve);
+  server_->Delete(R"(/api/.*)", serve);
   if (port == 0) {
     const int bound = server_->bind_to_any_port(address);
     if (bound <= 0) throw std::runtime_error("cannot listen on " + address + " (any port)");

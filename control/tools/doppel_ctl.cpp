@@ -23,10 +23,18 @@ json robot_ref(const std::string& text) {
   return digits && text.size() < 10 ? json(std::stoll(text)) : json(text);
 }
 
+// A team is A, B or its team number.
+json team_ref(const std::string& text) {
+  const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+  return digits && text.size() < 4 ? json(std::stoi(text)) : json(text);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("doppel-ctl: pause, step, reset, place and push a running doppel's simulation", "doppel-ctl");
+  CLI::App app("doppel-ctl: pause, step, reset, place and push a running doppel's simulation; drive its GameController "
+               "and team-communication hub",
+               "doppel-ctl");
   std::string url = "http://127.0.0.1:" + std::to_string(doppel::control::kDefaultPort);
   app.add_option("--url", url, "doppel's control address (doppel --viewer PORT)")->capture_default_str();
   app.require_subcommand(1);
@@ -72,10 +80,89 @@ int main(int argc, char** argv) {
   world_model->add_option("--dropout", wm_dropout, "probability that a seen object is missing, [0, 1)");
   world_model->add_option("--latency", wm_latency, "the message describes the world this long ago, [0, 1] s");
   world_model->add_option("--seed", wm_seed, "the noise sequence");
+
+  // doppel-ctl game ...: the GameController (docs/gamecontroller.md).
+  CLI::App* game = app.add_subcommand("game", "the GameController: status (default), on, off, state, goal, penalize, ...");
+  std::string team, state, kind, penalty_reason;
+  uint32_t player = 0, seconds = 30, score = 0, mode = 0;
+  game->require_subcommand(0, 1);
+  game->add_subcommand("status", "the game, its penalties and the robots' return packets");
+  game->add_subcommand("on", "start doppel's GameController, or let it send again after stepping aside");
+  game->add_subcommand("off", "stop sending (step aside for a real GameController)");
+  game->add_subcommand("state", "change the game state")
+      ->add_option("STATE", state)->required()->check(CLI::IsMember({"initial", "ready", "set", "playing", "finished"}));
+  for (const char* name : {"initial", "ready", "set", "playing", "finished"}) game->add_subcommand(name, std::string("state ") + name);
+  game->add_subcommand("goal", "a goal for TEAM (A, B or its number) while PLAYING")->add_option("TEAM", team)->required();
+  CLI::App* set_score = game->add_subcommand("score", "set TEAM's score to N (a correction)");
+  set_score->add_option("TEAM", team)->required();
+  set_score->add_option("N", score)->required()->transform(doppel::number_in<uint32_t>(0, 255));
+  game->add_subcommand("kickoff", "TEAM kicks off next (A, B, a team number or drop_ball)")->add_option("TEAM", team)->required();
+  CLI::App* penalize = game->add_subcommand("penalize", "penalize PLAYER of TEAM for SECONDS (default 30)");
+  penalize->add_option("TEAM", team)->required();
+  penalize->add_option("PLAYER", player)->required()->transform(doppel::number_in<uint32_t>(1, doppel::control::kMaxGamePlayers));
+  penalize->add_option("SECONDS", seconds)->transform(doppel::number_in<uint32_t>(0, 255));
+  penalize->add_option("--reason", penalty_reason, "pickup_or_incapable (default), ball_manipulation, physical_contact, ...");
+  CLI::App* unpenalize = game->add_subcommand("unpenalize", "PLAYER of TEAM plays again");
+  unpenalize->add_option("TEAM", team)->required();
+  unpenalize->add_option("PLAYER", player)->required()->transform(doppel::number_in<uint32_t>(1, doppel::control::kMaxGamePlayers));
+  CLI::App* set_play = game->add_subcommand("set-play", "a set play for TEAM while PLAYING (secondary state)");
+  set_play->add_option("KIND", kind)->required()->check(CLI::IsMember(
+      {"direct_free_kick", "indirect_free_kick", "penalty_kick", "corner_kick", "goal_kick", "throw_in"}));
+  set_play->add_option("TEAM", team)->required();
+  set_play->add_option("MODE", mode, "secondaryStateInfo[1] (default 0)")->transform(doppel::number_in<uint32_t>(0, 255));
+  game->add_subcommand("timeout", "a timeout for TEAM (INITIAL, READY or SET)")->add_option("TEAM", team)->required();
+  game->add_subcommand("normal", "end the set play or timeout");
+
+  // doppel-ctl teamcomm ...: the team-communication hub (docs/teamcomm.md).
+  CLI::App* teamcomm = app.add_subcommand("teamcomm", "the team-communication hub: status (default), add, remove");
+  uint32_t port = 0;
+  teamcomm->require_subcommand(0, 1);
+  teamcomm->add_subcommand("status", "registered robots and each link's counters");
+  CLI::App* add = teamcomm->add_subcommand("add", "register a robot's software: TEAM PLAYER PORT (it receives and sends on PORT)");
+  add->add_option("TEAM", score)->required()->transform(doppel::number_in<uint32_t>(0, 255));
+  add->add_option("PLAYER", player)->required()->transform(doppel::number_in<uint32_t>(0, 255));
+  add->add_option("PORT", port)->required()->transform(doppel::number_in<uint32_t>(1, 65535));
+  CLI::App* remove = teamcomm->add_subcommand("remove", "unregister robot TEAM PLAYER");
+  remove->add_option("TEAM", score)->required()->transform(doppel::number_in<uint32_t>(0, 255));
+  remove->add_option("PLAYER", player)->required()->transform(doppel::number_in<uint32_t>(0, 255));
   CLI11_PARSE(app, argc, argv);
 
   const std::string command = app.get_subcommands().front()->get_name();
   json body = json::object();
+  std::string path = "/api/" + command;
+  std::string method = command == "state" ? "GET" : "POST";
+  if (command == "game") {
+    path = "/api/game";
+    const std::string sub = game->get_subcommands().empty() ? "status" : game->get_subcommands().front()->get_name();
+    method = sub == "status" ? "GET" : "POST";
+    if (sub == "on" || sub == "off" || sub == "normal") body = {{"command", sub}};
+    if (sub == "state") body = {{"command", "state"}, {"state", state}};
+    for (const char* name : {"initial", "ready", "set", "playing", "finished"}) {
+      if (sub == name) body = {{"command", "state"}, {"state", sub}};
+    }
+    if (sub == "goal" || sub == "kickoff" || sub == "timeout") body = {{"command", sub}, {"team", team_ref(team)}};
+    if (sub == "score") body = {{"command", "score"}, {"team", team_ref(team)}, {"score", score}};
+    if (sub == "penalize") {
+      body = {{"command", "penalize"}, {"team", team_ref(team)}, {"player", player}, {"seconds", seconds}};
+      if (!penalty_reason.empty()) body["reason"] = penalty_reason;
+    }
+    if (sub == "unpenalize") body = {{"command", "unpenalize"}, {"team", team_ref(team)}, {"player", player}};
+    if (sub == "set-play") body = {{"command", "set_play"}, {"kind", kind}, {"team", team_ref(team)}, {"mode", mode}};
+  }
+  if (command == "teamcomm") {
+    const std::string sub = teamcomm->get_subcommands().empty() ? "status" : teamcomm->get_subcommands().front()->get_name();
+    path = "/api/teamcomm";
+    method = "GET";
+    if (sub == "add") {
+      path = "/api/teamcomm/robots";
+      method = "POST";
+      body = {{"team", score}, {"player", player}, {"port", port}};
+    }
+    if (sub == "remove") {
+      path = "/api/teamcomm/robots/" + std::to_string(score) + "/" + std::to_string(player);
+      method = "DELETE";
+    }
+  }
   if (command == "step") body = {{"ms", step_ms}};
   if (command == "place") body = {{"robot", robot_ref(robot)}, {"x", x}, {"y", y}, {"yaw", yaw}};
   if (command == "push") body = {{"robot", robot_ref(robot)}, {"fx", fx}, {"fy", fy}, {"fz", fz}, {"ms", push_ms}};
@@ -98,6 +185,8 @@ int main(int argc, char** argv) {
     put("dropout", wm_dropout);
     put("latency_s", wm_latency);
     put("seed", wm_seed);
+    path = "/api/robots/" + std::to_string(wm_robot) + "/world_model";
+    method = change ? "PUT" : "GET";
   }
 
   httplib::Client client(url);
@@ -107,11 +196,10 @@ int main(int argc, char** argv) {
   }
   client.set_connection_timeout(2);
   client.set_read_timeout(static_cast<time_t>(doppel::control::kMaxStepMs / 1000 + 30));
-  const std::string path =
-      command == "world-model" ? "/api/robots/" + std::to_string(wm_robot) + "/world_model" : "/api/" + command;
-  httplib::Result result = command == "state" || (command == "world-model" && !change) ? client.Get(path)
-                           : command == "world-model" ? client.Put(path, body.dump(), "application/json")
-                                                       : client.Post(path, body.dump(), "application/json");
+  httplib::Result result = method == "GET"      ? client.Get(path)
+                           : method == "DELETE" ? client.Delete(path)
+                           : method == "PUT"    ? client.Put(path, body.dump(), "application/json")
+                                                : client.Post(path, body.dump(), "application/json");
   if (!result) {
     std::fprintf(stderr, "doppel-ctl: cannot reach doppel at %s (%s); is it running, with its viewer on (--viewer)?\n",
                  url.c_str(), httplib::to_string(result.error()).c_str());

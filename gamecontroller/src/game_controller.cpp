@@ -119,6 +119,39 @@ std::string Game::unpenalise(int team, int player) {
   return {};
 }
 
+std::string Game::secondary(SecondaryState kind, int team, std::uint8_t mode) {
+  if (kind == SecondaryState::kNormal) {
+    data_.secondary_state = SecondaryState::kNormal;
+    data_.secondary_state_info = {};
+    return {};
+  }
+  if (team != 0 && team != 1) {
+    return "a set play or timeout needs team A or B";
+  }
+  switch (kind) {
+    case SecondaryState::kDirectFreekick:
+    case SecondaryState::kIndirectFreekick:
+    case SecondaryState::kPenaltyKick:
+    case SecondaryState::kCornerKick:
+    case SecondaryState::kGoalKick:
+    case SecondaryState::kThrowIn:
+      if (data_.state != State::kPlaying) {
+        return refused("a set play", data_.state);
+      }
+      break;
+    case SecondaryState::kTimeout:
+      if (data_.state != State::kInitial && data_.state != State::kReady && data_.state != State::kSet) {
+        return refused("a timeout", data_.state);
+      }
+      break;
+    default:
+      return "penalty shoot-out and overtime are not commands";
+  }
+  data_.secondary_state = kind;
+  data_.secondary_state_info = {data_.teams[static_cast<std::size_t>(team)].team_number, mode, 0, 0};
+  return {};
+}
+
 void Game::advance(std::chrono::milliseconds elapsed) {
   using std::chrono::milliseconds;
   if (data_.state == State::kPlaying) {
@@ -165,8 +198,21 @@ std::unique_ptr<GameController> GameController::create(const GameControllerOptio
   if (!returns) {
     return nullptr;
   }
-  return std::unique_ptr<GameController>(new GameController(options, std::move(*sender), std::move(*returns),
-                                                            Endpoint{*destination, options.port}));
+  std::unique_ptr<GameController> controller(new GameController(options, std::move(*sender), std::move(*returns),
+                                                                Endpoint{*destination, options.port}));
+  if (!options.watch_address.empty()) {
+    const std::optional<std::uint32_t> watch = parse_ipv4(options.watch_address);
+    if (!watch) {
+      error = "'" + options.watch_address + "' is not an IPv4 address (a.b.c.d)";
+      return nullptr;
+    }
+    std::string watch_error;
+    controller->watch_ = UdpSocket::open(*watch, options.watch_port, false, watch_error, true);
+    if (!controller->watch_) {
+      controller->watch_error_ = watch_error;
+    }
+  }
+  return controller;
 }
 
 GameController::GameController(const GameControllerOptions& options, UdpSocket sender, UdpSocket returns,
@@ -175,7 +221,8 @@ GameController::GameController(const GameControllerOptions& options, UdpSocket s
       sender_(std::move(sender)),
       returns_(std::move(returns)),
       destination_(destination),
-      game_(options) {}
+      game_(options),
+      sending_(options.sending) {}
 
 GameController::~GameController() { stop(); }
 
@@ -189,6 +236,9 @@ void GameController::start() {
   }
   sender_thread_ = std::thread([this] { send_loop(); });
   receiver_thread_ = std::thread([this] { receive_loop(); });
+  if (watch_) {
+    watch_thread_ = std::thread([this] { watch_loop(); });
+  }
 }
 
 void GameController::stop() {
@@ -202,6 +252,9 @@ void GameController::stop() {
   }
   if (receiver_thread_.joinable()) {
     receiver_thread_.join();
+  }
+  if (watch_thread_.joinable()) {
+    watch_thread_.join();
   }
 }
 
@@ -233,9 +286,11 @@ void GameController::send_loop() {
     const auto now = std::chrono::steady_clock::now();
     game_.advance(std::chrono::duration_cast<std::chrono::milliseconds>(now - last));
     last = now;
-    lock.unlock();
-    send_now();
-    lock.lock();
+    if (sending_) {
+      lock.unlock();
+      send_now();
+      lock.lock();
+    }
     next += options_.period;
     wake_.wait_until(lock, next, [this] { return !running_; });
   }
@@ -288,6 +343,86 @@ std::optional<ReturnRecord> GameController::last_return(std::uint8_t team, std::
     return std::nullopt;
   }
   return found->second;
+}
+
+void GameController::watch_loop() {
+  std::array<std::uint8_t, kDataSize + 1> buffer{};
+  const std::uint16_t own_port = sender_.local_port();
+  for (;;) {
+    {
+      std::lock_guard lock(mutex_);
+      if (!running_) {
+        return;
+      }
+    }
+    Endpoint from;
+    const std::optional<std::size_t> length = watch_->receive(buffer, std::chrono::milliseconds(100), &from);
+    if (!length || *length != kDataSize) {
+      continue;
+    }
+    GameControlData data;
+    if (decode(std::span<const std::uint8_t>(buffer.data(), kDataSize), data) != DecodeStatus::kOk) {
+      continue;
+    }
+    // Its own packets, when its destination is a broadcast address the watch receives too: they
+    // come from the sender's port (a foreign GameController on this machine has another one).
+    if (from.port == own_port) {
+      continue;
+    }
+    std::string reason;
+    {
+      std::lock_guard lock(mutex_);
+      if (!foreign_) {
+        foreign_.emplace();
+      }
+      foreign_->from = from;
+      ++foreign_->packets;
+      foreign_->last = data;
+      foreign_->last_seen = std::chrono::steady_clock::now();
+      if (sending_) {
+        sending_ = false;
+        stepped_aside_ = "another GameController sends from " + to_string(from) + " (teams " +
+                         std::to_string(data.teams[0].team_number) + " and " +
+                         std::to_string(data.teams[1].team_number) + ", " + std::string(to_string(data.state)) +
+                         "): this one stopped sending";
+        reason = stepped_aside_;
+      }
+    }
+    if (!reason.empty() && options_.on_step_aside) {
+      options_.on_step_aside(reason);
+    }
+  }
+}
+
+std::map<std::pair<std::uint8_t, std::uint8_t>, ReturnRecord> GameController::returns() const {
+  std::lock_guard lock(mutex_);
+  return last_returns_;
+}
+
+void GameController::set_sending(bool on) {
+  {
+    std::lock_guard lock(mutex_);
+    sending_ = on;
+    if (on) {
+      stepped_aside_.clear();
+    }
+  }
+  wake_.notify_all();
+}
+
+bool GameController::sending() const {
+  std::lock_guard lock(mutex_);
+  return sending_;
+}
+
+std::string GameController::stepped_aside() const {
+  std::lock_guard lock(mutex_);
+  return stepped_aside_;
+}
+
+std::optional<ForeignGameController> GameController::foreign() const {
+  std::lock_guard lock(mutex_);
+  return foreign_;
 }
 
 GameControllerCounters GameController::counters() const {

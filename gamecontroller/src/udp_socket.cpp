@@ -37,7 +37,7 @@ std::string to_string(const Endpoint& endpoint) {
 }
 
 std::optional<UdpSocket> UdpSocket::open(std::uint32_t address, std::uint16_t port, bool broadcast,
-                                         std::string& error) {
+                                         std::string& error, bool reuse_address) {
   const Endpoint endpoint{address, port};
   const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd < 0) {
@@ -48,6 +48,10 @@ std::optional<UdpSocket> UdpSocket::open(std::uint32_t address, std::uint16_t po
   const int on = 1;
   if (broadcast && ::setsockopt(fd, SOL_SOCKET, SO_BROADCAST, &on, sizeof on) != 0) {
     error = std::string("cannot allow broadcast: ") + std::strerror(errno);
+    return std::nullopt;
+  }
+  if (reuse_address && ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on) != 0) {
+    error = std::string("cannot share the address (SO_REUSEADDR): ") + std::strerror(errno);
     return std::nullopt;
   }
   const sockaddr_in bind_address = to_sockaddr(endpoint);

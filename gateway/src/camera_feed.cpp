@@ -44,6 +44,14 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
     mount.config = setup.config;
     add(std::move(mount), setup.location);
   }
+  names_ = names;
+  if (mounts_.size() > kMaxMounts) {
+    throw std::invalid_argument("cameras: at most " + std::to_string(kMaxMounts) + " in one run");
+  }
+  for (std::size_t i = 0; i < mounts_.size(); ++i) {
+    offered_[i] = Offered{true, mounts_[i].fixed, mounts_[i].robot, mounts_[i].body};
+  }
+  offered_end_ = mounts_.size();
   if (mounts_.empty()) {
     return;
   }
@@ -59,7 +67,7 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
   offer_period_ns_ = static_cast<int64_t>(1e9 / fastest_fps);
   // Size every hand-over slot now, so that offer() never allocates.
   OfferedScene initial;
-  initial.X_WB.assign(mounts_.size(), Eigen::Isometry3d::Identity());
+  initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());  // room for cameras added later
   if (world != nullptr) {
     world->fill_scene(initial.scene);
   } else {
@@ -77,15 +85,15 @@ CameraFeed::~CameraFeed() {
 }
 
 void CameraFeed::offer(const physics::World* world, int64_t sim_time_ns) noexcept {
-  if (mounts_.empty() || sim_time_ns < next_offer_ns_) {
+  if (handover_ == nullptr || offered_end_ == 0 || sim_time_ns < next_offer_ns_) {
     return;
   }
   OfferedScene& offered = handover_->back();
   if (world != nullptr) {
-    world->fill_scene(offered.scene);
-    for (std::size_t i = 0; i < mounts_.size(); ++i) {
-      if (!mounts_[i].fixed) {
-        offered.X_WB[i] = world->body_pose(mounts_[i].robot, mounts_[i].body);
+    world->fill_scene(offered.scene);  // after a robot was added, each slot grows once
+    for (std::size_t i = 0; i < offered_end_; ++i) {
+      if (offered_[i].active && !offered_[i].fixed) {
+        offered.X_WB[i] = world->body_pose(offered_[i].robot, offered_[i].body);
       }
     }
   }
@@ -95,7 +103,8 @@ void CameraFeed::offer(const physics::World* world, int64_t sim_time_ns) noexcep
 }
 
 void CameraFeed::start() {
-  if (mounts_.empty() || running_.exchange(true)) {
+  wanted_ = true;
+  if (handover_ == nullptr || running_.exchange(true)) {
     return;
   }
   thread_ = std::thread([this] {
@@ -120,9 +129,11 @@ void CameraFeed::run() {
     // The reader's slot: the simulation thread does not touch it until the next update().
     const OfferedScene& offered = handover_->latest();
     const double time_s = offered.scene.sim_time_s;
+    std::lock_guard<std::mutex> lock(mounts_mutex_);  // held by the adding thread only to add or remove a camera
     for (std::size_t i = 0; i < mounts_.size(); ++i) {
       Mount& mount = mounts_[i];
-      if (time_s + 1e-9 < mount.next_frame_s) {
+      if (!mount.used || !mount.shown || mount.stream == nullptr || time_s <= mount.from_s ||
+          time_s + 1e-9 < mount.next_frame_s) {
         continue;
       }
       mount.stream->render_and_publish(offered.scene, camera::camera_pose_W(mount.config.mount, offered.X_WB[i]), time_s);
@@ -136,7 +147,9 @@ std::string CameraFeed::describe() const {
   if (host_ != nullptr) {
     out << "doppel: " << host_->description() << "\n";
   }
+  std::lock_guard<std::mutex> lock(mounts_mutex_);
   for (const Mount& mount : mounts_) {
+    if (!mount.used || mount.stream == nullptr) continue;
     const camera::CameraConfig& c = mount.config;
     out << "  camera '" << c.name << "' ";
     if (mount.fixed) {
@@ -154,13 +167,94 @@ std::string CameraFeed::describe() const {
 
 std::string CameraFeed::summary() const {
   std::ostringstream out;
+  std::lock_guard<std::mutex> lock(mounts_mutex_);
   for (const Mount& mount : mounts_) {
+    if (!mount.used || mount.stream == nullptr) continue;
     const auto stats = mount.stream->stats();
     out << "  camera '" << mount.config.name << "': " << stats.published << " frames published, " << stats.dropped
         << " dropped, " << stats.skipped_idle << " skipped with no subscriber, " << stats.settings_applied
         << " settings changes applied, " << stats.settings_rejected << " refused\n";
   }
   return out.str();
+}
+
+std::size_t CameraFeed::add(const CameraSetup& setup, const Options& options) {
+  std::size_t id = 0;
+  {
+    std::lock_guard<std::mutex> lock(mounts_mutex_);
+    if (!names_.insert(setup.config.name).second) {
+      throw std::invalid_argument("camera name '" + setup.config.name + "' is already used by another camera of this run");
+    }
+    while (id < mounts_.size() && mounts_[id].used) ++id;
+    if (id >= kMaxMounts) {
+      names_.erase(setup.config.name);
+      throw std::runtime_error("at most " + std::to_string(kMaxMounts) + " cameras in one run");
+    }
+    if (id == mounts_.size()) mounts_.emplace_back();
+    mounts_[id] = Mount{};
+    mounts_[id].shown = false;
+    mounts_[id].config = setup.config;
+  }
+  try {
+    if (host_ == nullptr) {  // nothing streamed yet: iceoryx starts now, its pools sized for this camera
+      camera::StreamingOptions streaming;
+      streaming.roudi = options.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
+      streaming.verbose = options.verbose;
+      host_ = std::make_unique<camera::StreamingHost>(std::vector<camera::CameraConfig>{setup.config}, streaming);
+    }
+    auto stream = std::make_unique<camera::CameraStream>(*host_, setup.config);  // outside the lock: it builds its renderer
+    std::lock_guard<std::mutex> lock(mounts_mutex_);
+    Mount& mount = mounts_[id];
+    mount.body = setup.body;
+    mount.stream = std::move(stream);
+  } catch (...) {
+    release(id);
+    throw;
+  }
+  return id;
+}
+
+void CameraFeed::attach(std::size_t id, std::size_t robot, std::size_t body, double fps, const physics::World* world) {
+  if (handover_ == nullptr) {
+    OfferedScene initial;
+    initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());
+    if (world != nullptr) world->fill_scene(initial.scene);
+    handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial);
+    offer_period_ns_ = static_cast<int64_t>(1e9 / fps);
+  }
+  offer_period_ns_ = std::min(offer_period_ns_, static_cast<int64_t>(1e9 / fps));
+  offered_[id] = Offered{true, false, robot, body};
+  offered_end_ = std::max(offered_end_, id + 1);
+}
+
+void CameraFeed::show(std::size_t id, double from_sim_s) {
+  {
+    std::lock_guard<std::mutex> lock(mounts_mutex_);
+    mounts_[id].shown = true;
+    mounts_[id].from_s = from_sim_s;
+    mounts_[id].next_frame_s = 0.0;
+  }
+  if (wanted_ && handover_ != nullptr && !running_.exchange(true)) {
+    thread_ = std::thread([this] {
+      pthread_setname_np(pthread_self(), "doppel-camera");
+      run();
+    });
+  }
+}
+
+void CameraFeed::hide(std::size_t id) {
+  std::lock_guard<std::mutex> lock(mounts_mutex_);
+  mounts_[id].shown = false;
+  mounts_[id].stream.reset();  // its publisher and services go
+}
+
+void CameraFeed::detach(std::size_t id) noexcept { offered_[id].active = false; }
+
+void CameraFeed::release(std::size_t id) {
+  std::lock_guard<std::mutex> lock(mounts_mutex_);
+  names_.erase(mounts_[id].config.name);
+  mounts_[id] = Mount{};
+  mounts_[id].used = false;
 }
 
 }  // namespace doppel::gateway

@@ -7,11 +7,20 @@
 // time, skipping scenes it was too slow for. Rendering never runs on the simulation thread. Between
 // frames the camera thread takes settings sent over iceoryx (doppel-camera noise); nothing on either
 // thread allocates per frame.
+//
+// Cameras of a robot added while doppel runs (docs/robots-at-run-time.md) join in three steps: the
+// adding thread creates their streams (add(), which may start iceoryx when nothing streamed yet),
+// the simulation thread starts offering their bodies' poses (attach(), between two ticks), the
+// adding thread lets the camera thread render them (show()). They leave in the other order:
+// hide() (the stream is gone: its iceoryx services disappear), detach(), release().
 
 #include <Eigen/Geometry>
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -39,6 +48,25 @@ class CameraFeed {
 
   bool empty() const noexcept { return mounts_.empty(); }
 
+  // Most cameras at once: every robot's (SimController's limit) and the session's.
+  static constexpr std::size_t kMaxMounts = 64;
+  // Adding thread: a stream for camera `setup` of a robot; returns its mount id.
+  // Throws std::invalid_argument (a name already in use, a bad setting) and std::runtime_error
+  // (iceoryx cannot start, the frame does not fit its pools, too many cameras).
+  std::size_t add(const CameraSetup& setup, const Options& options);
+  // Simulation thread, between two ticks: offers mount `id`'s body pose from now on. Allocates
+  // (the hand-over slots, the first time anything streams). rt-unsafe, like every add.
+  void attach(std::size_t id, std::size_t robot, std::size_t body, double fps, const physics::World* world);
+  // Adding thread: the camera thread renders mount `id` in scenes taken after `from_sim_s` and
+  // runs if it did not yet (after start()).
+  void show(std::size_t id, double from_sim_s);
+  // Removing thread: the camera thread stops rendering mount `id`; its stream goes.
+  void hide(std::size_t id);
+  // Simulation thread: stops offering mount `id`.
+  void detach(std::size_t id) noexcept;
+  // Removing thread, after detach(): the id and its name are free again.
+  void release(std::size_t id);
+
   // Simulation thread, after every step (`world` as given to the constructor, `sim_time_ns` its
   // time): hands over the scene when a frame is due. rt-safe: lock-free, wait-free, and it fills
   // a hand-over slot sized in the constructor, so it allocates nothing.
@@ -58,6 +86,16 @@ class CameraFeed {
     camera::CameraConfig config;                            // resolution, lens, noise, X_BC or X_WC
     std::unique_ptr<camera::CameraStream> stream;           // its iceoryx publisher
     double next_frame_s = 0.0;                              // simulation time of its next frame
+    bool used = true;                                       // false: a free id
+    bool shown = true;                                      // the camera thread renders it
+    double from_s = -1.0;                                   // only in scenes taken after this time
+  };
+  // What the simulation thread knows of a mount (its own copy: mounts_ belongs to the camera side).
+  struct Offered {
+    bool active = false;
+    bool fixed = false;
+    std::size_t robot = 0;
+    std::size_t body = 0;
   };
   // What the simulation thread hands to the camera thread: one per frame period.
   struct OfferedScene {
@@ -67,7 +105,15 @@ class CameraFeed {
   void run();
 
   std::unique_ptr<camera::StreamingHost> host_;
+  // Camera side: every mount by id (an id whose stream is null is free), under mounts_mutex_ once
+  // the camera thread runs; the adding thread changes them under it too.
+  mutable std::mutex mounts_mutex_;
   std::vector<Mount> mounts_;
+  std::set<std::string> names_;  // of every mount in use, under mounts_mutex_
+  std::atomic<bool> wanted_{false};  // start() was called (the thread starts with the first camera)
+  // Simulation side.
+  std::array<Offered, kMaxMounts> offered_{};
+  std::size_t offered_end_ = 0;           // ids below this may be active
   int64_t offer_period_ns_ = 50'000'000;  // the fastest camera's frame period
   int64_t next_offer_ns_ = 0;             // simulation thread only
 

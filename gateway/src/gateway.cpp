@@ -19,9 +19,11 @@
 #include "physics/field.h"
 #include "physics/world.h"
 #include "eeprom_state.h"
+#include "field_services.h"
 #include "control/http_api.h"
 #include "base/monotonic_clock.h"
 #include "record/recorder.h"
+#include "live_robots.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
@@ -35,8 +37,6 @@ std::string link_path(const std::string& link_dir, std::size_t robot, std::size_
   return robot == 0 ? link_dir + "/" + name : link_dir + "/robot" + std::to_string(robot) + "/" + name;
 }
 
-namespace {
-
 // Where robot r stands at kick-off: teams alternate, each on its own half, facing the centre.
 physics::RobotPlacement kick_off_placement(std::size_t r) {
   physics::RobotPlacement placement;
@@ -47,8 +47,6 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
   placement.team = second_team ? 1 : 0;
   return placement;
 }
-
-}  // namespace
 
 std::vector<RobotConfig> load_robots(const Options& options) {
   const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
@@ -155,6 +153,8 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   if (options.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
   }
+  field_ = std::make_unique<FieldServices>(options_);
+  controller_->set_field_services(field_.get());
   if (options.viewer) {
     // The viewer's page beside the API; without its files (no libjs-three) the API alone.
     control::StaticFiles files = control::default_static_files();
@@ -176,6 +176,26 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
   }
   if (!options.record_path.empty()) start_recorder(configs);
+  // Robots added and removed while doppel runs (the session handshake); these are robots 0..n-1.
+  std::vector<control::RobotAdded> started;
+  for (std::size_t r = 0; r < robots_.size(); ++r) {
+    control::RobotAdded robot{static_cast<uint32_t>(r), configs[r].name, {}};
+    for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
+      const std::string& link = robots_[r]->bus(b).link();
+      robot.links.push_back({"bus", "ttyDXL" + std::to_string(b), link});
+      robot.links.push_back({"latency_timer", "ttyDXL" + std::to_string(b), bus::LatencyTimerFiles::path_for_link(link)});
+    }
+    for (std::size_t c = 0; cameras_ != nullptr && in_world[r] && c < configs[r].cameras.size(); ++c) {
+      const std::string name = (r > 0 ? "robot" + std::to_string(r) + "-" : "") + configs[r].cameras[c].config.name;
+      robot.links.push_back({"camera", name, "iceoryx:DoppelCamera/" + name + "/frames"});
+    }
+    started.push_back(std::move(robot));
+  }
+  live_ = std::make_unique<LiveRobots>(
+      LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(),
+                        0.5 * field.field_length_m + field.border_strip_width_m,
+                        0.5 * field.field_width_m + field.border_strip_width_m},
+      std::move(started));
 }
 
 void Gateway::start_truth(const std::vector<RobotConfig>& configs,
@@ -206,6 +226,8 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
   }
   controller_->set_world_model(truth_.get());
 }
+
+control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 
 void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
   recording::RunInfo run;
@@ -260,6 +282,8 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
 
 Gateway::~Gateway() { stop(); }
 
+teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }
+
 uint16_t Gateway::control_port() const noexcept { return control_api_ != nullptr ? control_api_->port() : 0; }
 
 void Gateway::start() {
@@ -274,10 +298,12 @@ void Gateway::start() {
   if (cameras_ != nullptr) {
     cameras_->start();
   }
+  live_->simulation_started();
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");
     simulate();
   });
+  field_->start();
   if (control_api_ != nullptr) {
     control_api_->start();
   }
@@ -360,8 +386,14 @@ void Gateway::keep_state() noexcept {
 }
 
 void Gateway::stop() {
+  if (live_ != nullptr) {
+    live_->close();  // the robots added while running go first, while the simulation thread still runs
+  }
   if (control_api_ != nullptr) {
     control_api_->stop();  // no request waits for a simulation thread that is gone
+  }
+  if (field_ != nullptr) {
+    field_->stop();
   }
   stop_ = true;
   if (latency_files_ != nullptr) {
@@ -372,6 +404,9 @@ void Gateway::stop() {
   }
   if (truth_ != nullptr) {
     truth_->stop();  // after the simulation thread: nothing captures any more
+  }
+  if (live_ != nullptr) {
+    live_->simulation_stopped();
   }
   if (cameras_ != nullptr) {
     cameras_->stop();
@@ -396,11 +431,13 @@ void Gateway::simulate() noexcept {
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
   while (!stop_.load(std::memory_order_relaxed)) {
+    live_->run_pending();  // a robot added or removed: this tick may overrun
     // Paused (doppel-ctl pause), the world and the sensors' time stand still; the buses answer on.
     if (controller_->begin_tick()) {
       for (auto& robot : robots_) {
         robot->drive(dt_s);
       }
+      live_->drive(dt_s);
       if (world_ != nullptr) {
         world_->step();
         sim_time_ns = world_->time_ns();
@@ -416,6 +453,7 @@ void Gateway::simulate() noexcept {
       if (truth_ != nullptr) {
         truth_->capture(*world_, sim_time_ns);
       }
+      live_->sense(sim_time_ns);
     }
     controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
@@ -441,6 +479,7 @@ std::string Gateway::describe() const {
       out << "doppel: viewer on http://" << control_api_->address() << ":" << control_api_->port() << "/\n";
     }
   }
+  out << field_->describe();
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
       << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";
@@ -454,6 +493,9 @@ std::string Gateway::summary() const {
   std::ostringstream out;
   for (const auto& robot : robots_) {
     out << robot->summary();
+  }
+  if (live_ != nullptr) {
+    out << live_->summary();
   }
   if (cameras_ != nullptr) {
     out << cameras_->summary();

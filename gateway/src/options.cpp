@@ -118,6 +118,35 @@ Options:
                          ...on this IPv4 address (default 127.0.0.1: this machine only; name another
                          address only for control software on another machine).
   --no-truth-iceoryx     Publish the world model over UDP only (no iceoryx RouDi needed).
+  --gamecontroller [on|off]
+                         Run a RoboCup GameController (Humanoid League protocol, struct version 12;
+                         docs/gamecontroller.md) inside doppel, driven from doppel-ctl game and the
+                         viewer. Off by default: a robot's software behaves differently once it hears
+                         a GameController. doppel-ctl game on starts it later.
+  --gc-teams A,B         Team numbers of team A (cyan, kicks off first) and B (default 1,2).
+  --gc-players N         Players per team in the packets (default 4).
+  --gc-destination ADDRESS:PORT
+                         Where the game packets go (default 127.0.0.1:3838: this machine only). A
+                         broadcast address (x.x.x.255) sends to the LAN: only if you name it.
+  --gc-return ADDRESS:PORT
+                         Where return packets are received (default 127.0.0.1:3939).
+  --gc-watch ADDRESS:PORT|off
+                         Watch for another GameController's packets and stop sending when one
+                         appears (default 255.255.255.255:3838: broadcasts only, never the unicast
+                         packets meant for the robots; shares the port with SO_REUSEADDR, so a
+                         robot's software binding 3838 needs SO_REUSEADDR too, or use off).
+  --teamcomm [ADDRESS:]PORT
+                         Relay the robots' team messages (UDP) between their software on this
+                         machine (docs/teamcomm.md), listening on ADDRESS:PORT (default address
+                         127.0.0.1; port 0: any free port, printed at start).
+  --teamcomm-robot TEAM:PLAYER:PORT
+                         A robot's software that receives (and sends from) PORT; repeat. Robots can
+                         also register while doppel runs (doppel-ctl teamcomm add).
+  --teamcomm-robot-address ADDR
+                         The address the robots' software runs on (default 127.0.0.1).
+  --teamcomm-loss P, --teamcomm-delay-ms D, --teamcomm-jitter-ms J, --teamcomm-jitter uniform|normal,
+  --teamcomm-burst-enter P, --teamcomm-burst-leave P, --teamcomm-burst-loss P, --teamcomm-seed S
+                         The WiFi model of every link, as doppel-teamcomm's options of the same names.
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -183,6 +212,27 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--truth-udp-port", options.truth_udp_port)->transform(number_in<uint16_t>(1, 65471));
   app.add_option("--truth-udp-address", options.truth_udp_address)->check(CLI::ValidIPV4);
   app.add_flag("--no-truth-iceoryx{false}", options.truth_iceoryx);
+  std::string gamecontroller;
+  app.add_option("--gamecontroller", gamecontroller)->expected(0, 1);
+  std::string gc_teams;
+  app.add_option("--gc-teams", gc_teams)->check(not_empty("the team numbers"));
+  app.add_option("--gc-players", options.gc_players)->transform(number_in<int>(1, 11));
+  app.add_option("--gc-destination", options.gc_destination)->check(not_empty("the address"));
+  app.add_option("--gc-return", options.gc_return)->check(not_empty("the address"));
+  app.add_option("--gc-watch", options.gc_watch)->check(not_empty("the address"));
+  app.add_option("--teamcomm", options.teamcomm)->check(not_empty("the address"));
+  app.add_option("--teamcomm-robot", options.teamcomm_robots)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  app.add_option("--teamcomm-robot-address", options.teamcomm_robot_address)->check(not_empty("the address"));
+  double teamcomm_delay_ms = 0.0, teamcomm_jitter_ms = 0.0;
+  std::string teamcomm_jitter = "uniform";
+  app.add_option("--teamcomm-loss", options.teamcomm_link.loss_probability)->transform(number_in<double>(0.0, 1.0));
+  app.add_option("--teamcomm-delay-ms", teamcomm_delay_ms)->transform(number_in<double>(0.0, 60000.0));
+  app.add_option("--teamcomm-jitter-ms", teamcomm_jitter_ms)->transform(number_in<double>(0.0, 60000.0));
+  app.add_option("--teamcomm-jitter", teamcomm_jitter)->check(CLI::IsMember({"uniform", "normal"}));
+  app.add_option("--teamcomm-burst-enter", options.teamcomm_link.p_good_to_bad)->transform(number_in<double>(0.0, 1.0));
+  app.add_option("--teamcomm-burst-leave", options.teamcomm_link.p_bad_to_good)->transform(number_in<double>(0.0, 1.0));
+  app.add_option("--teamcomm-burst-loss", options.teamcomm_link.loss_in_bad)->transform(number_in<double>(0.0, 1.0));
+  app.add_option("--teamcomm-seed", options.teamcomm_seed);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -193,6 +243,37 @@ Options parse_options(int argc, const char* const* argv) {
   }
   if (options.robots.empty()) {
     options.robots.emplace_back("fumanoid-2011");
+  }
+  if (app.count("--gamecontroller") > 0) {
+    if (gamecontroller != "" && gamecontroller != "on" && gamecontroller != "off") {
+      throw std::invalid_argument("--gamecontroller '" + gamecontroller + "': expected on or off (see --help)");
+    }
+    options.gamecontroller = gamecontroller != "off";
+  }
+  if (!gc_teams.empty()) {
+    const auto comma = gc_teams.find(',');
+    const auto team = [&gc_teams](const std::string& part) {
+      if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
+        throw std::invalid_argument("--gc-teams '" + gc_teams + "': '" + part + "' is not a team number 0..255 (see --help)");
+      }
+      return std::stoi(part);
+    };
+    if (comma == std::string::npos) throw std::invalid_argument("--gc-teams '" + gc_teams + "': expected A,B (see --help)");
+    options.gc_team_a = team(gc_teams.substr(0, comma));
+    options.gc_team_b = team(gc_teams.substr(comma + 1));
+    if (options.gc_team_a == options.gc_team_b) {
+      throw std::invalid_argument("--gc-teams '" + gc_teams + "': the two teams need different numbers (see --help)");
+    }
+  }
+  options.teamcomm_link.delay_ns = static_cast<int64_t>(teamcomm_delay_ms * 1e6);
+  options.teamcomm_link.jitter_ns = static_cast<int64_t>(teamcomm_jitter_ms * 1e6);
+  options.teamcomm_link.jitter = teamcomm_jitter == "normal" ? teamcomm::Jitter::kHalfNormal : teamcomm::Jitter::kUniform;
+  options.teamcomm_link.burst = options.teamcomm_link.p_good_to_bad > 0.0;
+  if (options.teamcomm.empty()) {
+    for (const char* name : {"--teamcomm-robot", "--teamcomm-loss", "--teamcomm-delay-ms", "--teamcomm-jitter-ms",
+                             "--teamcomm-burst-enter"}) {
+      if (app.count(name) > 0) throw std::invalid_argument(std::string(name) + " needs --teamcomm [ADDRESS:]PORT (see --help)");
+    }
   }
   if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
     throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");

@@ -5,6 +5,7 @@
 
 #include "camera/image_io.h"
 #include "camera/lens.h"
+#include "field_services.h"
 #include "robot_runtime.h"
 #include "truth/truth_service.h"
 
@@ -16,18 +17,26 @@ constexpr std::chrono::milliseconds kAnswerTimeout{5000};  // a loaded machine m
 }  // namespace
 
 void SimController::add_devices(std::size_t r) {
-  imus_.emplace_back();
-  feet_.emplace_back();
-  cameras_.emplace_back();
+  imus_[r].clear();
+  feet_[r].clear();
+  cameras_[r].clear();
+  joint_names_[r].clear();
   const Robot& robot = robots_[r];
+  if (world_ != nullptr && robot.in_world) {
+    for (const physics::LinkModel& link : world_->robot(*robot.in_world).links) joint_names_[r].push_back(link.name);
+  }
+  if (joint_names_[r].size() > kMaxJoints) {
+    throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
+                                std::to_string(kMaxJoints) + " links");
+  }
   if (world_ == nullptr || !robot.in_world) return;
   const std::size_t w = *robot.in_world;
   const RobotConfig& config = robot.config != nullptr ? *robot.config : robot.runtime->config();
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
     for (const DeviceConfig& device : config.buses[b].devices) {
       const auto bus = static_cast<uint32_t>(b);
-      if (const auto imu = world_->find_imu(w, bus, device.id)) imus_.back().push_back({device.name, bus, device.id, *imu});
-      if (const auto foot = world_->find_foot(w, bus, device.id)) feet_.back().push_back({device.name, bus, device.id, *foot});
+      if (const auto imu = world_->find_imu(w, bus, device.id)) imus_[r].push_back({device.name, bus, device.id, *imu});
+      if (const auto foot = world_->find_foot(w, bus, device.id)) feet_[r].push_back({device.name, bus, device.id, *foot});
     }
   }
   for (const CameraSetup& setup : config.cameras) {
@@ -50,9 +59,9 @@ void SimController::add_devices(std::size_t r) {
       }
       camera.corner_rays[c] = {ray.x(), ray.y(), ray.z()};
     }
-    cameras_.back().push_back(std::move(camera));
+    cameras_[r].push_back(std::move(camera));
   }
-  if (imus_.back().size() > kSimMaxImus || feet_.back().size() > kSimMaxFeet || cameras_.back().size() > kSimMaxCameras) {
+  if (imus_[r].size() > kSimMaxImus || feet_[r].size() > kSimMaxFeet || cameras_[r].size() > kSimMaxCameras) {
     throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
                                 std::to_string(kSimMaxImus) + " IMUs, " + std::to_string(kSimMaxFeet) +
                                 " foot boards or " + std::to_string(kSimMaxCameras) + " cameras");
@@ -68,17 +77,15 @@ SimController::SimController(physics::World* world, std::vector<Robot> robots, d
   if (robots_.size() > kMaxRobots) {
     throw std::invalid_argument("simulation control: at most " + std::to_string(kMaxRobots) + " robots");
   }
-  for (const Robot& robot : robots_) {
-    std::vector<std::string> names;
-    if (world_ != nullptr && robot.in_world) {
-      for (const physics::LinkModel& link : world_->robot(*robot.in_world).links) names.push_back(link.name);
-    }
-    if (names.size() > kMaxJoints) {
-      throw std::invalid_argument("simulation control: robot '" + robot.name + "' has more than " +
-                                  std::to_string(kMaxJoints) + " links");
-    }
-    joint_names_.push_back(std::move(names));
-    add_devices(joint_names_.size() - 1);
+  const std::size_t count = robots_.size();
+  robots_.resize(kMaxRobots);  // every slot now: robots added later never move the others
+  joint_names_.resize(kMaxRobots);
+  imus_.resize(kMaxRobots);
+  feet_.resize(kMaxRobots);
+  cameras_.resize(kMaxRobots);
+  for (std::size_t r = 0; r < count; ++r) {
+    add_devices(r);
+    present_[r] = shown_[r] = true;
   }
   if (world_ != nullptr) {
     ScenePublication initial;
@@ -213,7 +220,9 @@ control::CameraStill SimController::camera_still(const std::string& name) {
 
 std::vector<control::BusTable> SimController::buses() {
   std::vector<control::BusTable> out;
+  std::lock_guard<std::mutex> lock(robots_mutex_);
   for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (!shown_[r]) continue;
     for (control::BusTable& table : robots_[r].runtime->servo_tables()) {
       table.robot = r;
       table.robot_name = robots_[r].name;
@@ -236,9 +245,18 @@ control::SimState SimController::state() {
   state.missed_ticks = sample.missed_ticks;
   state.carpet_half_length_m = carpet_half_length_m_;
   state.carpet_half_width_m = carpet_half_width_m_;
+  std::lock_guard<std::mutex> lock(robots_mutex_);
+  std::size_t count = 0;  // up to the last robot shown; an empty slot before it is a robot without a name
   for (std::size_t r = 0; r < robots_.size(); ++r) {
+    if (shown_[r]) count = r + 1;
+  }
+  for (std::size_t r = 0; r < count; ++r) {
     const RobotSample& s = sample.robots[r];
     control::RobotState robot;
+    if (!shown_[r]) {
+      state.robots.push_back(std::move(robot));
+      continue;
+    }
     robot.name = robots_[r].name;
     robot.simulated = world_ != nullptr && robots_[r].in_world.has_value();
     if (robot.simulated) {
@@ -333,8 +351,9 @@ void SimController::finish(uint64_t sequence, int status) noexcept {
 }
 
 void SimController::apply(const Request& request) noexcept {
-  const std::optional<std::size_t> body =
-      request.robot < robots_.size() && world_ != nullptr ? robots_[request.robot].in_world : std::nullopt;
+  const bool has_body = request.robot < robots_.size() && present_[request.robot] && world_ != nullptr &&
+                        robots_[request.robot].in_world.has_value();
+  const std::size_t body = has_body ? *robots_[request.robot].in_world : 0;
   int status = 200;
   switch (request.kind) {
     case Kind::kPause:
@@ -352,17 +371,19 @@ void SimController::apply(const Request& request) noexcept {
       step_sequence_ = request.sequence;
       return;  // finished when the steps ran (end_tick)
     case Kind::kReset:
-      for (const Robot& robot : robots_) {
+      for (std::size_t r = 0; r < robots_.size(); ++r) {
+        if (!present_[r]) continue;
+        const Robot& robot = robots_[r];
         if (world_ != nullptr && robot.in_world) world_->reset_robot(*robot.in_world);
         robot.runtime->power_on();
       }
       if (world_ != nullptr) world_->reset_ball();
       break;
     case Kind::kPlace:
-      if (body) world_->place_robot(*body, request.a, request.b, request.c);
+      if (has_body) world_->place_robot(body, request.a, request.b, request.c);
       break;
     case Kind::kPush:
-      if (body) world_->push(*body, Eigen::Vector3d(request.a, request.b, request.c), request.steps);
+      if (has_body) world_->push(body, Eigen::Vector3d(request.a, request.b, request.c), request.steps);
       break;
     case Kind::kBall:
       if (world_ != nullptr) {
@@ -388,7 +409,7 @@ void SimController::publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) n
   sample.steps_left = steps_left_;
   sample.missed_ticks = missed_ticks;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
-    if (world_ == nullptr || !robots_[r].in_world) continue;
+    if (!present_[r] || world_ == nullptr || !robots_[r].in_world) continue;
     const std::size_t w = *robots_[r].in_world;
     RobotSample& s = sample.robots[r];
     const Eigen::Isometry3d X_WR = world_->robot_pose(w);
@@ -431,9 +452,11 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
   if (scene_ != nullptr && ++scene_ticks_ >= kSceneEveryTicks) {
     scene_ticks_ = 0;
     ScenePublication& publication = scene_->back();
-    world_->fill_scene(publication.view);  // same shape count as at setup: no allocation
+    world_->fill_scene(publication.view);  // same shape count as at setup: no allocation (after a
+                                           // robot was added, each slot grows once)
     publication.view.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
     for (std::size_t r = 0; r < cameras_.size(); ++r) {
+      if (!present_[r]) continue;
       for (std::size_t i = 0; i < cameras_[r].size(); ++i) publication.X_WC[r][i] = camera_pose(r, i);
     }
     scene_->publish();
@@ -443,6 +466,76 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
     pending_sequence_ = 0;
   }
   if (step_done) finish(step_sequence_, 200);
+}
+
+std::optional<control::GameStatus> SimController::game() {
+  if (field_ == nullptr) return std::nullopt;
+  return field_->game_status();
+}
+
+control::Outcome SimController::game_command(const control::GameCommand& command) {
+  if (field_ == nullptr) return control::SimControl::game_command(command);
+  return field_->game_command(command);
+}
+
+std::optional<control::TeamcommStatus> SimController::teamcomm() {
+  if (field_ == nullptr) return std::nullopt;
+  return field_->teamcomm_status();
+}
+
+control::Outcome SimController::teamcomm_add(const control::TeamcommRobot& robot) {
+  if (field_ == nullptr) return control::SimControl::teamcomm_add(robot);
+  return field_->teamcomm_add(robot);
+}
+
+control::Outcome SimController::teamcomm_remove(int team, int player) {
+  if (field_ == nullptr) return control::SimControl::teamcomm_remove(team, player);
+  return field_->teamcomm_remove(team, player);
+}
+
+void SimController::attach(std::size_t index, Robot robot) {
+  if (index >= kMaxRobots || present_[index]) {
+    throw std::invalid_argument("simulation control: robot slot " + std::to_string(index) + " is not free");
+  }
+  robots_[index] = std::move(robot);
+  try {
+    add_devices(index);
+  } catch (...) {
+    detach(index);
+    throw;
+  }
+  present_[index] = true;
+}
+
+void SimController::show(std::size_t index) {
+  {
+    std::lock_guard<std::mutex> lock(stills_mutex_);
+    for (std::size_t i = 0; world_ != nullptr && i < cameras_[index].size(); ++i) {
+      stills_.emplace_back();
+      stills_.back().robot = index;
+      stills_.back().camera = i;
+    }
+  }
+  std::lock_guard<std::mutex> lock(robots_mutex_);
+  shown_[index] = true;
+}
+
+void SimController::hide(std::size_t index) {
+  {
+    std::lock_guard<std::mutex> lock(robots_mutex_);
+    shown_[index] = false;
+  }
+  std::lock_guard<std::mutex> lock(stills_mutex_);
+  std::erase_if(stills_, [&](const Still& still) { return still.robot == index; });
+}
+
+void SimController::detach(std::size_t index) noexcept {
+  present_[index] = false;
+  robots_[index] = Robot{};
+  joint_names_[index].clear();
+  imus_[index].clear();
+  feet_[index].clear();
+  cameras_[index].clear();
 }
 
 }  // namespace doppel::gateway

@@ -31,6 +31,7 @@ class TruthService;
 namespace doppel::gateway {
 
 class RobotRuntime;
+class FieldServices;
 
 inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
 inline constexpr std::size_t kSimMaxJoints = 64;
@@ -89,6 +90,17 @@ class SimController final : public control::SimControl {
   // `world` may be null (no robot has a body); it and the runtimes outlive the controller. Setup.
   SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m, double carpet_half_width_m);
 
+  // A robot added while doppel runs (docs/robots-at-run-time.md), as robot `index` (a slot that
+  // holds none). attach() on the simulation thread, between two ticks, once the robot is in the
+  // world: finds its devices (allocates; throws std::invalid_argument like the constructor) and
+  // from then on publishes it. show() on the adding thread afterwards: the HTTP side (state,
+  // buses, camera stills) shows it. Removal in the other order: hide() on the removing thread,
+  // then detach() on the simulation thread.
+  void attach(std::size_t index, Robot robot);
+  void show(std::size_t index);
+  void hide(std::size_t index);
+  void detach(std::size_t index) noexcept;
+
   // control::SimControl, from any thread but the simulation thread.
   control::SimState state() override;
   control::Outcome pause() override;
@@ -109,6 +121,14 @@ class SimController final : public control::SimControl {
   void set_world_model(truth::TruthService* truth) noexcept { truth_ = truth; }
   control::WorldModelAnswer world_model(std::size_t robot) override;
   control::WorldModelAnswer set_world_model(std::size_t robot, const control::WorldModelSettings& settings) override;
+  // The GameController and the hub (field_services.h) answer the game and teamcomm requests;
+  // `field` outlives the controller. Setup, before the API serves.
+  void set_field_services(FieldServices* field) noexcept { field_ = field; }
+  std::optional<control::GameStatus> game() override;
+  control::Outcome game_command(const control::GameCommand& command) override;
+  std::optional<control::TeamcommStatus> teamcomm() override;
+  control::Outcome teamcomm_add(const control::TeamcommRobot& robot) override;
+  control::Outcome teamcomm_remove(int team, int player) override;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -126,7 +146,7 @@ class SimController final : public control::SimControl {
 
   // Where camera i of robot r is now. Simulation thread; rt-safe.
   Eigen::Isometry3d camera_pose(std::size_t r, std::size_t i) const noexcept;
-  // Setup: finds robot r's IMUs, foot boards (by its file's devices) and cameras in the world.
+  // Setup: finds robot r's links, IMUs, foot boards (by its file's devices) and cameras in the world.
   void add_devices(std::size_t r);
   control::Outcome submit(Request request, std::chrono::milliseconds timeout);
   void apply(const Request& request) noexcept;
@@ -135,8 +155,15 @@ class SimController final : public control::SimControl {
   void publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept;
 
   physics::World* world_;
-  std::vector<Robot> robots_;
+  FieldServices* field_ = nullptr;
   truth::TruthService* truth_ = nullptr;
+  // Per robot index (kMaxRobots slots; an index without a robot has runtime null). An entry is
+  // written only while neither side shows it: present_ (simulation thread) and shown_ (under
+  // robots_mutex_, the HTTP threads) say which entries are in use.
+  std::vector<Robot> robots_;
+  std::array<bool, kSimMaxRobots> present_{};  // simulation thread
+  std::mutex robots_mutex_;                     // request side only
+  std::array<bool, kSimMaxRobots> shown_{};     // under robots_mutex_
   std::vector<std::vector<std::string>> joint_names_;  // per robot, its figure's links (none without a body)
   // Per robot (in the world): its IMUs, foot boards and cameras, found at setup.
   template <typename Handle>

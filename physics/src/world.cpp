@@ -20,7 +20,7 @@ const Rgb kTeamColours[2] = {kTeamCyan, kTeamMagenta};
 template <class Handle, class Slot>
 std::optional<Handle> find_slot(const std::vector<Slot>& slots, size_t robot, uint32_t bus, uint8_t id) noexcept {
   for (size_t i = 0; i < slots.size(); ++i) {
-    if (slots[i].robot == robot && slots[i].bus == bus && slots[i].id == id) {
+    if (slots[i].alive && slots[i].robot == robot && slots[i].bus == bus && slots[i].id == id) {
       return Handle{static_cast<uint32_t>(i)};
     }
   }
@@ -64,7 +64,10 @@ void rpy_of(const Eigen::Matrix3d& R, double& roll, double& pitch, double& yaw) 
 }  // namespace
 
 struct World::RobotSlot {
+  bool present = false;               // false: an empty slot (never filled, or the robot was removed)
   RobotModel model;
+  int body_count = 0;                 // backend bodies and joints made so far (build_robot)
+  int joint_count = 0;
   int first_body = 0;                 // backend index of model body 0
   int first_joint = 0;                // backend index of model link 0
   bool held = false;
@@ -84,6 +87,7 @@ struct World::RobotSlot {
 };
 
 struct World::MotorSlot {
+  bool alive = true;  // false once its robot was removed
   size_t robot = 0;
   int link = 0;       // link index in the robot
   int joint = 0;      // backend joint
@@ -100,6 +104,7 @@ struct World::MotorSlot {
 };
 
 struct World::ImuSlot {
+  bool alive = true;
   size_t robot = 0;
   uint32_t bus = 0;
   uint8_t id = 0;
@@ -112,6 +117,7 @@ struct World::ImuSlot {
 };
 
 struct World::FootSlot {
+  bool alive = true;
   size_t robot = 0;
   uint32_t bus = 0;
   uint8_t id = 0;
@@ -173,8 +179,10 @@ World::World(std::unique_ptr<Backend> backend, std::vector<RobotModel> robots, s
   };
   if (options_.ball.present) ball_body_ = add_ball(options_.ball);
   for (const BallOptions& ball : options_.extra_balls) extra_ball_bodies_.push_back(add_ball(ball));
+  robots_.reserve(kMaxRobotGroups);  // add_robot never moves a slot: robot() references stay valid
   robots_.resize(robots.size());
   for (size_t r = 0; r < robots.size(); ++r) {
+    robots_[r].present = true;
     robots_[r].model = std::move(robots[r]);
     RobotPlacement placement = r < placements.size() ? placements[r] : RobotPlacement{};
     if (r >= placements.size()) {
@@ -255,6 +263,7 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
     if (b == 0) {
       robot.first_body = id;
     }
+    ++robot.body_count;
   }
   for (const auto& [a, b] : model.collision_exempt) {
     backend_->exclude_collision(robot.first_body + a, robot.first_body + b);
@@ -275,6 +284,7 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
     if (l == 0) {
       robot.first_joint = id;
     }
+    ++robot.joint_count;
   }
   for (size_t b = 0; b < model.bodies.size(); ++b) {
     backend_->set_body_state(robot.first_body + static_cast<int>(b), X_WR * X_RB[b], Eigen::Vector3d::Zero(),
@@ -283,7 +293,8 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
   robot.hold_position = q;
 
   for (const MotorModel& m : model.motors) {
-    MotorSlot slot{index,
+    MotorSlot slot{true,
+                   index,
                    m.link,
                    robot.first_joint + m.link,
                    m.params,
@@ -331,6 +342,60 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
   }
 }
 
+size_t World::add_robot(RobotModel model, const RobotPlacement& placement) {
+  size_t index = 0;
+  while (index < robots_.size() && robots_[index].present) ++index;
+  if (index >= kMaxRobotGroups) {
+    throw std::invalid_argument("World: at most " + std::to_string(kMaxRobotGroups) + " robots");
+  }
+  if (index == robots_.size()) robots_.emplace_back();  // within the capacity reserved at construction
+  RobotSlot& slot = robots_[index];
+  slot = RobotSlot{};
+  slot.present = true;
+  slot.model = std::move(model);
+  const size_t motors = motors_.size(), imus = imus_.size(), feet = feet_.size();
+  try {
+    build_robot(index, placement);
+    backend_->finalize();
+  } catch (...) {
+    tear_down(index);
+    // The new robot's slots only: the others' handles are unchanged.
+    motors_.erase(motors_.begin() + static_cast<std::ptrdiff_t>(motors), motors_.end());
+    imus_.erase(imus_.begin() + static_cast<std::ptrdiff_t>(imus), imus_.end());
+    feet_.erase(feet_.begin() + static_cast<std::ptrdiff_t>(feet), feet_.end());
+    slot = RobotSlot{};
+    throw;
+  }
+  update_sensors(index);
+  return index;
+}
+
+void World::remove_robot(size_t robot) {
+  if (!has_robot(robot)) {
+    throw std::invalid_argument("World: no robot " + std::to_string(robot) + " to remove");
+  }
+  tear_down(robot);
+  robots_[robot] = RobotSlot{};
+}
+
+void World::tear_down(size_t index) noexcept {
+  RobotSlot& slot = robots_[index];
+  for (int j = 0; j < slot.joint_count; ++j) backend_->remove_joint(slot.first_joint + j);
+  for (int b = 0; b < slot.body_count; ++b) backend_->remove_body(slot.first_body + b);
+  slot.joint_count = slot.body_count = 0;
+  for (MotorSlot& m : motors_) {
+    if (m.robot == index) m.alive = false;
+  }
+  for (ImuSlot& imu : imus_) {
+    if (imu.robot == index) imu.alive = false;
+  }
+  for (FootSlot& foot : feet_) {
+    if (foot.robot == index) foot.alive = false;
+  }
+}
+
+bool World::has_robot(size_t robot) const noexcept { return robot < robots_.size() && robots_[robot].present; }
+
 std::optional<MotorHandle> World::find_motor(size_t robot, uint32_t bus, uint8_t id) const noexcept {
   return find_slot<MotorHandle>(motors_, robot, bus, id);
 }
@@ -344,7 +409,7 @@ std::optional<FootHandle> World::find_foot(size_t robot, uint32_t bus, uint8_t i
 }
 
 void World::set_motor(MotorHandle motor, const MotorCommand& command) noexcept {
-  if (motor.index >= motors_.size()) {
+  if (motor.index >= motors_.size() || !motors_[motor.index].alive) {
     return;
   }
   MotorSlot& slot = motors_[motor.index];
@@ -366,7 +431,7 @@ DriveLaw World::hold_law(double target, double position) const noexcept {
 }
 
 void World::hold(size_t robot) noexcept {
-  if (robot >= robots_.size()) {
+  if (!has_robot(robot)) {
     return;
   }
   RobotSlot& slot = robots_[robot];
@@ -380,7 +445,7 @@ void World::hold(size_t robot) noexcept {
 }
 
 void World::release(size_t robot) noexcept {
-  if (robot >= robots_.size()) {
+  if (!has_robot(robot)) {
     return;
   }
   RobotSlot& slot = robots_[robot];
@@ -393,10 +458,10 @@ void World::release(size_t robot) noexcept {
   }
 }
 
-bool World::held(size_t robot) const noexcept { return robot < robots_.size() && robots_[robot].held; }
+bool World::held(size_t robot) const noexcept { return has_robot(robot) && robots_[robot].held; }
 
 void World::place_held(size_t robot, const Eigen::Isometry3d& X_WR) {
-  if (robot >= robots_.size()) {
+  if (!has_robot(robot)) {
     throw std::invalid_argument("World::place_held: no robot " + std::to_string(robot));
   }
   RobotSlot& slot = robots_[robot];
@@ -411,7 +476,7 @@ void World::place_held(size_t robot, const Eigen::Isometry3d& X_WR) {
   }
   backend_->set_pinned(slot.first_body + slot.model.root, true);
   for (ImuSlot& imu : imus_) {
-    if (imu.robot == robot) {
+    if (imu.alive && imu.robot == robot) {
       imu.has_prev = false;
     }
   }
@@ -431,10 +496,10 @@ void World::set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noex
   }
   const size_t robot = static_cast<size_t>(&slot - robots_.data());
   for (ImuSlot& imu : imus_) {
-    if (imu.robot == robot) imu.has_prev = false;
+    if (imu.alive && imu.robot == robot) imu.has_prev = false;
   }
   for (MotorSlot& m : motors_) {
-    if (m.robot == robot) {
+    if (m.alive && m.robot == robot) {
       m.state.position_rad = m.direction * slot.initial_position[static_cast<size_t>(m.link)] + m.offset_rad;
       m.state.velocity_rad_s = 0.0;
     }
@@ -443,7 +508,7 @@ void World::set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noex
 }
 
 void World::place_robot(size_t robot, double x_m, double y_m, double yaw_rad) noexcept {
-  if (robot >= robots_.size()) return;
+  if (!has_robot(robot)) return;
   RobotSlot& slot = robots_[robot];
   Eigen::Isometry3d X_WR = Eigen::Isometry3d::Identity();
   X_WR.linear() = Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
@@ -452,7 +517,7 @@ void World::place_robot(size_t robot, double x_m, double y_m, double yaw_rad) no
 }
 
 void World::reset_robot(size_t robot) noexcept {
-  if (robot >= robots_.size()) return;
+  if (!has_robot(robot)) return;
   RobotSlot& slot = robots_[robot];
   slot.push_steps = 0;
   slot.release_pending = false;
@@ -463,7 +528,7 @@ void World::reset_robot(size_t robot) noexcept {
   }
   set_robot_frame(slot, slot.start_X_WR);
   for (MotorSlot& m : motors_) {
-    if (m.robot == robot) {
+    if (m.alive && m.robot == robot) {
       m.command = MotorCommand{};
       m.thermal.set_temperature_c(options_.ambient_c);
       m.state.temperature_c = options_.ambient_c;
@@ -472,12 +537,13 @@ void World::reset_robot(size_t robot) noexcept {
 }
 
 void World::push(size_t robot, const Eigen::Vector3d& f_W, uint32_t steps) noexcept {
-  if (robot >= robots_.size()) return;
+  if (!has_robot(robot)) return;
   robots_[robot].push_force = f_W;
   robots_[robot].push_steps = steps;
 }
 
 Eigen::Isometry3d World::robot_pose(size_t robot) const noexcept {
+  if (!has_robot(robot)) return Eigen::Isometry3d::Identity();
   const RobotSlot& slot = robots_[robot];
   const Eigen::Isometry3d X_WB = backend_->body(slot.first_body + slot.model.root).X_WB;
   return X_WB * slot.initial_X_RB[static_cast<size_t>(slot.model.root)].inverse();
@@ -510,6 +576,7 @@ void World::set_motor_temperature(MotorHandle motor, double temperature_c) noexc
 void World::step() noexcept {
   for (size_t r = 0; r < robots_.size(); ++r) {
     RobotSlot& robot = robots_[r];
+    if (!robot.present) continue;
     if (robot.held && robot.hand_over_end_step >= 0) {
       bool all_on = true;
       for (const int m : robot.link_motor) {
@@ -535,6 +602,7 @@ void World::step() noexcept {
     }
   }
   for (MotorSlot& m : motors_) {
+    if (!m.alive) continue;
     if (robots_[m.robot].held && !handed_over(robots_[m.robot], static_cast<size_t>(m.link))) {
       m.law = DriveLaw{};
       continue;
@@ -547,7 +615,7 @@ void World::step() noexcept {
   }
 
   for (RobotSlot& robot : robots_) {
-    if (robot.push_steps > 0) {
+    if (robot.present && robot.push_steps > 0) {
       backend_->add_force(robot.first_body + robot.model.root, robot.push_force);
       --robot.push_steps;
     }
@@ -556,6 +624,7 @@ void World::step() noexcept {
   ++steps_;
 
   for (MotorSlot& m : motors_) {
+    if (!m.alive) continue;
     const JointReading reading = backend_->joint(m.joint);
     const double joint_torque = drive_torque(m.law, reading.velocity);
     m.thermal.step(joint_torque);
@@ -575,11 +644,12 @@ void World::step() noexcept {
   update_sensors();
 }
 
-void World::update_sensors() noexcept {
+void World::update_sensors(size_t only) noexcept {
   const int64_t now_ns = time_ns();
   const Eigen::Vector3d up_g(0.0, 0.0, options_.gravity_m_s2);
   const double accel_alpha = options_.step_s / (options_.imu_accel_filter_s + options_.step_s);
   for (ImuSlot& imu : imus_) {
+    if (!imu.alive || (only != kEveryRobot && imu.robot != only)) continue;
     const BodyReading body = backend_->body(imu.body);
     const Eigen::Isometry3d X_WS = body.X_WB * imu.X_BS;
     const Eigen::Matrix3d R_SW = X_WS.linear().transpose();
@@ -598,6 +668,7 @@ void World::update_sensors() noexcept {
     s.sim_time_ns = now_ns;
   }
   for (FootSlot& foot : feet_) {
+    if (!foot.alive || (only != kEveryRobot && foot.robot != only)) continue;
     const BodyReading body = backend_->body(foot.body);
     const Eigen::Isometry3d X_WD = body.X_WB * foot.X_BD;
     const Eigen::Isometry3d X_DW = X_WD.inverse();
@@ -640,11 +711,13 @@ size_t World::motor_count() const noexcept { return motors_.size(); }
 const RobotModel& World::robot(size_t robot) const noexcept { return robots_[robot].model; }
 
 Eigen::Isometry3d World::body_pose(size_t robot, size_t body) const noexcept {
+  if (!has_robot(robot)) return Eigen::Isometry3d::Identity();
   const RobotSlot& slot = robots_[robot];
   return backend_->body(slot.first_body + static_cast<int>(body)).X_WB * slot.model.bodies[body].X_BD;
 }
 
 Eigen::Vector3d World::center_of_mass(size_t robot) const noexcept {
+  if (!has_robot(robot)) return Eigen::Vector3d::Zero();
   const RobotSlot& slot = robots_[robot];
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (size_t b = 0; b < slot.model.bodies.size(); ++b) {
@@ -654,6 +727,7 @@ Eigen::Vector3d World::center_of_mass(size_t robot) const noexcept {
 }
 
 double World::link_position(size_t robot, size_t link) const noexcept {
+  if (!has_robot(robot)) return 0.0;
   const RobotSlot& slot = robots_[robot];
   return backend_->joint(slot.first_joint + static_cast<int>(link)).position;
 }
@@ -681,6 +755,7 @@ void World::place_ball(const Eigen::Vector3d& position_m, const Eigen::Vector3d&
 void World::fill_scene(SceneView& view) const {
   size_t count = options_.field.size() + ball_count();
   for (const RobotSlot& robot : robots_) {
+    if (!robot.present) continue;
     for (const BodyModel& body : robot.model.bodies) {
       count += body.shapes.size();
     }
@@ -690,6 +765,7 @@ void World::fill_scene(SceneView& view) const {
   size_t i = 0;
   for (size_t r = 0; r < robots_.size(); ++r) {
     const RobotSlot& robot = robots_[r];
+    if (!robot.present) continue;
     for (size_t b = 0; b < robot.model.bodies.size(); ++b) {
       const BodyModel& body = robot.model.bodies[b];
       const Eigen::Isometry3d X_WB = backend_->body(robot.first_body + static_cast<int>(b)).X_WB;

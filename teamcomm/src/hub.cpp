@@ -11,7 +11,8 @@
 #include <stdexcept>
 #include <sys/socket.h>
 #include <unistd.h>
-#include <unordered_map>
+#include <memory>
+#include <mutex>
 
 namespace doppel::teamcomm {
 namespace {
@@ -57,16 +58,24 @@ Robot parse_robot(const std::string& text) {
 
 struct Hub::Impl {
   struct Link {
-    std::size_t to = 0;  // receiver's robot index
+    Robot from, to;
+    sockaddr_in to_address{};
     LinkModel model;
+    bool removed = false;  // its receiver or sender left; delayed messages on it are dropped
     std::atomic<std::uint64_t> relayed{0}, dropped{0}, delayed{0}, queue_full{0}, send_errors{0};
-    Link(std::size_t receiver, const LinkModelConfig& config, std::uint64_t seed)
-        : to(receiver), model(config, seed) {}
+    Link(const Robot& sender, const Robot& receiver, const sockaddr_in& address, const LinkModelConfig& config,
+         std::uint64_t seed)
+        : from(sender), to(receiver), to_address(address), model(config, seed) {}
+  };
+  struct Entry {
+    Robot robot;
+    sockaddr_in address{};
+    std::vector<std::shared_ptr<Link>> out;  // to each registered teammate
   };
   struct Pending {
     Clock::time_point due;
     std::uint64_t sequence;  // keeps equal due times in arrival order
-    std::size_t link;
+    std::shared_ptr<Link> link;
     std::vector<std::uint8_t> bytes;
     bool operator>(const Pending& other) const {
       return due != other.due ? due > other.due : sequence > other.sequence;
@@ -75,19 +84,55 @@ struct Hub::Impl {
 
   HubConfig config;
   int fd = -1;
-  std::vector<sockaddr_in> robot_addresses;
-  std::unordered_map<std::uint16_t, std::size_t> robot_by_port;
-  std::vector<std::unique_ptr<Link>> links;
-  std::vector<std::vector<std::size_t>> links_from;  // per robot: its outgoing link indices
+  mutable std::mutex mutex;     // the registry (entries, their links) and the pending queue
+  std::vector<Entry> entries;   // registration order
   std::priority_queue<Pending, std::vector<Pending>, std::greater<>> pending;
   std::uint64_t sequence = 0;
   std::vector<std::uint8_t> buffer = std::vector<std::uint8_t>(65536);
   std::atomic<std::uint64_t> received{0}, unknown_sender{0}, oversized{0};
 
-  void send(std::size_t link_index, const std::uint8_t* data, std::size_t size) {
-    Link& link = *links[link_index];
-    const sockaddr_in& to = robot_addresses[link.to];
-    const ssize_t n = ::sendto(fd, data, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+  // Each link its own stream, derived from the seed and the pair (team and player of both ends),
+  // so one link's draws depend neither on the traffic of the others nor on registration order.
+  std::uint64_t link_seed(const Robot& from, const Robot& to) const {
+    std::seed_seq seq{static_cast<std::uint32_t>(config.seed), static_cast<std::uint32_t>(config.seed >> 32),
+                      static_cast<std::uint32_t>(from.team), static_cast<std::uint32_t>(from.player),
+                      static_cast<std::uint32_t>(to.team), static_cast<std::uint32_t>(to.player)};
+    std::uint32_t words[2];
+    seq.generate(words, words + 2);
+    return (static_cast<std::uint64_t>(words[0]) << 32) | words[1];
+  }
+
+  // Checks `robot` against the registry; throws naming the problem. Caller holds the mutex.
+  void check_new(const Robot& robot) const {
+    const std::string name = std::to_string(robot.team) + ":" + std::to_string(robot.player);
+    if (robot.port == 0) throw std::invalid_argument("hub: robot " + name + " has no port");
+    if (robot.team < 0 || robot.team > 255 || robot.player < 0 || robot.player > 255) {
+      throw std::invalid_argument("hub: robot " + name + ": team and player must be within 0..255");
+    }
+    for (const Entry& entry : entries) {
+      if (entry.robot.team == robot.team && entry.robot.player == robot.player) {
+        throw std::invalid_argument("hub: robot " + name + " is registered twice");
+      }
+      if (entry.robot.port == robot.port) {
+        throw std::invalid_argument("hub: port " + std::to_string(robot.port) + " is registered for two robots");
+      }
+    }
+  }
+
+  // Caller holds the mutex and has checked the robot.
+  void add(const Robot& robot) {
+    Entry added{robot, ipv4(config.robot_address, robot.port, "robot address"), {}};
+    for (Entry& entry : entries) {
+      if (entry.robot.team != robot.team) continue;
+      entry.out.push_back(std::make_shared<Link>(entry.robot, robot, added.address, config.link, link_seed(entry.robot, robot)));
+      added.out.push_back(std::make_shared<Link>(robot, entry.robot, entry.address, config.link, link_seed(robot, entry.robot)));
+    }
+    entries.push_back(std::move(added));
+  }
+
+  void send(Link& link, const std::uint8_t* data, std::size_t size) {
+    const ssize_t n = ::sendto(fd, data, size, MSG_DONTWAIT, reinterpret_cast<const sockaddr*>(&link.to_address),
+                               sizeof link.to_address);
     if (n < 0) {
       link.send_errors.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -95,24 +140,25 @@ struct Hub::Impl {
     }
   }
 
-  void relay(std::size_t sender, std::size_t size, Clock::time_point now) {
-    for (const std::size_t index : links_from[sender]) {
-      Link& link = *links[index];
+  void relay(Entry& sender, std::size_t size, Clock::time_point now) {
+    for (const std::shared_ptr<Link>& shared : sender.out) {
+      Link& link = *shared;
       const LinkDecision decision = link.model.next();
       if (decision.drop) {
         link.dropped.fetch_add(1, std::memory_order_relaxed);
       } else if (decision.delay_ns == 0) {
-        send(index, buffer.data(), size);
+        send(link, buffer.data(), size);
       } else if (pending.size() >= config.max_pending) {
         link.queue_full.fetch_add(1, std::memory_order_relaxed);
       } else {
         link.delayed.fetch_add(1, std::memory_order_relaxed);
-        pending.push(Pending{now + std::chrono::nanoseconds(decision.delay_ns), sequence++, index,
+        pending.push(Pending{now + std::chrono::nanoseconds(decision.delay_ns), sequence++, shared,
                              std::vector<std::uint8_t>(buffer.begin(), buffer.begin() + static_cast<std::ptrdiff_t>(size))});
       }
     }
   }
 
+  // Caller holds the mutex.
   void read_all() {
     for (;;) {
       sockaddr_in from{};
@@ -128,20 +174,23 @@ struct Hub::Impl {
         oversized.fetch_add(1, std::memory_order_relaxed);
         continue;
       }
-      const auto sender = robot_by_port.find(ntohs(from.sin_port));
-      if (sender == robot_by_port.end() ||
-          from.sin_addr.s_addr != robot_addresses[sender->second].sin_addr.s_addr) {
+      const std::uint16_t port = ntohs(from.sin_port);
+      const auto sender = std::find_if(entries.begin(), entries.end(), [&](const Entry& entry) {
+        return entry.robot.port == port && entry.address.sin_addr.s_addr == from.sin_addr.s_addr;
+      });
+      if (sender == entries.end()) {
         unknown_sender.fetch_add(1, std::memory_order_relaxed);
         continue;
       }
-      relay(sender->second, static_cast<std::size_t>(n), Clock::now());
+      relay(*sender, static_cast<std::size_t>(n), Clock::now());
     }
   }
 
+  // Caller holds the mutex.
   void flush_due(Clock::time_point now) {
     while (!pending.empty() && pending.top().due <= now) {
       const Pending& top = pending.top();
-      send(top.link, top.bytes.data(), top.bytes.size());
+      if (!top.link->removed) send(*top.link, top.bytes.data(), top.bytes.size());
       pending.pop();
     }
   }
@@ -150,37 +199,13 @@ struct Hub::Impl {
 Hub::Hub(const HubConfig& config) : impl_(std::make_unique<Impl>()) {
   Impl& impl = *impl_;
   impl.config = config;
+  impl.config.robots.clear();  // the registry is impl.entries
   validate(config.link);
   if (config.max_payload_bytes == 0) throw std::invalid_argument("hub: the largest payload must be at least 1 byte");
-  for (std::size_t i = 0; i < config.robots.size(); ++i) {
-    const Robot& robot = config.robots[i];
-    if (robot.port == 0) throw std::invalid_argument("hub: robot " + std::to_string(robot.team) + ":" +
-                                                     std::to_string(robot.player) + " has no port");
-    for (std::size_t j = 0; j < i; ++j) {
-      if (config.robots[j].team == robot.team && config.robots[j].player == robot.player) {
-        throw std::invalid_argument("hub: robot " + std::to_string(robot.team) + ":" + std::to_string(robot.player) +
-                                    " is registered twice");
-      }
-    }
-    if (!impl.robot_by_port.emplace(robot.port, i).second) {
-      throw std::invalid_argument("hub: port " + std::to_string(robot.port) + " is registered for two robots");
-    }
-    impl.robot_addresses.push_back(ipv4(config.robot_address, robot.port, "robot address"));
-  }
-  impl.links_from.resize(config.robots.size());
-  for (std::size_t from = 0; from < config.robots.size(); ++from) {
-    for (std::size_t to = 0; to < config.robots.size(); ++to) {
-      if (from == to || config.robots[from].team != config.robots[to].team) continue;
-      // Each link its own stream, derived from the seed and the pair, so one link's draws do not
-      // depend on how traffic on the others interleaves.
-      std::seed_seq seq{static_cast<std::uint32_t>(config.seed), static_cast<std::uint32_t>(config.seed >> 32),
-                        static_cast<std::uint32_t>(from), static_cast<std::uint32_t>(to)};
-      std::uint32_t words[2];
-      seq.generate(words, words + 2);
-      const std::uint64_t link_seed = (static_cast<std::uint64_t>(words[0]) << 32) | words[1];
-      impl.links_from[from].push_back(impl.links.size());
-      impl.links.push_back(std::make_unique<Impl::Link>(to, config.link, link_seed));
-    }
+  ipv4(config.robot_address, 1, "robot address");
+  for (const Robot& robot : config.robots) {
+    impl.check_new(robot);
+    impl.add(robot);
   }
 
   sockaddr_in listen = ipv4(config.listen_address, config.listen_port, "listen address");
@@ -204,15 +229,21 @@ Hub::~Hub() {
 void Hub::run(const std::atomic<bool>& stop) {
   Impl& impl = *impl_;
   while (!stop.load(std::memory_order_relaxed)) {
-    Clock::time_point now = Clock::now();
-    impl.flush_due(now);
     int timeout_ms = 20;
-    if (!impl.pending.empty()) {
-      const auto wait = std::chrono::ceil<std::chrono::milliseconds>(impl.pending.top().due - now).count();
-      timeout_ms = static_cast<int>(std::clamp<std::int64_t>(wait, 0, 20));
+    {
+      std::lock_guard lock(impl.mutex);
+      const Clock::time_point now = Clock::now();
+      impl.flush_due(now);
+      if (!impl.pending.empty()) {
+        const auto wait = std::chrono::ceil<std::chrono::milliseconds>(impl.pending.top().due - now).count();
+        timeout_ms = static_cast<int>(std::clamp<std::int64_t>(wait, 0, 20));
+      }
     }
     pollfd p{impl.fd, POLLIN, 0};
-    if (::poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN) != 0) impl.read_all();
+    if (::poll(&p, 1, timeout_ms) > 0 && (p.revents & POLLIN) != 0) {
+      std::lock_guard lock(impl.mutex);
+      impl.read_all();
+    }
   }
 }
 
@@ -222,14 +253,15 @@ HubCounters Hub::counters() const {
   out.received = impl.received.load(std::memory_order_relaxed);
   out.unknown_sender = impl.unknown_sender.load(std::memory_order_relaxed);
   out.oversized = impl.oversized.load(std::memory_order_relaxed);
-  for (std::size_t from = 0; from < impl.links_from.size(); ++from) {
-    for (const std::size_t index : impl.links_from[from]) {
-      const Impl::Link& link = *impl.links[index];
+  std::lock_guard lock(impl.mutex);
+  for (const Impl::Entry& entry : impl.entries) {
+    for (const std::shared_ptr<Impl::Link>& shared : entry.out) {
+      const Impl::Link& link = *shared;
       LinkCounters c;
-      c.from_team = impl.config.robots[from].team;
-      c.from_player = impl.config.robots[from].player;
-      c.to_team = impl.config.robots[link.to].team;
-      c.to_player = impl.config.robots[link.to].player;
+      c.from_team = link.from.team;
+      c.from_player = link.from.player;
+      c.to_team = link.to.team;
+      c.to_player = link.to.player;
       c.relayed = link.relayed.load(std::memory_order_relaxed);
       c.dropped = link.dropped.load(std::memory_order_relaxed);
       c.delayed = link.delayed.load(std::memory_order_relaxed);
@@ -238,6 +270,40 @@ HubCounters Hub::counters() const {
       out.links.push_back(c);
     }
   }
+  return out;
+}
+
+void Hub::add_robot(const Robot& robot) {
+  Impl& impl = *impl_;
+  std::lock_guard lock(impl.mutex);
+  impl.check_new(robot);
+  impl.add(robot);
+}
+
+bool Hub::remove_robot(int team, int player) {
+  Impl& impl = *impl_;
+  std::lock_guard lock(impl.mutex);
+  const auto found = std::find_if(impl.entries.begin(), impl.entries.end(), [&](const Impl::Entry& entry) {
+    return entry.robot.team == team && entry.robot.player == player;
+  });
+  if (found == impl.entries.end()) return false;
+  for (const std::shared_ptr<Impl::Link>& link : found->out) link->removed = true;
+  impl.entries.erase(found);
+  for (Impl::Entry& entry : impl.entries) {
+    std::erase_if(entry.out, [&](const std::shared_ptr<Impl::Link>& link) {
+      if (link->to.team != team || link->to.player != player) return false;
+      link->removed = true;
+      return true;
+    });
+  }
+  return true;
+}
+
+std::vector<Robot> Hub::robots() const {
+  const Impl& impl = *impl_;
+  std::lock_guard lock(impl.mutex);
+  std::vector<Robot> out;
+  for (const Impl::Entry& entry : impl.entries) out.push_back(entry.robot);
   return out;
 }
 

@@ -402,3 +402,170 @@ TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
 
 }  // namespace
 }  // namespace doppel::control
+
+namespace doppel::control {
+namespace {
+
+// A GameController and a hub as SimControl reports them, recording what reaches them.
+class GameControl final : public SimControl {
+ public:
+  SimState state() override { return {}; }
+  Outcome pause() override { return Outcome::done(); }
+  Outcome resume() override { return Outcome::done(); }
+  Outcome step(uint32_t) override { return Outcome::done(); }
+  Outcome reset() override { return Outcome::done(); }
+  Outcome place(std::size_t, double, double, double) override { return Outcome::done(); }
+  Outcome push(std::size_t, double, double, double, uint32_t) override { return Outcome::done(); }
+  Outcome ball(double, double) override { return Outcome::done(); }
+  std::optional<GameStatus> game() override {
+    GameStatus s;
+    s.on = true;
+    s.sending = true;
+    s.state = "ready";
+    s.teams[0].number = 12;
+    s.teams[0].score = 2;
+    s.teams[1].number = 34;
+    s.teams[1].penalties = {{3, 34, "pickup_or_incapable", 17}};
+    s.returns = {{12, 1, "alive", 9, 0.25}};
+    return s;
+  }
+  Outcome game_command(const GameCommand& c) override {
+    calls.push_back(c.command + " " + c.state + " team " + std::to_string(c.team) + " player " + std::to_string(c.player) +
+                    " seconds " + std::to_string(c.seconds) + " penalty " + std::to_string(c.penalty) + " score " +
+                    std::to_string(c.score) + " " + c.set_play + " mode " + std::to_string(c.mode));
+    if (c.command == "state" && c.state == "set") return Outcome::fail(409, "set is not allowed in INITIAL");
+    return Outcome::done();
+  }
+  std::optional<TeamcommStatus> teamcomm() override {
+    TeamcommStatus s;
+    s.listen = "127.0.0.1:3737";
+    s.robots = {{7, 1, 44001}};
+    return s;
+  }
+  Outcome teamcomm_add(const TeamcommRobot& r) override {
+    calls.push_back("add " + std::to_string(r.team) + ":" + std::to_string(r.player) + ":" + std::to_string(r.port));
+    return Outcome::done();
+  }
+  Outcome teamcomm_remove(int team, int player) override {
+    calls.push_back("remove " + std::to_string(team) + ":" + std::to_string(player));
+    if (team == 9) return Outcome::fail(404, "no robot 9:1 is registered");
+    return Outcome::done();
+  }
+  std::vector<std::string> calls;
+};
+
+TEST(HttpApiGame, StatusCarriesScoresPenaltiesAndReturns) {
+  GameControl control;
+  const Answer answer = handle(control, "GET", "/api/game", "");
+  ASSERT_EQ(answer.status, 200);
+  EXPECT_EQ(answer.body["state"], "ready");
+  EXPECT_EQ(answer.body["teams"][0]["number"], 12);
+  EXPECT_EQ(answer.body["teams"][0]["score"], 2);
+  EXPECT_EQ(answer.body["teams"][1]["penalties"][0]["player"], 3);
+  EXPECT_EQ(answer.body["teams"][1]["penalties"][0]["seconds_left"], 17);
+  EXPECT_EQ(answer.body["teams"][1]["penalties"][0]["reason"], "pickup_or_incapable");
+  EXPECT_EQ(answer.body["returns"][0]["message"], "alive");
+  EXPECT_EQ(answer.body["returns"][0]["count"], 9);
+  EXPECT_TRUE(answer.body["foreign"].is_null());
+}
+
+TEST(HttpApiGame, GoodCommandsReachTheGameWithTheirValues) {
+  GameControl control;
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "state", "state": "ready"})").status, 200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "goal", "team": "B"})").status, 200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "score", "team": 12, "score": 5})").status, 200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "kickoff", "team": "drop_ball"})").status, 200);
+  EXPECT_EQ(handle(control, "POST", "/api/game",
+                   R"({"command": "penalize", "team": "A", "player": 2, "seconds": 45, "reason": "physical_contact"})")
+                .status,
+            200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "unpenalize", "team": 34, "player": 11})").status, 200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "set_play", "kind": "corner_kick", "team": "A", "mode": 1})").status,
+            200);
+  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "off"})").status, 200);
+  // The game's own refusal comes back as it said it.
+  const Answer refused = handle(control, "POST", "/api/game", R"({"command": "state", "state": "set"})");
+  EXPECT_EQ(refused.status, 409);
+  EXPECT_EQ(refused.body["error"], "set is not allowed in INITIAL");
+  EXPECT_EQ(control.calls, (std::vector<std::string>{
+                               "state ready team -1 player 0 seconds 30 penalty 34 score 0  mode 0",
+                               "goal  team 1 player 0 seconds 30 penalty 34 score 0  mode 0",
+                               "score  team 0 player 0 seconds 30 penalty 34 score 5  mode 0",
+                               "kickoff  team -1 player 0 seconds 30 penalty 34 score 0  mode 0",
+                               "penalize  team 0 player 2 seconds 45 penalty 31 score 0  mode 0",
+                               "unpenalize  team 1 player 11 seconds 30 penalty 34 score 0  mode 0",
+                               "set_play  team 0 player 0 seconds 30 penalty 34 score 0 corner_kick mode 1",
+                               "off  team -1 player 0 seconds 30 penalty 34 score 0  mode 0",
+                               "state set team -1 player 0 seconds 30 penalty 34 score 0  mode 0"}));
+}
+
+TEST(HttpApiGame, BadCommandsNameTheFieldAndReachNothing) {
+  GameControl control;
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"command": "fly"})", "'command'"},
+      {R"({"state": "ready"})", "missing field 'command'"},
+      {R"({"command": "state", "state": "halftime"})", "'state'"},
+      {R"({"command": "state"})", "missing field 'state'"},
+      {R"({"command": "goal", "team": "C"})", "'team'"},
+      {R"({"command": "goal", "team": 99})", "'team'"},
+      {R"({"command": "penalize", "team": "A", "player": 12})", "'player'"},
+      {R"({"command": "penalize", "team": "A", "player": 0})", "'player'"},
+      {R"({"command": "penalize", "team": "A", "player": 1, "seconds": 300})", "'seconds'"},
+      {R"({"command": "penalize", "team": "A", "player": 1, "reason": "rudeness"})", "'reason'"},
+      {R"({"command": "penalize", "team": "A", "player": "one"})", "'player'"},
+      {R"({"command": "score", "team": "A", "score": 256})", "'score'"},
+      {R"({"command": "set_play", "kind": "kick_in", "team": "A"})", "'kind'"},
+      {R"({"command": "on", "state": "ready"})", "unknown field 'state'"},
+      {R"([1, 2])", "JSON object"},
+  };
+  for (const auto& [body, field] : bad) {
+    const Answer answer = handle(control, "POST", "/api/game", body);
+    EXPECT_EQ(answer.status, 400) << body;
+    EXPECT_NE(answer.body["error"].get<std::string>().find(field), std::string::npos) << body << " -> " << answer.body;
+  }
+  EXPECT_TRUE(control.calls.empty());
+  EXPECT_EQ(handle(control, "DELETE", "/api/game", "").status, 405);
+}
+
+TEST(HttpApiGame, WithoutAGameControllerTheApiSaysSo) {
+  RecordingControl control;  // a SimControl that has none (the default)
+  const Answer answer = handle(control, "GET", "/api/game", "");
+  EXPECT_EQ(answer.status, 404);
+  EXPECT_NE(answer.body["error"].get<std::string>().find("no GameController"), std::string::npos);
+  EXPECT_EQ(handle(control, "GET", "/api/teamcomm", "").status, 404);
+  EXPECT_EQ(handle(control, "POST", "/api/teamcomm/robots", R"({"team": 1, "player": 1, "port": 4000})").status, 404);
+}
+
+TEST(HttpApiTeamcomm, RobotsAreRegisteredAndRemovedAndBadOnesNameTheField) {
+  GameControl control;
+  const Answer status = handle(control, "GET", "/api/teamcomm", "");
+  ASSERT_EQ(status.status, 200);
+  EXPECT_EQ(status.body["listen"], "127.0.0.1:3737");
+  EXPECT_EQ(handle(control, "GET", "/api/teamcomm/robots", "").body[0]["port"], 44001);
+  EXPECT_EQ(handle(control, "POST", "/api/teamcomm/robots", R"({"team": 7, "player": 2, "port": 44002})").status, 200);
+  EXPECT_EQ(handle(control, "DELETE", "/api/teamcomm/robots/7/2", "").status, 200);
+  const Answer missing = handle(control, "DELETE", "/api/teamcomm/robots/9/1", "");
+  EXPECT_EQ(missing.status, 404);
+  EXPECT_EQ(missing.body["error"], "no robot 9:1 is registered");
+  EXPECT_EQ(control.calls, (std::vector<std::string>{"add 7:2:44002", "remove 7:2", "remove 9:1"}));
+  control.calls.clear();
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {R"({"team": 7, "player": 2, "port": 0})", "'port'"},
+      {R"({"team": 7, "player": 2, "port": 70000})", "'port'"},
+      {R"({"team": 256, "player": 2, "port": 4000})", "'team'"},
+      {R"({"team": 7, "port": 4000})", "missing field 'player'"},
+      {R"({"team": 7, "player": 2, "port": 4000, "address": "10.0.0.1"})", "unknown field 'address'"},
+  };
+  for (const auto& [body, field] : bad) {
+    const Answer answer = handle(control, "POST", "/api/teamcomm/robots", body);
+    EXPECT_EQ(answer.status, 400) << body;
+    EXPECT_NE(answer.body["error"].get<std::string>().find(field), std::string::npos) << body << " -> " << answer.body;
+  }
+  const Answer bad_path = handle(control, "DELETE", "/api/teamcomm/robots/7/x", "");
+  EXPECT_EQ(bad_path.status, 400);
+  EXPECT_NE(bad_path.body["error"].get<std::string>().find("player 'x'"), std::string::npos) << bad_path.body;
+  EXPECT_TRUE(control.calls.empty());
+}
+
+}  // namespace
+}  // namespace doppel::control

@@ -24,6 +24,7 @@ import re
 import select
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -205,6 +206,11 @@ def get_state(url):
         return json.load(response)
 
 
+def get_game(url):
+    with urllib.request.urlopen(url + "api/game", timeout=10) as response:
+        return json.load(response)
+
+
 def wait_sim_time(url, seconds, what, timeout_s=60):
     """Waits until simulation time has advanced by `seconds` (judged on simulation time)."""
     start = get_state(url)["sim_time_s"]
@@ -242,11 +248,12 @@ def ping(link, servo_id, count):
         os.close(fd)
 
 
-def start_doppel(doppel, work):
+def start_doppel(doppel, work, extra=()):
     output_path = os.path.join(work, "doppel.txt")
     output = open(output_path, "wb")
     process = subprocess.Popen([doppel, "--viewer", "0", "--no-camera", "--timing", "fast",
-                                "--link-dir", os.path.join(work, "links"), "--state-dir", os.path.join(work, "state")],
+                                "--link-dir", os.path.join(work, "links"), "--state-dir", os.path.join(work, "state"),
+                                *extra],
                                stdout=output, stderr=subprocess.STDOUT)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
@@ -263,7 +270,12 @@ def start_doppel(doppel, work):
 def run(doppel, out_dir, chromium):
     work = tempfile.mkdtemp(prefix="doppel-viewer-test-")
     os.makedirs(out_dir, exist_ok=True)
-    process, url = start_doppel(doppel, work)
+    # A robot's GameController listener on a loopback port the system picks; doppel's GameController
+    # (off until the page turns it on) sends there and receives return packets on any free port.
+    robot = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    robot.bind(("127.0.0.1", 0))
+    process, url = start_doppel(doppel, work, ("--gc-destination", f"127.0.0.1:{robot.getsockname()[1]}",
+                                               "--gc-return", "127.0.0.1:0", "--gc-watch", "off"))
     browser = None
     try:
         profile = os.path.join(work, "chromium")
@@ -390,6 +402,24 @@ def run(doppel, out_dir, chromium):
         check("30 N x" in message, f"the page says '{message}' after a click on +x")
         check(browser.evaluate("window.doppelViewer.error()") == "", f"the push was refused: {browser.page_error()}")
 
+        # The GameController panel: off at start; On, then Ready, and the game is READY through
+        # /api/game and in the packets a robot receives (byte 9: state, RoboCupGameControlData.h).
+        browser.wait_for("window.doppelViewer.gameShown()", "the GameController panel")
+        check(not get_game(url)["on"], "doppel's GameController is on without --gamecontroller")
+        browser.click_element("#game-on")
+        browser.wait_for("window.doppelViewer.game() && window.doppelViewer.game().on", "the GameController to be on")
+        browser.click_element('#game-states button[data-state="ready"]')
+        browser.wait_for("window.doppelViewer.game().state === 'ready'", "the page to show READY")
+        check(get_game(url)["state"] == "ready", f"/api/game says {get_game(url)['state']} after a click on Ready")
+        check(browser.evaluate("window.doppelViewer.error()") == "", f"Ready was refused: {browser.page_error()}")
+        robot.settimeout(5)
+        states = []
+        while 1 not in states:
+            data = robot.recv(2048)
+            check(len(data) == 688 and data[:4] == b"RGme", f"the robot received {len(data)} bytes {data[:4]!r}")
+            states.append(data[9])
+            check(len(states) < 20, f"no READY packet among {states}")
+
         # Resume: simulation time runs again.
         browser.click_element("#resume")
         wait_sim_time(url, 0.5, "after a click on Resume")
@@ -402,6 +432,7 @@ def run(doppel, out_dir, chromium):
         check(os.path.getsize(shot) > 10000, f"the screenshot {shot} is nearly empty")
         print(f"viewer test: passed; screenshot {shot}")
     finally:
+        robot.close()
         tear_down(browser, process, work, out_dir, ("doppel.txt", "chromium/chromium.log"))
 
 

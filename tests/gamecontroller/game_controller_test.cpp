@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <thread>
 #include <vector>
@@ -227,4 +228,84 @@ TEST(GameController, KeepsTheLastReturnPerRobotAndCountsGarbage) {
   EXPECT_FALSE(controller->last_return(99, 3));
   EXPECT_FALSE(controller->last_return(12, 1));
   controller->stop();
+}
+
+TEST(Game, SetPlaysAndTimeoutsFillTheSecondaryState) {
+  gc::Game game(options_for(gc::kDataPort));
+  EXPECT_NE(game.secondary(gc::SecondaryState::kDirectFreekick, 0), "");  // not in INITIAL
+  EXPECT_EQ(game.secondary(gc::SecondaryState::kTimeout, 1), "");
+  EXPECT_EQ(game.data().secondary_state, gc::SecondaryState::kTimeout);
+  EXPECT_EQ(game.data().secondary_state_info[0], 34);
+  EXPECT_EQ(game.secondary(gc::SecondaryState::kNormal, -1), "");
+  EXPECT_EQ(game.data().secondary_state, gc::SecondaryState::kNormal);
+  EXPECT_EQ(game.ready(), "");
+  EXPECT_EQ(game.set(), "");
+  EXPECT_EQ(game.play(), "");
+  EXPECT_NE(game.secondary(gc::SecondaryState::kTimeout, 0), "");  // not while PLAYING
+  EXPECT_NE(game.secondary(gc::SecondaryState::kCornerKick, 2), "");
+  EXPECT_NE(game.secondary(gc::SecondaryState::kPenaltyShoot, 0), "");
+  EXPECT_EQ(game.secondary(gc::SecondaryState::kCornerKick, 0, 1), "");
+  EXPECT_EQ(game.data().secondary_state, gc::SecondaryState::kCornerKick);
+  EXPECT_EQ(game.data().secondary_state_info, (std::array<std::uint8_t, 4>{12, 1, 0, 0}));
+}
+
+// The test plays another GameController on the network: its packet reaches the watch (a loopback
+// port here, a broadcast address in doppel), and the controller stops sending until told to go on.
+TEST(GameController, StepsAsideWhenAnotherGameControllerSends) {
+  std::string error;
+  std::optional<gc::UdpSocket> robot = gc::UdpSocket::open(kLoopback, 0, false, error);
+  ASSERT_TRUE(robot) << error;
+  gc::GameControllerOptions options = options_for(robot->local_port());
+  options.watch_address = "127.0.0.1";
+  options.watch_port = 0;
+  std::atomic<int> told{0};
+  options.on_step_aside = [&told](const std::string&) { ++told; };
+  std::unique_ptr<gc::GameController> controller = gc::GameController::create(options, error);
+  ASSERT_NE(controller, nullptr) << error;
+  ASSERT_NE(controller->watch_port(), 0) << controller->watch_error();
+  controller->start();
+  std::vector<std::uint8_t> buffer(2048);
+  ASSERT_TRUE(robot->receive(buffer, 2000ms));
+
+  std::optional<gc::UdpSocket> other = gc::UdpSocket::open(kLoopback, 0, false, error);
+  ASSERT_TRUE(other) << error;
+  const gc::Endpoint watch{kLoopback, controller->watch_port()};
+  // Not a GameController packet: ignored.
+  ASSERT_TRUE(other->send_to(watch, std::vector<std::uint8_t>{'R', 'G', 'r', 't', 2, 1, 1, 2}, error));
+  std::vector<std::uint8_t> foreign(688, 0);  // "RGme", version 12, teams 5 and 6, all else 0 (INITIAL)
+  foreign[0] = 'R', foreign[1] = 'G', foreign[2] = 'm', foreign[3] = 'e', foreign[4] = 12;
+  foreign[24] = 5;
+  foreign[24 + 332] = 6;
+  std::this_thread::sleep_for(300ms);
+  EXPECT_TRUE(controller->sending());
+  ASSERT_TRUE(other->send_to(watch, foreign, error)) << error;
+  ASSERT_TRUE(eventually([&] { return !controller->sending(); }));
+  EXPECT_EQ(told.load(), 1);
+  EXPECT_NE(controller->stepped_aside().find("127.0.0.1:" + std::to_string(other->local_port())), std::string::npos)
+      << controller->stepped_aside();
+  ASSERT_TRUE(controller->foreign());
+  EXPECT_EQ(controller->foreign()->last.teams[0].team_number, 5);
+  // Nothing more reaches the robot (one packet may have been on its way).
+  while (robot->receive(buffer, 100ms)) {
+  }
+  EXPECT_FALSE(robot->receive(buffer, 1200ms));
+  // Told to go on, it sends again.
+  controller->set_sending(true);
+  EXPECT_EQ(controller->stepped_aside(), "");
+  ASSERT_TRUE(robot->receive(buffer, 2000ms));
+  EXPECT_EQ(std::string(buffer.begin(), buffer.begin() + 4), "RGme");
+  controller->stop();
+}
+
+TEST(GameController, AWatchThatCannotBindIsReportedNotFatal) {
+  std::string error;
+  std::optional<gc::UdpSocket> taken = gc::UdpSocket::open(kLoopback, 0, false, error);  // no SO_REUSEADDR
+  ASSERT_TRUE(taken) << error;
+  gc::GameControllerOptions options = options_for(taken->local_port());
+  options.watch_address = "127.0.0.1";
+  options.watch_port = taken->local_port();
+  std::unique_ptr<gc::GameController> controller = gc::GameController::create(options, error);
+  ASSERT_NE(controller, nullptr) << error;
+  EXPECT_EQ(controller->watch_port(), 0);
+  EXPECT_NE(controller->watch_error().find("cannot bind"), std::string::npos) << controller->watch_error();
 }

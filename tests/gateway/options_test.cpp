@@ -166,5 +166,45 @@ TEST(Options, StateDirectoryDefaultsToXdgStateHomeAndFreshIsAFlag) {
   }
 }
 
+TEST(Options, GameControllerIsOffAndLoopbackUnlessTheUserSaysOtherwise) {
+  const Options defaults = parse({});
+  EXPECT_FALSE(defaults.gamecontroller);
+  EXPECT_EQ(defaults.gc_destination, "127.0.0.1:3838");
+  EXPECT_EQ(defaults.gc_return, "127.0.0.1:3939");
+  EXPECT_EQ(defaults.gc_watch, "255.255.255.255:3838");  // receives broadcasts only
+  EXPECT_TRUE(defaults.teamcomm.empty());
+  const Options sut = parse({"--gamecontroller", "--gc-teams", "5,6", "--gc-players", "3", "--gc-watch", "off",
+                             "--teamcomm", "0", "--teamcomm-robot", "7:1:44001", "--teamcomm-robot", "7:2:44002",
+                             "--teamcomm-loss", "0.2", "--teamcomm-delay-ms", "20", "--teamcomm-jitter", "normal"});
+  EXPECT_TRUE(sut.gamecontroller);
+  EXPECT_TRUE(parse({"--gamecontroller", "on"}).gamecontroller);
+  EXPECT_FALSE(parse({"--gamecontroller", "off"}).gamecontroller);
+  EXPECT_TRUE(parse({"--gamecontroller", "--gc-teams", "3,4"}).gamecontroller);
+  EXPECT_THROW(parse({"--gamecontroller", "maybe"}), std::invalid_argument);
+  EXPECT_EQ(sut.gc_team_a, 5);
+  EXPECT_EQ(sut.gc_team_b, 6);
+  EXPECT_EQ(sut.gc_players, 3);
+  EXPECT_EQ(sut.gc_watch, "off");
+  EXPECT_EQ(sut.teamcomm, "0");
+  EXPECT_EQ(sut.teamcomm_robots.size(), 2u);
+  EXPECT_DOUBLE_EQ(sut.teamcomm_link.loss_probability, 0.2);
+  EXPECT_EQ(sut.teamcomm_link.delay_ns, 20'000'000);
+  EXPECT_EQ(sut.teamcomm_link.jitter, teamcomm::Jitter::kHalfNormal);
+  for (const std::vector<const char*>& bad : std::vector<std::vector<const char*>>{
+           {"--gc-teams", "5"}, {"--gc-teams", "5,5"}, {"--gc-teams", "5,256"}, {"--gc-players", "12"},
+           {"--teamcomm-loss", "1.5"}, {"--teamcomm-robot", "7:1:44001"}}) {
+    EXPECT_THROW(parse(bad), std::invalid_argument) << bad[0] << " " << bad[1];
+  }
+  try {
+    parse({"--teamcomm-robot", "7:1:44001"});
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("needs --teamcomm"), std::string::npos) << e.what();
+  }
+  for (const char* option : {"--gamecontroller", "--gc-teams", "--gc-destination", "--gc-return", "--gc-watch",
+                             "--teamcomm", "--teamcomm-robot", "--teamcomm-loss"}) {
+    EXPECT_NE(usage().find(option), std::string::npos) << option;
+  }
+}
+
 }  // namespace
 }  // namespace doppel::gateway

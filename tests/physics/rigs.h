@@ -113,8 +113,15 @@ class DrivenRobot {
 
   // One gateway tick: drive, step, sense.
   void step() {
-    for (size_t i = 0; i < size(); ++i) body_.drive(i, commands_[i], world_.options().step_s);
+    drive();
     world_.step();
+    sense();
+  }
+  // The halves around the world's step, for several driven robots in one world.
+  void drive() {
+    for (size_t i = 0; i < size(); ++i) body_.drive(i, commands_[i], world_.options().step_s);
+  }
+  void sense() {
     for (size_t i = 0; i < size(); ++i) feedback_[i] = body_.servo(i, world_.time_ns());
   }
   void run(double seconds) {

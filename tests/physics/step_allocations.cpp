@@ -74,6 +74,35 @@ TEST_P(AllocationTest, StepDoesNotAllocateAfterWarmUp) {
   EXPECT_EQ(g_allocations.load(), 0);
 }
 
+// A robot added and another removed while the world runs: the add and the remove allocate (they
+// may), the steps after them do not.
+TEST_P(AllocationTest, StepDoesNotAllocateAfterARobotWasAddedAndAnotherRemoved) {
+  if (!kCountingMalloc) GTEST_SKIP() << "the sanitizer owns malloc";
+  WorldOptions options;
+  auto world = test::make_world(GetParam(), {test::shipped_robot("fumanoid-2011"), test::shipped_robot("fumanoid-2011")},
+                                options);
+  test::DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.run(0.2);
+  RobotPlacement far;
+  far.position_m = Eigen::Vector3d(3.0, 2.0, 0.0);
+  world->add_robot(test::shipped_robot("fumanoid-2011"), far);
+  world->remove_robot(1);
+  SceneView view;
+  world->fill_scene(view);
+  driven.run(0.5);  // warm-up after the change
+
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 1000; ++i) {
+    driven.step();
+    if (i % 40 == 0) world->fill_scene(view);
+  }
+  g_counting = false;
+
+  EXPECT_EQ(g_allocations.load(), 0);
+}
+
 // The same for a body from a URDF (tests/urdf/data/test-biped.textproto): convex-hull feet on
 // both engines (ODE's dCreateConvex, Bullet's btConvexHullShape), hulls in the scene view.
 TEST_P(AllocationTest, StepWithConvexHullsDoesNotAllocateAfterWarmUp) {

@@ -199,6 +199,50 @@ TEST(Hub, RejectsABadRegistrationWithItsReason) {
   EXPECT_THROW(Hub{config}, std::invalid_argument);
 }
 
+TEST(Hub, RegistersAndRemovesRobotsWhileRunning) {
+  Client a, b, c;
+  HubConfig config;
+  config.robots = {{7, 1, a.port()}};
+  RunningHub running(config);
+  Hub& hub = running.hub();
+  // Alone on its team, a's message goes nowhere.
+  a.send(hub.port(), "alone");
+  EXPECT_FALSE(b.receive(200ms).has_value());
+  // Registered from another thread while the hub relays: b and c hear a, and a hears them.
+  std::thread([&] { hub.add_robot({7, 2, b.port()}); }).join();
+  hub.add_robot({7, 3, c.port()});
+  ASSERT_EQ(hub.robots().size(), 3u);
+  a.send(hub.port(), "from a");
+  EXPECT_EQ(b.receive(2s), std::optional<std::string>("from a"));
+  EXPECT_EQ(c.receive(2s), std::optional<std::string>("from a"));
+  b.send(hub.port(), "from b");
+  EXPECT_EQ(a.receive(2s), std::optional<std::string>("from b"));
+  EXPECT_EQ(c.receive(2s), std::optional<std::string>("from b"));
+  EXPECT_EQ(link(hub.counters(), 1, 2).relayed, 1u);
+  // A second registration of 7:2, or of b's port, is refused with the reason and changes nothing.
+  try {
+    hub.add_robot({7, 2, 40999});
+    FAIL() << "7:2 was registered twice";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("7:2 is registered twice"), std::string::npos) << error.what();
+  }
+  EXPECT_THROW(hub.add_robot({8, 1, b.port()}), std::invalid_argument);
+  EXPECT_THROW(hub.add_robot({8, 1, 0}), std::invalid_argument);
+  EXPECT_EQ(hub.robots().size(), 3u);
+  // Removed, c hears nothing more, its links are gone, and it becomes an unknown sender.
+  EXPECT_TRUE(hub.remove_robot(7, 3));
+  EXPECT_FALSE(hub.remove_robot(7, 3));
+  a.send(hub.port(), "after");
+  EXPECT_EQ(b.receive(2s), std::optional<std::string>("after"));
+  EXPECT_FALSE(c.receive(200ms).has_value());
+  const HubCounters counters = hub.counters();
+  EXPECT_EQ(counters.links.size(), 2u);  // a -> b and b -> a
+  const std::uint64_t unknown = counters.unknown_sender;
+  c.send(hub.port(), "stranger now");
+  EXPECT_FALSE(a.receive(200ms).has_value());
+  EXPECT_EQ(hub.counters().unknown_sender, unknown + 1);
+}
+
 TEST(ParseRobot, ReadsTeamPlayerPortAndNamesTheWrongPart) {
   const Robot robot = parse_robot("12:3:40123");
   EXPECT_EQ(robot.team, 12);

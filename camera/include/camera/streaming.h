@@ -120,4 +120,10 @@ class CameraStream {
   std::unique_ptr<Impl> impl_;
 };
 
+// True while RouDi lists a frames publisher of camera `name` on this machine. RouDi updates its
+// list in its discovery loop, a little after a stream is made or destroyed (a robot removed while
+// doppel runs waits for its cameras to go, so that their names can be used again at once).
+// Requires a StreamingHost (or a connected client) in this process.
+bool camera_offered(const std::string& name);
+
 }  // namespace doppel::camera

@@ -17,6 +17,11 @@
 //   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
 //   GET  /api/robots/N/world_model                    -> robot N's world-model sensor settings
 //   PUT  /api/robots/N/world_model {"fov_deg": 90, "dropout": 0.1, ...}   the fields to change
+//   GET  /api/game                                    -> the GameController (game_json); 404 without one
+//   POST /api/game   {"command": "state", "state": "ready"}, goal, score, kickoff, penalize, ... (docs/control.md)
+//   GET  /api/teamcomm                                -> the team-communication hub (teamcomm_json); 404 without one
+//   GET|POST /api/teamcomm/robots {"team": 7, "player": 2, "port": 44002}
+//   DELETE /api/teamcomm/robots/TEAM/PLAYER
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
@@ -44,6 +49,9 @@ nlohmann::json state_json(const SimState& state);
 nlohmann::json scene_json(const Scene& scene);
 nlohmann::json buses_json(const std::vector<BusTable>& buses);
 nlohmann::json replay_json(const ReplayStatus& status);
+nlohmann::json game_json(const GameStatus& status);
+nlohmann::json teamcomm_json(const TeamcommStatus& status);
+inline constexpr uint32_t kMaxGamePlayers = 11;  // MAX_NUM_PLAYERS of the Humanoid GameController header
 
 // Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's
 // libjs-three: three.min.js). Empty: not served.
@@ -58,7 +66,7 @@ StaticFiles default_static_files();
 std::string static_files_problem(const StaticFiles& files);
 
 // A request as the API takes it, for tests of the checks without a socket: `method` "GET" or
-// "POST" or "PUT", `path` as in the table above, `body` the request body. Returns the HTTP status and the
+// "POST", "PUT" or "DELETE", `path` as in the table above, `body` the request body. Returns the HTTP status and the
 // JSON answer.
 struct Answer {
   int status = 200;

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -33,6 +34,23 @@ struct GameControllerOptions {
   std::string return_address = "127.0.0.1";  // where return packets are received
   std::uint16_t return_port = kReturnPort;    // 0: the system picks one (tests)
   std::chrono::milliseconds period{500};
+  // Where to watch for another GameController's packets ("" = no watch). A packet "RGme" of this
+  // protocol arriving there from anyone but this GameController makes it stop sending (it "steps
+  // aside"). The socket shares the port (SO_REUSEADDR, not SO_REUSEPORT); bound to a broadcast
+  // address it receives only broadcasts, never a unicast datagram meant for the robots' sockets.
+  std::string watch_address;
+  std::uint16_t watch_port = kDataPort;  // 0: the system picks one (tests)
+  bool sending = true;                   // send from start() on; false: only when set_sending(true)
+  // Called (on the watch thread, without the lock held) when it steps aside, with the reason.
+  std::function<void(const std::string&)> on_step_aside;
+};
+
+// The last packet of another GameController the watch saw.
+struct ForeignGameController {
+  Endpoint from;
+  std::uint64_t packets = 0;
+  GameControlData last;
+  std::chrono::steady_clock::time_point last_seen;
 };
 
 struct ReturnRecord {
@@ -65,6 +83,11 @@ class Game {
   std::string goal(int team);
   std::string penalise(int team, int player, int seconds, std::uint8_t penalty = kPenaltyPickupOrIncapable);
   std::string unpenalise(int team, int player);
+  // A set play or stoppage of the Humanoid protocol's secondary state (free kicks, penalty kick,
+  // corner and goal kick, throw-in: in PLAYING; timeout: in INITIAL, READY or SET) for team index
+  // 0 or 1: secondaryStateInfo[0] = its team number, [1] = `mode` (the phase within the set play),
+  // the rest 0. kNormal ends it (any team). Penalty shoot-out and overtime are not commands.
+  std::string secondary(SecondaryState kind, int team, std::uint8_t mode = 0);
   // Advances the clocks: the half's remaining time while PLAYING, the penalty countdowns while
   // READY, SET or PLAYING (a countdown stops at 0; the robot stays penalised until unpenalise()).
   void advance(std::chrono::milliseconds elapsed);
@@ -100,6 +123,19 @@ class GameController {
   bool send_now();
 
   std::optional<ReturnRecord> last_return(std::uint8_t team, std::uint8_t player) const;
+  // Every robot's last return packet, by (team number, player).
+  std::map<std::pair<std::uint8_t, std::uint8_t>, ReturnRecord> returns() const;
+  // Starts or stops sending (the game, its clocks and the return receiver go on). Turning it on
+  // also forgets a step-aside, so the next foreign packet steps aside again.
+  void set_sending(bool on);
+  bool sending() const;
+  // Why it stopped sending on its own ("" when it did not): the foreign GameController it saw.
+  std::string stepped_aside() const;
+  std::optional<ForeignGameController> foreign() const;
+  // The watch's port (0 without a watch) and why there is none although one was asked for.
+  std::uint16_t watch_port() const { return watch_ ? watch_->local_port() : 0; }
+  const std::string& watch_error() const { return watch_error_; }
+  std::uint16_t sender_port() const { return sender_.local_port(); }
   GameControllerCounters counters() const;
   std::uint16_t return_port() const { return returns_.local_port(); }
   Endpoint destination() const { return destination_; }
@@ -108,6 +144,7 @@ class GameController {
   GameController(const GameControllerOptions& options, UdpSocket sender, UdpSocket returns, Endpoint destination);
   void send_loop();
   void receive_loop();
+  void watch_loop();
 
   GameControllerOptions options_;
   UdpSocket sender_;
@@ -118,10 +155,16 @@ class GameController {
   std::uint8_t packet_number_ = 0;
   std::map<std::pair<std::uint8_t, std::uint8_t>, ReturnRecord> last_returns_;
   GameControllerCounters counters_;
+  std::optional<UdpSocket> watch_;
+  std::string watch_error_;
+  bool sending_ = true;
+  std::string stepped_aside_;
+  std::optional<ForeignGameController> foreign_;
   std::condition_variable wake_;
   bool running_ = false;
   std::thread sender_thread_;
   std::thread receiver_thread_;
+  std::thread watch_thread_;
 };
 
 }  // namespace doppel::gamecontroller

@@ -23,8 +23,10 @@ class UdpSocket {
  public:
   // Binds to address:port (port 0: the system picks one, see local_port()). With `broadcast` the
   // socket may send to a broadcast address; only set when the user named such an address.
-  // Returns nullopt and fills `error` when the socket cannot be opened or bound.
-  static std::optional<UdpSocket> open(std::uint32_t address, std::uint16_t port, bool broadcast, std::string& error);
+  // With `reuse_address` (SO_REUSEADDR, never SO_REUSEPORT) it may share the port with other
+  // sockets that set it too. Returns nullopt and fills `error` when the socket cannot be opened or bound.
+  static std::optional<UdpSocket> open(std::uint32_t address, std::uint16_t port, bool broadcast, std::string& error,
+                                       bool reuse_address = false);
 
   UdpSocket(UdpSocket&& other) noexcept;
   UdpSocket& operator=(UdpSocket&& other) noexcept;

@@ -22,6 +22,7 @@ class World;
 
 namespace doppel::control {
 class HttpApi;
+class RobotHost;
 }
 namespace doppel::record {
 class Recorder;
@@ -34,11 +35,17 @@ class LinkDirectory;
 class LatencyTimerFiles;
 }
 
+namespace doppel::teamcomm {
+class Hub;
+}
+
 namespace doppel::gateway {
 
 class RobotRuntime;
+class FieldServices;
 class CameraFeed;
 class SimController;
+class LiveRobots;
 
 class Gateway {
  public:
@@ -55,9 +62,16 @@ class Gateway {
   void start();  // starts the bus and simulation threads (and the state thread with a state directory)
   void stop();   // stops and joins them, then saves every robot's EEPROM state; idempotent
 
+  // Adds and removes robots while doppel runs (control/robot_host.h; docs/robots-at-run-time.md).
+  // Any thread; valid for the gateway's lifetime.
+  control::RobotHost& robot_host() noexcept;
+
   std::string describe() const;  // the links and the devices behind them, for the user
   uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
   std::string summary() const;   // per-bus counters, for the user after stop()
+  // The team-communication hub (--teamcomm), for whoever registers robots while doppel runs (the
+  // session handshake): Hub::add_robot and remove_robot are thread-safe. Null without --teamcomm.
+  teamcomm::Hub* teamcomm_hub() noexcept;
 
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
   // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
@@ -76,9 +90,11 @@ class Gateway {
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
   std::unique_ptr<truth::TruthService> truth_;  // --world-model; after cameras_: gone before their iceoryx
+  std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
+  std::unique_ptr<LiveRobots> live_;  // robots added while running; last: goes first, using the parts above
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
   std::thread simulation_thread_;
   std::thread state_thread_;

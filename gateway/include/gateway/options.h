@@ -11,6 +11,7 @@
 #include "control/world_model_settings.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
+#include "teamcomm/link_model.h"
 
 namespace doppel::gateway {
 
@@ -65,6 +66,20 @@ struct Options {
   std::string truth_udp_address = "127.0.0.1";   // --truth-udp-address ADDR
   bool truth_iceoryx = true;                     // --no-truth-iceoryx: UDP only (no RouDi needed)
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
+  // The GameController inside doppel (docs/gamecontroller.md): off unless --gamecontroller (or
+  // doppel-ctl game on); packets to 127.0.0.1 unless the user names another destination.
+  bool gamecontroller = false;
+  int gc_team_a = 1, gc_team_b = 2;      // --gc-teams A,B
+  int gc_players = 4;                    // --gc-players N
+  std::string gc_destination = "127.0.0.1:3838";  // --gc-destination ADDRESS:PORT
+  std::string gc_return = "127.0.0.1:3939";       // --gc-return ADDRESS:PORT
+  std::string gc_watch = "255.255.255.255:3838";  // --gc-watch ADDRESS:PORT|off: another GameController's broadcasts
+  // The team-communication hub (docs/teamcomm.md): --teamcomm [ADDRESS:]PORT; "" = none.
+  std::string teamcomm;
+  std::vector<std::string> teamcomm_robots;     // --teamcomm-robot TEAM:PLAYER:PORT
+  std::string teamcomm_robot_address = "127.0.0.1";
+  teamcomm::LinkModelConfig teamcomm_link;      // --teamcomm-loss, -delay-ms, -jitter-ms, -jitter, -burst-*
+  uint64_t teamcomm_seed = 1;
   bool list_robots = false;              // --list-robots: print the shipped robots and exit
   bool help = false;                     // --help: print usage and exit
 };

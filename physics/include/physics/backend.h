@@ -3,7 +3,8 @@
 // implicit drive law, static shapes, a ground plane, contact forces. An engine backend (ODE in
 // physics_ode, Bullet in physics_bullet) is the only code that includes an engine header. Sizes are
 // fixed by the add_* calls before finalize(); after that the backend only steps and reports, and
-// must not allocate (World's allocation test checks it on both engines).
+// must not allocate (World's allocation test checks it on both engines), except in the run-time
+// changes below (a robot added or removed between two steps), which may.
 
 #include <Eigen/Geometry>
 #include <cstddef>
@@ -82,6 +83,14 @@ class Backend {
   virtual int add_joint(const JointDesc& joint) = 0;                       // returns the joint index
   virtual void exclude_collision(int body_a, int body_b) = 0;              // this pair never collides
   virtual void finalize() = 0;                                             // no add_* after this
+  // Robots added and removed while the world runs (World::add_robot / remove_robot), between two
+  // steps; these calls may allocate and throw. After finalize(), add_body / add_joint /
+  // exclude_collision followed by another finalize() bring new bodies in. remove_joint takes a
+  // joint out for good, remove_body a body (its joints first, and its pin): it collides with
+  // nothing any more. The indices of everything else stay valid; a removed index is never reused
+  // and must not be passed to any call again.
+  virtual void remove_joint(int joint) = 0;
+  virtual void remove_body(int body) = 0;
 
   // Setup or between steps. rt-safe unless noted.
   virtual void set_body_state(int body, const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v_WB_W,

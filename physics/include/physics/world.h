@@ -17,6 +17,12 @@
 //
 // Threads: construct on any thread; then one thread calls step() and the readouts. step(),
 // set_motor() and the readouts are rt-safe: no allocation, no locks, no exceptions.
+//
+// Robots can be added and removed while the world runs (add_robot / remove_robot, on the stepping
+// thread between two steps; docs/robots-at-run-time.md). Those two calls allocate and may take
+// longer than a step (the step that carries them out may overrun); every other step stays
+// allocation-free. The others do not notice: their indices, handles, bodies and joints stay; a
+// removed robot leaves an empty slot (has_robot() false) that the next add_robot reuses.
 
 #include <Eigen/Geometry>
 #include <array>
@@ -137,6 +143,19 @@ class World {
   World(const World&) = delete;
   World& operator=(const World&) = delete;
 
+  // Adds a robot standing at `placement` (lowered onto the floor, in its initial pose, held as the
+  // world's robots are at the start) into the first empty slot; returns its index. Between steps
+  // on the stepping thread; allocates. Throws std::invalid_argument when kMaxRobotGroups robots are
+  // in the world, and whatever the engine throws (then nothing of the robot is left).
+  size_t add_robot(RobotModel robot, const RobotPlacement& placement);
+  // Takes robot `robot` out: its bodies and joints leave the engine (nothing collides with them),
+  // its motor, IMU and foot handles go dead (readouts keep their last values, set_motor ignores
+  // them), its slot stays empty. Between steps; allocates nothing but may free. Throws
+  // std::invalid_argument when there is no such robot.
+  void remove_robot(size_t robot);
+  // True when slot `robot` holds a robot. rt-safe.
+  bool has_robot(size_t robot) const noexcept;
+
   // Look-ups (setup): nullopt when the robot has no such device in its figure.
   std::optional<MotorHandle> find_motor(size_t robot, uint32_t bus, uint8_t id) const noexcept;
   std::optional<ImuHandle> find_imu(size_t robot, uint32_t bus, uint8_t id) const noexcept;
@@ -185,7 +204,7 @@ class World {
   // Sets a motor's winding temperature (tests, scenarios). rt-safe.
   void set_motor_temperature(MotorHandle motor, double temperature_c) noexcept;
 
-  // Ground truth. rt-safe.
+  // Ground truth. rt-safe. robot_count() counts slots, empty ones (removed robots) included.
   size_t robot_count() const noexcept;
   const RobotModel& robot(size_t robot) const noexcept;
   size_t motor_count() const noexcept;
@@ -218,8 +237,11 @@ class World {
   struct FootSlot;
 
   void build_robot(size_t index, const RobotPlacement& placement);
+  // Removes whatever build_robot made of robot `index` from the engine; marks its devices dead.
+  void tear_down(size_t index) noexcept;
   void set_robot_frame(RobotSlot& slot, const Eigen::Isometry3d& X_WR) noexcept;
-  void update_sensors() noexcept;
+  static constexpr size_t kEveryRobot = static_cast<size_t>(-1);
+  void update_sensors(size_t only = kEveryRobot) noexcept;  // every robot's, or robot `only`'s
   DriveLaw hold_law(double target, double position) const noexcept;
   // While a held robot is handed over: link `link` follows its servo, which has torque.
   bool handed_over(const RobotSlot& robot, size_t link) const noexcept;

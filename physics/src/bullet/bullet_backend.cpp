@@ -182,6 +182,7 @@ class BulletWorld final : public btDiscreteDynamicsWorld {
   using btDiscreteDynamicsWorld::btDiscreteDynamicsWorld;
 
   void add_solver_body(btRigidBody* body) { solver_bodies_.push_back(body); }
+  void remove_solver_body(btRigidBody* body) { solver_bodies_.remove(body); }
 
  protected:
   void createPredictiveContacts(btScalar) override {}
@@ -246,7 +247,9 @@ class BulletBackend final : public Backend {
       if (j.drive) world_->removeConstraint(j.drive.get());
       if (j.constraint) world_->removeConstraint(j.constraint.get());
     }
-    for (auto& body : bodies_) world_->removeRigidBody(body.get());
+    for (auto& body : bodies_) {
+      if (body) world_->removeRigidBody(body.get());
+    }
     for (auto& object : statics_) world_->removeCollisionObject(object.get());
   }
 
@@ -388,11 +391,37 @@ class BulletBackend final : public Backend {
 
   // Bodies enter the collision world only now that every excluded pair is known: a broadphase may
   // pair them as soon as they are added.
+  // Again after a run-time add: only the bodies added since.
   void finalize() override {
-    for (size_t i = 0; i < bodies_.size(); ++i) {
+    for (size_t i = in_world_; i < bodies_.size(); ++i) {
       world_->addRigidBody(bodies_[i].get(), filters_[i].first, filters_[i].second);
       world_->add_solver_body(bodies_[i].get());
     }
+    in_world_ = bodies_.size();
+  }
+
+  void remove_joint(int index) override {
+    Joint& j = joints_.at(static_cast<size_t>(index));
+    if (j.drive) world_->removeConstraint(j.drive.get());
+    if (j.constraint) world_->removeConstraint(j.constraint.get());
+    j.drive.reset();
+    j.constraint.reset();
+  }
+
+  // Leaving the broadphase drops the body's pairs and contact manifolds with it.
+  void remove_body(int index) override {
+    std::unique_ptr<btRigidBody>& body = bodies_.at(static_cast<size_t>(index));
+    if (!body) return;
+    auto& pin = pins_[static_cast<size_t>(index)];
+    if (pin) world_->removeConstraint(pin.get());
+    pin.reset();
+    if (static_cast<size_t>(index) < in_world_) {
+      world_->removeRigidBody(body.get());
+      world_->remove_solver_body(body.get());
+    }
+    body.reset();
+    report_[static_cast<size_t>(index)] = false;
+    exempt_[static_cast<size_t>(index)].clear();
   }
 
   void set_body_state(int index, const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v,
@@ -618,7 +647,8 @@ class BulletBackend final : public Backend {
   std::unique_ptr<btSequentialImpulseConstraintSolver> solver_;
   std::unique_ptr<BulletWorld> world_;
   std::vector<std::unique_ptr<btCollisionShape>> shapes_;
-  std::vector<std::unique_ptr<btRigidBody>> bodies_;
+  std::vector<std::unique_ptr<btRigidBody>> bodies_;  // null: removed
+  size_t in_world_ = 0;  // bodies_[0, in_world_) were given to the dynamics world (finalize)
   std::vector<std::unique_ptr<btCollisionObject>> statics_;
   std::vector<std::unique_ptr<btGeneric6DofConstraint>> pins_;
   std::vector<bool> report_;

@@ -102,6 +102,7 @@ class OdeBackend final : public Backend {
   }
 
   int add_body(const BodyDesc& desc) override {
+    ensure_ode_thread();  // a robot added at run time: on whichever thread adds it
     dBodyID body = dBodyCreate(world_);
     dMass mass;
     dMassSetParameters(&mass, desc.mass_kg, 0.0, 0.0, 0.0, desc.inertia_kg_m2.x(), desc.inertia_kg_m2.y(),
@@ -208,6 +209,28 @@ class OdeBackend final : public Backend {
   }
 
   void finalize() override {}
+
+  void remove_joint(int index) override {
+    Joint& j = joints_.at(static_cast<size_t>(index));
+    if (j.friction != nullptr) dJointDestroy(j.friction);
+    if (j.id != nullptr) dJointDestroy(j.id);
+    j = Joint{nullptr, j.type, nullptr, nullptr, nullptr};
+  }
+
+  void remove_body(int index) override {
+    dBodyID& body = bodies_.at(static_cast<size_t>(index));
+    if (body == nullptr) return;
+    // Geoms leave the space as they are destroyed: nothing collides with the body any more.
+    for (dGeomID geom = dBodyGetFirstGeom(body); geom != nullptr; geom = dBodyGetFirstGeom(body)) {
+      dGeomDestroy(geom);
+    }
+    dJointID& pin = pins_[static_cast<size_t>(index)];
+    if (pin != nullptr) dJointDestroy(pin);
+    pin = nullptr;
+    dBodyDestroy(body);
+    body = nullptr;
+    exempt_[static_cast<size_t>(index)].clear();
+  }
 
   void set_body_state(int index, const Eigen::Isometry3d& X_WB, const Eigen::Vector3d& v,
                       const Eigen::Vector3d& w) noexcept override {

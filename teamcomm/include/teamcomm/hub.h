@@ -9,6 +9,9 @@
 // receives on (its registered port). Datagrams from anyone else, and datagrams longer than
 // max_payload_bytes, are counted and dropped. Not a real-time thread: delayed messages are kept
 // in a bounded queue whose entries own their bytes (allocated when queued).
+//
+// Robots can be registered and removed while the hub runs (add_robot(), remove_robot(): any
+// thread; one mutex guards the registry between them and the relaying thread).
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -69,6 +72,16 @@ class Hub {
 
   // A copy of the counters; safe from another thread while run() is going.
   HubCounters counters() const;
+
+  // Registers a robot while the hub runs (any thread). Throws std::invalid_argument naming the
+  // problem (no port, the team:player or the port already registered); nothing changes then.
+  // Its links to and from its registered teammates start with fresh counters.
+  void add_robot(const Robot& robot);
+  // Removes robot team:player and its links (messages still delayed towards it are dropped).
+  // False when no such robot is registered.
+  bool remove_robot(int team, int player);
+  // The robots registered now, in registration order.
+  std::vector<Robot> robots() const;
 
  private:
   struct Impl;

@@ -1,0 +1,295 @@
+// Robots added to and removed from a running doppel through control::RobotHost (the contract the
+// session handshake serves; docs/robots-at-run-time.md), in process: the new robot's bus answers
+// a Protocol 1.0 PING from the reference client and its simulation runs; removing it removes its
+// links; bad requests are refused naming the field and leave nothing behind; the robot doppel
+// started with keeps answering throughout. Cameras: camera/live_robots_camera.cpp.
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <set>
+#include <thread>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "control/robot_host.h"
+#include "gateway/gateway.h"
+#include "reference_client.h"
+#include "sim_time.h"
+
+#include <httplib.h>  // after Eigen (gateway.h): a macro of it breaks Eigen's headers
+
+namespace doppel::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using control::Refusal;
+using control::RobotAdded;
+using control::RobotRequest;
+
+constexpr uint8_t kPing = 0x01;
+
+// PINGs servo 1 (HEAD_PITCH of fumanoid-2011) and checks its status: ID 1, no error, no parameters.
+void expect_ping_answered(SerialClient& client, const std::string& what) {
+  const Bytes reply = client.transact(p1_instruction(1, kPing), 6, 1000);
+  const auto statuses = parse_p1_statuses(reply);
+  ASSERT_TRUE(statuses.has_value()) << what << ": malformed reply of " << reply.size() << " bytes";
+  ASSERT_EQ(statuses->size(), 1u) << what;
+  EXPECT_EQ((*statuses)[0].id, 1) << what;
+  EXPECT_EQ((*statuses)[0].error, 0) << what;
+  EXPECT_TRUE((*statuses)[0].params.empty()) << what;
+}
+
+class LiveRobots : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char pattern[] = "/tmp/doppel-live-XXXXXX";
+    ASSERT_NE(::mkdtemp(pattern), nullptr);
+    dir_ = pattern;
+    options_.link_dir = dir_ + "/links";
+    options_.robots = {"fumanoid-2011"};
+    options_.robots_dir = DOPPEL_ROBOTS_DIR;
+    options_.timing = bus::TimingMode::kFast;
+    options_.camera = false;
+    options_.viewer = true;  // simulation control on any free port: the new robot shows in /api/state
+    options_.viewer_port = 0;
+    options_.state_dir.clear();
+    gateway_ = std::make_unique<gateway::Gateway>(options_);
+    gateway_->start();
+    first_ = std::make_unique<SerialClient>(options_.link_dir + "/ttyDXL0", 1000000);
+  }
+  void TearDown() override {
+    first_.reset();
+    gateway_.reset();
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
+
+  control::RobotHost& host() { return gateway_->robot_host(); }
+
+  nlohmann::json get(const std::string& path) {
+    httplib::Client client("127.0.0.1", gateway_->control_port());
+    client.set_read_timeout(std::chrono::seconds(10));
+    const httplib::Result result = client.Get(path);
+    if (!result || result->status != 200) {
+      ADD_FAILURE() << "GET " << path << " failed";
+      return nlohmann::json::object();
+    }
+    return nlohmann::json::parse(result->body);
+  }
+  nlohmann::json state() { return get("/api/state"); }
+
+  // The robots the viewer's scene draws (distinct object ids of robot shapes), once the scene was
+  // taken after `after_s` of simulation time.
+  std::set<int> robots_in_scene(double after_s) {
+    for (int i = 0; i < 500; ++i) {
+      const nlohmann::json scene = get("/api/scene");
+      if (scene.value("sim_time_s", 0.0) > after_s) {
+        std::set<int> objects;
+        for (const auto& shape : scene["shapes"]) {
+          if (shape["kind"] == "robot") objects.insert(shape["object"].get<int>());
+        }
+        return objects;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ADD_FAILURE() << "the scene did not pass " << after_s << " s";
+    return {};
+  }
+
+  // Refused, naming `field`; nothing of it is left: one robot, no robot1 link.
+  void expect_refused(const RobotRequest& request, const std::string& field) {
+    const control::AddResult result = host().add_robot(request);
+    ASSERT_TRUE(std::holds_alternative<Refusal>(result)) << field;
+    const Refusal& refusal = std::get<Refusal>(result);
+    EXPECT_EQ(refusal.field, field) << refusal.message;
+    EXPECT_FALSE(refusal.message.empty()) << field;
+    EXPECT_EQ(host().robots().size(), 1u) << field;
+    EXPECT_FALSE(fs::exists(fs::symlink_status(options_.link_dir + "/robot1/ttyDXL0"))) << field;
+  }
+
+  std::string dir_;
+  gateway::Options options_;
+  std::unique_ptr<gateway::Gateway> gateway_;
+  std::unique_ptr<SerialClient> first_;
+};
+
+RobotRequest named(const std::string& robot) {
+  RobotRequest request;
+  request.robot = robot;
+  return request;
+}
+
+const control::Link* find_link(const RobotAdded& added, const std::string& kind, const std::string& name) {
+  for (const control::Link& link : added.links) {
+    if (link.kind == kind && link.name == name) return &link;
+  }
+  return nullptr;
+}
+
+TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLinks) {
+  expect_ping_answered(*first_, "the first robot before");
+  // The first robot's bus answers every PING while the second is added, served and removed.
+  std::atomic<bool> done{false};
+  std::atomic<int> answered{0}, unanswered{0};
+  std::thread pinger([&] {
+    while (!done.load()) {
+      const auto statuses = parse_p1_statuses(first_->transact(p1_instruction(1, kPing), 6, 1000));
+      (statuses && statuses->size() == 1 && (*statuses)[0].id == 1 ? answered : unanswered).fetch_add(1);
+    }
+  });
+  RobotRequest request = named("fumanoid-2011");
+  request.x_m = 1.0;
+  request.y_m = 1.5;
+  request.team = 1;
+  const control::AddResult result = host().add_robot(request);
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).field << ": "
+                                                          << std::get<Refusal>(result).message;
+  const RobotAdded& added = std::get<RobotAdded>(result);
+  EXPECT_EQ(added.robot, 1u);
+  EXPECT_EQ(added.name, "fumanoid-2011");
+  const control::Link* bus = find_link(added, "bus", "ttyDXL0");
+  const control::Link* timer = find_link(added, "latency_timer", "ttyDXL0");
+  ASSERT_NE(bus, nullptr);
+  ASSERT_NE(timer, nullptr);
+  EXPECT_EQ(bus->location, options_.link_dir + "/robot1/ttyDXL0");
+  EXPECT_EQ(timer->location, options_.link_dir + "/robot1/ttyDXL0.latency_timer");
+  std::ifstream timer_file(timer->location);
+  int latency_ms = 0;
+  EXPECT_TRUE(timer_file >> latency_ms) << "the latency-timer file holds the adapter's value";
+  ASSERT_EQ(host().robots().size(), 2u);
+  EXPECT_EQ(host().robots()[1].links.size(), added.links.size());
+
+  {
+    SerialClient second(bus->location, 1000000);
+    expect_ping_answered(second, "the added robot");
+    wait_sim_time(second, 0.2);  // its IMU counts simulation time: it is simulated
+  }
+  // Simulation control (the viewer, doppel-ctl) shows it where it was put, held by the handler.
+  const nlohmann::json shown = state();
+  ASSERT_EQ(shown["robots"].size(), 2u) << shown.dump();
+  EXPECT_EQ(shown["robots"][1]["name"], "fumanoid-2011");
+  EXPECT_TRUE(shown["robots"][1]["simulated"].get<bool>());
+  EXPECT_TRUE(shown["robots"][1]["held"].get<bool>());
+  EXPECT_NEAR(shown["robots"][1]["pose"]["x"].get<double>(), 1.0, 0.01);
+  EXPECT_NEAR(shown["robots"][1]["pose"]["y"].get<double>(), 1.5, 0.01);
+  EXPECT_FALSE(shown["robots"][1]["imus"].empty());
+
+  EXPECT_FALSE(host().remove_robot(1).has_value());
+  EXPECT_FALSE(fs::exists(fs::symlink_status(bus->location))) << "its link is gone";
+  EXPECT_FALSE(fs::exists(fs::symlink_status(timer->location))) << "its latency-timer file is gone";
+  EXPECT_EQ(host().robots().size(), 1u);
+  EXPECT_EQ(state()["robots"].size(), 1u);
+  done = true;
+  pinger.join();
+  EXPECT_GT(answered.load(), 10);
+  EXPECT_EQ(unanswered.load(), 0) << "the first robot's bus missed PINGs";
+  expect_ping_answered(*first_, "the first robot after the removal");
+  wait_sim_time(*first_, 0.2);
+
+  // Removing what is not there, or what doppel started with, is refused.
+  const std::optional<Refusal> again = host().remove_robot(1);
+  ASSERT_TRUE(again.has_value());
+  EXPECT_EQ(again->field, "robot");
+  const std::optional<Refusal> started = host().remove_robot(0);
+  ASSERT_TRUE(started.has_value());
+  EXPECT_EQ(started->field, "robot");
+  expect_ping_answered(*first_, "the first robot after the refusals");
+
+  // The slot is free again.
+  const control::AddResult back = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(back));
+  EXPECT_EQ(std::get<RobotAdded>(back).robot, 1u);
+  SerialClient second(options_.link_dir + "/robot1/ttyDXL0", 1000000);
+  expect_ping_answered(second, "the robot added again");
+}
+
+TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
+  std::ifstream file(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto");
+  RobotRequest request;
+  request.description.assign(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
+  const control::AddResult result = host().add_robot(request);
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
+  SerialClient second(find_link(std::get<RobotAdded>(result), "bus", "ttyDXL0")->location, 1000000);
+  expect_ping_answered(second, "the robot from its description");
+}
+
+// A failure halfway (here: its port link's place is taken by a regular file, found once the world
+// holds its body) undoes what was built: no body stays in the world, nothing is served.
+TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
+  fs::create_directories(options_.link_dir + "/robot1");
+  std::ofstream(options_.link_dir + "/robot1/ttyDXL0") << "not a link\n";
+  const control::AddResult failed = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<Refusal>(failed));
+  EXPECT_EQ(std::get<Refusal>(failed).field, "robot");
+  EXPECT_NE(std::get<Refusal>(failed).message.find("robot1/ttyDXL0"), std::string::npos) << std::get<Refusal>(failed).message;
+  EXPECT_EQ(host().robots().size(), 1u);
+  EXPECT_EQ(state()["robots"].size(), 1u);
+  const double now_s = state()["sim_time_s"].get<double>();
+  EXPECT_EQ(robots_in_scene(now_s).size(), 1u) << "the failed robot's body was left in the world";
+
+  fs::remove(options_.link_dir + "/robot1/ttyDXL0");
+  const control::AddResult added = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(added)) << std::get<Refusal>(added).message;
+  EXPECT_EQ(robots_in_scene(state()["sim_time_s"].get<double>()).size(), 2u);
+  expect_ping_answered(*first_, "the first robot");
+}
+
+TEST_F(LiveRobots, BadRequestsAreRefusedNamingTheFieldAndLeaveNothingBehind) {
+  expect_refused(named("no-such-robot"), "robot");
+  expect_refused(RobotRequest{}, "robot");
+  RobotRequest both = named("fumanoid-2011");
+  both.description = "name: \"x\"";
+  expect_refused(both, "description");
+  RobotRequest garbage;
+  garbage.description = "name: \"x\" bus { this is not a robot file";
+  expect_refused(garbage, "description");
+  RobotRequest half = named("fumanoid-2011");
+  half.x_m = 1.0;
+  expect_refused(half, "y_m");
+  RobotRequest off_carpet = named("fumanoid-2011");
+  off_carpet.x_m = 25.0;
+  off_carpet.y_m = 0.0;
+  expect_refused(off_carpet, "x_m");
+  RobotRequest team = named("fumanoid-2011");
+  team.team = 2;
+  expect_refused(team, "team");
+  RobotRequest camera = named("fumanoid-2011");
+  camera.cameras.emplace_back().name = "HEAD_CAMERA";
+  expect_refused(camera, "cameras");  // this doppel runs with --no-camera
+  RobotRequest world_model = named("fumanoid-2011");
+  world_model.world_model = control::WorldModelSettings{};
+  expect_refused(world_model, "world_model");
+  RobotRequest levels = named("fumanoid-2011");
+  levels.sensor_levels = true;
+  expect_refused(levels, "sensor_levels");
+  expect_ping_answered(*first_, "the first robot after the refusals");
+}
+
+TEST_F(LiveRobots, ASeventhRobotIsRefused) {
+  for (uint32_t r = 1; r < 6; ++r) {
+    RobotRequest request = named("fumanoid-2011");
+    request.cameras_off = true;
+    const control::AddResult result = host().add_robot(request);
+    ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << r << ": " << std::get<Refusal>(result).message;
+    EXPECT_EQ(std::get<RobotAdded>(result).robot, r);
+  }
+  const control::AddResult seventh = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<Refusal>(seventh));
+  EXPECT_EQ(std::get<Refusal>(seventh).field, "robot");
+  EXPECT_EQ(host().robots().size(), 6u);
+  EXPECT_FALSE(fs::exists(fs::symlink_status(options_.link_dir + "/robot6")));
+  SerialClient fifth(options_.link_dir + "/robot5/ttyDXL0", 1000000);
+  expect_ping_answered(fifth, "the sixth robot");
+  expect_ping_answered(*first_, "the first robot among six");
+  for (uint32_t r = 1; r < 6; ++r) EXPECT_FALSE(host().remove_robot(r).has_value()) << r;
+  EXPECT_EQ(host().robots().size(), 1u);
+}
+
+}  // namespace
+}  // namespace doppel::testing
