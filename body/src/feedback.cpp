@@ -10,6 +10,7 @@ dynamixel::ServoFeedback servo_feedback(const physics::MotorState& motor, bool o
   feedback.voltage_v = motor.voltage_v;
   feedback.temperature_c = motor.temperature_c;
   feedback.current_a = motor.current_a;
+  feedback.torque_nm = motor.torque_nm;
   feedback.overload = overload;
   feedback.sim_time_ns = sim_time_ns;
   return feedback;

@@ -7,6 +7,7 @@
 #include <array>
 #include <stdexcept>
 
+#include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
 
 namespace doppel::bus {
@@ -68,11 +69,58 @@ void BusServer::run(const std::atomic<bool>& stop) noexcept {
   if (old_slack > 0) ::prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(old_slack), 0, 0, 0);
 }
 
+int64_t BusServer::now() const noexcept {
+  return options_.clock != nullptr ? options_.clock->load(std::memory_order_acquire) : monotonic_now_ns();
+}
+
+void BusServer::hash_bytes(uint8_t direction, int64_t t_ns, const uint8_t* bytes, std::size_t n) noexcept {
+  // Folded per byte run with its time, so that how the pty split the bytes into reads does not matter.
+  if (direction != hashed_direction_ || t_ns != hashed_ns_) {
+    options_.hash->add_u8(direction);
+    options_.hash->add_i64(t_ns);
+    hashed_direction_ = direction;
+    hashed_ns_ = t_ns;
+  }
+  options_.hash->add(bytes, n);
+}
+
+void BusServer::serve_lockstep(uint64_t input_total, int64_t settle_ns, bool check_line) noexcept {
+  tick();
+  if (!port_.connected()) {
+    if (!check_line && input_total <= counters_.bytes_in.load(std::memory_order_relaxed)) return;
+    if (!port_.poll_client()) return;
+    on_connect();
+  }
+  if (!check_line && counters_.bytes_in.load(std::memory_order_relaxed) >= input_total) {
+    write_blocked_ = false;
+    write_due();
+    return;
+  }
+  // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of them.
+  const int64_t give_up = monotonic_now_ns() + settle_ns;
+  for (;;) {
+    const PortWait woke = port_.wait(0, false);
+    if (woke.readable) read_input();
+    if (port_.hung_up()) {
+      on_hang_up();
+      return;
+    }
+    if (counters_.bytes_in.load(std::memory_order_relaxed) >= input_total || monotonic_now_ns() > give_up) break;
+    port_.wait(100'000, false);
+  }
+  write_blocked_ = false;
+  write_due();
+}
+
+int64_t BusServer::next_due_ns() const noexcept {
+  return schedule_.empty() || write_blocked_ ? INT64_MAX : schedule_.front_due_ns();
+}
+
 void BusServer::tick() noexcept {
   if (sync_ == nullptr) return;
-  const int64_t now = monotonic_now_ns();
-  if (now - last_tick_ns_ < kTickNs) return;
-  last_tick_ns_ = now;
+  const int64_t t = now();
+  if (t - last_tick_ns_ < kTickNs) return;
+  last_tick_ns_ = t;
   sync_->on_tick();
 }
 
@@ -89,7 +137,7 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
   int64_t wait_ns = std::max<int64_t>(max_wait_ns, 0);
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t lead_ns = spin_budget_.has_free_slot() ? options_.spin_ns : 0;
-    wait_ns = std::clamp(schedule_.front_due_ns() - monotonic_now_ns() - lead_ns, int64_t{0}, wait_ns);
+    wait_ns = std::clamp(schedule_.front_due_ns() - now() - lead_ns, int64_t{0}, wait_ns);
   }
   if (write_blocked_) wait_ns = std::min(wait_ns, kWriteRetryNs);
   const PortWait woke = port_.wait(wait_ns, write_blocked_);
@@ -104,7 +152,7 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
 
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t due_ns = schedule_.front_due_ns();
-    if (due_ns - monotonic_now_ns() <= options_.spin_ns) await_due(due_ns);
+    if (due_ns - now() <= options_.spin_ns) await_due(due_ns);
     write_due();
   }
 }
@@ -113,12 +161,12 @@ void BusServer::await_due(int64_t due_ns) noexcept {
   // Close to the due time: spin the rest for accuracy if a core is free for it, else sleep to the
   // due time itself. Input that wakes the sleep early is read on the next pass.
   if (spin_budget_.try_acquire()) {
-    while (monotonic_now_ns() < due_ns) {
+    while (now() < due_ns) {
     }
     spin_budget_.release();
     return;
   }
-  const int64_t left_ns = due_ns - monotonic_now_ns();
+  const int64_t left_ns = due_ns - now();
   if (left_ns > 0) port_.wait(left_ns, false);
 }
 
@@ -127,10 +175,11 @@ void BusServer::read_input() noexcept {
   for (;;) {
     const std::size_t n = port_.read(buffer.data(), buffer.size());
     if (n == 0) break;
-    const int64_t seen_ns = monotonic_now_ns();
+    const int64_t seen_ns = now();
     const uint32_t baud_bps = port_.line_baud_bps();
     counters_.line_baud_bps.store(baud_bps, std::memory_order_relaxed);
     add(counters_.bytes_in, n);
+    if (options_.hash != nullptr) hash_bytes(0, seen_ns, buffer.data(), n);
     process(buffer.data(), n, seen_ns, baud_bps);
   }
 }
@@ -252,7 +301,7 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
 
 void BusServer::write_due() noexcept {
   while (!schedule_.empty() && !write_blocked_) {
-    const auto pending = schedule_.due_bytes(monotonic_now_ns());
+    const auto pending = schedule_.due_bytes(now());
     if (pending.empty()) return;
     const std::size_t written = port_.write(pending.data(), pending.size());
     if (written == 0) {
@@ -262,7 +311,8 @@ void BusServer::write_due() noexcept {
     }
     add(counters_.bytes_out, written);
     if (written < pending.size()) write_blocked_ = true;
-    const int64_t written_ns = monotonic_now_ns();
+    const int64_t written_ns = now();
+    if (options_.hash != nullptr) hash_bytes(1, written_ns, pending.data(), written);
     for (std::size_t left = written; left > 0;) {
       const ReplySchedule::Progress progress = schedule_.consume(left);
       if (progress.bytes == 0) break;
@@ -301,7 +351,7 @@ void BusServer::on_connect() noexcept {
   if (!parser_.idle()) parser_.reset();
   write_blocked_ = false;
   add(counters_.connects);
-  tap(TapEventKind::kConnect, monotonic_now_ns());
+  tap(TapEventKind::kConnect, now());
   counters_.connected.store(true, std::memory_order_relaxed);
 }
 
@@ -309,7 +359,7 @@ void BusServer::on_hang_up() noexcept {
   // Complete packets of the departed client were served by read_input; what is left is a partial
   // packet (dropped, as a servo would after its timeout) and replies nobody will read.
   if (!parser_.idle()) parser_.reset();
-  tap(TapEventKind::kHangUp, monotonic_now_ns());
+  tap(TapEventKind::kHangUp, now());
   add(counters_.discarded_bytes, schedule_.pending_bytes());
   schedule_.clear();
   adapter_.reset();

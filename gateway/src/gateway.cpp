@@ -4,6 +4,9 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cinttypes>
+#include <climits>
+#include <cstdio>
 #include <iostream>
 #include <numbers>
 #include <optional>
@@ -21,12 +24,15 @@
 #include "eeprom_state.h"
 #include "field_services.h"
 #include "control/http_api.h"
+#include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
+#include "lockstep/coordinator.h"
 #include "record/recorder.h"
 #include "live_robots.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
+#include "sensor_levels_feed.h"
 
 namespace doppel::gateway {
 
@@ -149,7 +155,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
                                                 0.5 * field.field_length_m + field.border_strip_width_m,
                                                 0.5 * field.field_width_m + field.border_strip_width_m);
-  if (options.world_model && world_ != nullptr) start_truth(configs, in_world);
+  if ((options.world_model && world_ != nullptr) || options.sensor_levels_hz > 0.0) start_truth(configs, in_world);
   if (options.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
   }
@@ -196,6 +202,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
                         0.5 * field.field_length_m + field.border_strip_width_m,
                         0.5 * field.field_width_m + field.border_strip_width_m},
       std::move(started));
+  if (options.lockstep) set_up_lockstep();
 }
 
 void Gateway::start_truth(const std::vector<RobotConfig>& configs,
@@ -208,10 +215,16 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
   try {
     truth_ = std::make_unique<truth::TruthService>(truth_options);
   } catch (const std::exception& e) {
-    throw std::runtime_error(std::string("--world-model: ") + e.what());
+    throw std::runtime_error(std::string(options_.world_model ? "--world-model: " : "--sensor-levels: ") + e.what());
+  }
+  if (options_.sensor_levels_hz > 0.0) {
+    std::vector<RobotRuntime*> robots;
+    for (auto& robot : robots_) robots.push_back(robot.get());
+    levels_feed_ = std::make_unique<SensorLevelsFeed>(std::move(robots));
+    truth_->add_poller([feed = levels_feed_.get()](truth::Transport& transport) { feed->publish(transport); });
   }
   for (std::size_t r = 0; r < configs.size(); ++r) {
-    if (!in_world[r]) continue;
+    if (!in_world[r] || !options_.world_model) continue;
     truth::RobotBinding binding;
     binding.in_world = *in_world[r];
     binding.team = kick_off_placement(r).team;
@@ -228,6 +241,47 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
 }
 
 control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
+
+void Gateway::set_up_lockstep() {
+  std::vector<lockstep::LockstepBus> buses;
+  for (auto& robot : robots_) {
+    for (std::size_t b = 0; b < robot->bus_count(); ++b) {
+      lockstep::LockstepBus bus;
+      bus.link = robot->bus(b).link();
+      char target[lockstep::kPathBytes] = {};
+      const ssize_t n = ::readlink(bus.link.c_str(), target, sizeof(target) - 1);
+      bus.slave = n > 0 ? std::string(target, static_cast<std::size_t>(n)) : std::string();
+      buses.push_back(bus);
+    }
+  }
+  lockstep::CoordinatorOptions coordinator;
+  coordinator.watchdog_ns = static_cast<int64_t>(options_.lockstep_watchdog_s * 1e9);
+  if (options_.lockstep_epoch_s) coordinator.epoch_realtime_ns = static_cast<int64_t>(*options_.lockstep_epoch_s * 1e9);
+  coordinator.start_ns = world_ != nullptr ? world_->time_ns() : 0;
+  lockstep_ = std::make_unique<lockstep::Coordinator>(options_.link_dir + "/" + lockstep::kClockFileName, buses, coordinator);
+  for (auto& robot : robots_) {
+    for (std::size_t b = 0; b < robot->bus_count(); ++b) {
+      bus_hashes_.push_back(std::make_unique<Fnv1a>());
+      robot->bus(b).server().use_lockstep_clock(&lockstep_->clock(), bus_hashes_.back().get());
+    }
+  }
+  if (!options_.hashes_file.empty()) {
+    hashes_file_.open(options_.hashes_file, std::ios::out | std::ios::trunc);
+    if (!hashes_file_) throw std::runtime_error("--hashes-file: cannot write " + options_.hashes_file);
+  }
+  if (options_.hashes || !options_.hashes_file.empty()) {
+    std::ostream* out = options_.hashes_file.empty() ? &std::cout : &hashes_file_;
+    hash_callback_ = [out](int64_t second, uint64_t hash) {
+      char line[64];
+      std::snprintf(line, sizeof(line), "hash %" PRId64 " %016" PRIx64 "\n", second, hash);
+      *out << line << std::flush;
+    };
+  }
+}
+
+void Gateway::on_second_hash(HashCallback callback) { hash_callback_ = std::move(callback); }
+
+std::string Gateway::lockstep_clock_path() const { return lockstep_ != nullptr ? lockstep_->path() : std::string(); }
 
 void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
   recording::RunInfo run;
@@ -291,8 +345,10 @@ void Gateway::start() {
     return;
   }
   stop_ = false;
-  for (auto& robot : robots_) {
-    robot->start(stop_, options_.rt_priority);
+  if (lockstep_ == nullptr) {  // under lockstep the simulation thread serves the buses itself
+    for (auto& robot : robots_) {
+      robot->start(stop_, options_.rt_priority);
+    }
   }
   latency_files_->start();
   if (cameras_ != nullptr) {
@@ -301,7 +357,11 @@ void Gateway::start() {
   live_->simulation_started();
   simulation_thread_ = std::thread([this] {
     pthread_setname_np(pthread_self(), "doppel-sim");
-    simulate();
+    if (lockstep_ != nullptr) {
+      simulate_lockstep();
+    } else {
+      simulate();
+    }
   });
   field_->start();
   if (control_api_ != nullptr) {
@@ -426,39 +486,124 @@ void Gateway::stop() {
   }
 }
 
+void Gateway::step_world(int64_t& sim_time_ns) noexcept {
+  const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
+  for (auto& robot : robots_) {
+    robot->drive(dt_s);
+  }
+  live_->drive(dt_s);
+  if (world_ != nullptr) {
+    world_->step();
+    sim_time_ns = world_->time_ns();
+  } else {
+    sim_time_ns += kSimulationStepNs;
+  }
+  if (cameras_ != nullptr) {
+    cameras_->offer(world_.get(), sim_time_ns);
+  }
+  for (auto& robot : robots_) {
+    robot->sense(sim_time_ns);
+  }
+  if (truth_ != nullptr) {
+    truth_->capture(*world_, sim_time_ns);
+  }
+  live_->sense(sim_time_ns);
+  sim_time_ns_.store(sim_time_ns, std::memory_order_relaxed);
+}
+
 void Gateway::simulate() noexcept {
   FixedRateClock clock(kSimulationStepNs);
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
-  const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
   while (!stop_.load(std::memory_order_relaxed)) {
     live_->run_pending();  // a robot added or removed: this tick may overrun
     // Paused (doppel-ctl pause), the world and the sensors' time stand still; the buses answer on.
     if (controller_->begin_tick()) {
-      for (auto& robot : robots_) {
-        robot->drive(dt_s);
-      }
-      live_->drive(dt_s);
-      if (world_ != nullptr) {
-        world_->step();
-        sim_time_ns = world_->time_ns();
-      } else {
-        sim_time_ns += kSimulationStepNs;
-      }
-      if (cameras_ != nullptr) {
-        cameras_->offer(world_.get(), sim_time_ns);
-      }
-      for (auto& robot : robots_) {
-        robot->sense(sim_time_ns);
-      }
-      if (truth_ != nullptr) {
-        truth_->capture(*world_, sim_time_ns);
-      }
-      live_->sense(sim_time_ns);
+      step_world(sim_time_ns);
     }
     controller_->end_tick(sim_time_ns, clock.missed_ticks());
     clock.wait_next();
   }
   missed_ticks_ = clock.missed_ticks();
+}
+
+void Gateway::simulate_lockstep() noexcept {
+  // The loop of docs/lockstep.md: let the controller run until all its threads wait; hand the
+  // bytes it wrote to the bus servers and write what is due; wake one thread whose wait is over;
+  // when none is, advance simulation time to the next event (a wake-up, a reply due, the next
+  // 1 ms step) and step the world at each step boundary.
+  constexpr int64_t kSettleNs = 1'000'000'000;  // wall time the pty may take to hand bytes over
+  constexpr int64_t kSecondNs = 1'000'000'000;
+  int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;  // the world's (stands still while paused)
+  int64_t next_step_ns = lockstep_->now_ns() + kSimulationStepNs;
+  int64_t next_second_ns = (lockstep_->now_ns() / kSecondNs + 1) * kSecondNs;
+  Fnv1a world_hash;
+  bool told_waiting = false;
+  bool stepped = true;  // the pty is polled at each step even when the controller wrote nothing
+  const auto serve_buses = [this, &stepped] {
+    std::size_t index = 0;
+    for (auto& robot : robots_) {
+      for (std::size_t b = 0; b < robot->bus_count(); ++b, ++index) {
+        bus::BusServer& server = robot->bus(b).server();
+        server.serve_lockstep(lockstep_->client_written(index), kSettleNs, stepped);
+        lockstep_->set_delivered(index, server.bytes_out());
+      }
+    }
+    stepped = false;
+  };
+  while (!stop_.load(std::memory_order_relaxed)) {
+    if (!lockstep_->settle(stop_)) break;
+    serve_buses();
+    if (lockstep_->wake_one()) continue;
+    if (lockstep_->threads() == 0) {
+      if (!told_waiting) {
+        std::cerr << "doppel: lockstep: simulation time stands at " << static_cast<double>(lockstep_->now_ns()) * 1e-9
+                  << " s until a controller started with `doppel-run --lockstep` runs\n"
+                  << std::flush;
+        told_waiting = true;
+      }
+      lockstep_->wait_for_threads(50'000'000);
+      continue;
+    }
+    told_waiting = false;
+    int64_t next_ns = std::min(next_step_ns, lockstep_->earliest_wake_ns());
+    for (auto& robot : robots_) {
+      for (std::size_t b = 0; b < robot->bus_count(); ++b) {
+        next_ns = std::min(next_ns, robot->bus(b).server().next_due_ns());
+      }
+    }
+    lockstep_->advance_to(std::max(next_ns, lockstep_->now_ns()));
+    if (lockstep_->now_ns() < next_step_ns) continue;
+    next_step_ns += kSimulationStepNs;
+    stepped = true;
+    if (controller_->begin_tick()) {
+      step_world(sim_time_ns);
+    }
+    controller_->end_tick(sim_time_ns, 0);
+    world_hash.add_i64(sim_time_ns);
+    if (world_ != nullptr) {
+      for (std::size_t r = 0; r < world_->robot_count(); ++r) {
+        for (std::size_t body = 0; body < world_->robot(r).bodies.size(); ++body) {
+          const Eigen::Isometry3d pose = world_->body_pose(r, body);
+          for (int i = 0; i < 3; ++i) world_hash.add_double(pose.translation()[i]);
+          for (int i = 0; i < 9; ++i) world_hash.add_double(pose.linear().data()[i]);
+        }
+      }
+      const Eigen::Vector3d ball = world_->ball_position();
+      for (int i = 0; i < 3; ++i) world_hash.add_double(ball[i]);
+    }
+    if (lockstep_->now_ns() >= next_second_ns) {
+      Fnv1a second;
+      second.add_i64(next_second_ns);
+      second.add_u64(world_hash.value());
+      for (auto& hash : bus_hashes_) {
+        second.add_u64(hash->value());
+        hash->reset();
+      }
+      world_hash.reset();
+      if (hash_callback_) hash_callback_(next_second_ns / kSecondNs, second.value());
+      next_second_ns += kSecondNs;
+    }
+  }
 }
 
 std::string Gateway::describe() const {
@@ -469,8 +614,16 @@ std::string Gateway::describe() const {
   if (cameras_ != nullptr) {
     out << cameras_->describe();
   }
-  if (truth_ != nullptr) {
+  if (truth_ != nullptr && options_.world_model) {
     out << truth_->describe();
+  }
+  if (levels_feed_ != nullptr) {
+    const truth::TransportOptions& transport = truth_->transport_options();
+    out << "doppel: sensor levels " << options_.sensor_levels_hz << " times per simulated second on";
+    if (transport.iceoryx) out << " iceoryx (" << truth::kServiceId << ", robot<N>, " << kSensorLevelsTopic << ")";
+    if (transport.iceoryx && transport.udp) out << " and";
+    if (transport.udp) out << " UDP " << transport.udp_address << ":" << transport.udp_base_port << "+N";
+    out << " (doppel-truth --topic " << kSensorLevelsTopic << ")\n";
   }
   if (control_api_ != nullptr) {
     out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
@@ -483,6 +636,10 @@ std::string Gateway::describe() const {
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
   out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
       << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";
+  if (lockstep_ != nullptr) {
+    out << "doppel: lockstep: simulation time runs while controllers started with `doppel-run --lockstep --link-dir "
+        << options_.link_dir << " -- CONTROLLER` wait (clock file " << lockstep_->path() << ")\n";
+  }
   out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
       << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")
       << "; running until SIGINT/SIGTERM\n";
@@ -502,9 +659,12 @@ std::string Gateway::summary() const {
   }
   if (truth_ != nullptr) {
     const truth::TruthStats stats = truth_->stats();
-    out << "  world model: " << stats.messages << " messages (iceoryx " << stats.transport.iceoryx_sent << " sent, "
-        << stats.transport.iceoryx_dropped << " dropped; UDP " << stats.transport.udp_sent << " sent, "
-        << stats.transport.udp_failed << " failed), " << stats.samples_dropped << " world samples dropped\n";
+    if (levels_feed_ != nullptr) out << "  sensor levels: " << levels_feed_->messages() << " messages\n";
+    if (options_.world_model) {
+      out << "  world model: " << stats.messages << " messages, " << stats.samples_dropped << " world samples dropped\n";
+    }
+    out << "  truth transport: iceoryx " << stats.transport.iceoryx_sent << " sent, " << stats.transport.iceoryx_dropped
+        << " dropped; UDP " << stats.transport.udp_sent << " sent, " << stats.transport.udp_failed << " failed\n";
   }
   out << "  simulation: " << missed_ticks_ << " missed 1 ms ticks\n";
   if (recorder_ != nullptr) {

@@ -148,6 +148,9 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRe
   if (parts_.world == nullptr) {
     return Refusal{"", "this doppel runs without a physics world (--physics none): no robot can be added while it runs"};
   }
+  if (parts_.options->lockstep) {
+    return Refusal{"", "this doppel runs in lockstep (--lockstep): its robots are fixed at start (docs/lockstep.md)"};
+  }
   if (request.world_model) {
     return Refusal{"world_model", "the world-model sensor is not available in this doppel"};
   }

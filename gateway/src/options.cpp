@@ -147,6 +147,18 @@ Options:
   --teamcomm-loss P, --teamcomm-delay-ms D, --teamcomm-jitter-ms J, --teamcomm-jitter uniform|normal,
   --teamcomm-burst-enter P, --teamcomm-burst-leave P, --teamcomm-burst-loss P, --teamcomm-seed S
                          The WiFi model of every link, as doppel-teamcomm's options of the same names.
+  --lockstep             Simulation time instead of the wall clock (docs/lockstep.md): time advances
+                         only while every thread of a controller started with `doppel-run --lockstep`
+                         waits, as fast as the machine can. Implies --timing wire on its own clock.
+  --hashes               With --lockstep: print `hash SECOND HEX` for every simulated second (bus
+                         bytes in and out with their times, world state): equal runs, equal lines.
+  --hashes-file FILE     The same lines to FILE instead of standard output.
+  --lockstep-watchdog S  Wall seconds a controller thread may run without a wait doppel sees before
+                         it is reported (default 5).
+  --lockstep-epoch S     CLOCK_REALTIME at simulation time 0, Unix seconds (default: when doppel starts).
+  --sensor-levels HZ     Publish every servo's, IMU's and foot board's registers decoded to SI units
+                         beside the simulation's true values, HZ times per simulated second
+                         (0.1..1000), as topic sensor_levels on the same transport (docs/multilevel.md).
   --list-robots          Print the shipped robots and exit.
   --help                 Print this text and exit.
 
@@ -233,6 +245,12 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--teamcomm-burst-leave", options.teamcomm_link.p_bad_to_good)->transform(number_in<double>(0.0, 1.0));
   app.add_option("--teamcomm-burst-loss", options.teamcomm_link.loss_in_bad)->transform(number_in<double>(0.0, 1.0));
   app.add_option("--teamcomm-seed", options.teamcomm_seed);
+  app.add_flag("--lockstep", options.lockstep);
+  app.add_flag("--hashes", options.hashes);
+  app.add_option("--hashes-file", options.hashes_file)->check(not_empty("the file name"));
+  app.add_option("--lockstep-watchdog", options.lockstep_watchdog_s)->transform(number_in<double>(0.1, 3600.0));
+  app.add_option("--lockstep-epoch", options.lockstep_epoch_s)->transform(number_in<double>(0.0, 1e11));
+  app.add_option("--sensor-levels", options.sensor_levels_hz)->transform(number_in<double>(0.1, 1000.0));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -279,6 +297,9 @@ Options parse_options(int argc, const char* const* argv) {
     throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
   }
   if (rate->count() + fov->count() + range->count() + nearest->count() > 0) options.world_model = true;
+  if ((options.hashes || !options.hashes_file.empty() || options.lockstep_epoch_s) && !options.lockstep) {
+    throw std::invalid_argument("--hashes, --hashes-file and --lockstep-epoch need --lockstep (see --help)");
+  }
   if (options.state_dir.empty()) {
     options.state_dir = default_state_dir();
   }

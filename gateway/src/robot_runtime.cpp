@@ -85,6 +85,20 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
   }
   wire_supply_switch();
+  if (options.sensor_levels_hz > 0.0) {
+    static_assert(kMaxServos <= body::kLevelsMaxServos && kMaxBoards <= body::kLevelsMaxBoards);
+    levels_period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.sensor_levels_hz));
+    for (const auto& device : devices_) levels_tables_.push_back(body::device_table(*device));
+    auto layout = [&](std::size_t d) {
+      const DeviceConfig& device = config.devices[d];
+      return body::levels_device(static_cast<uint32_t>(bus_index), devices_[d]->id(), device.name, device.model,
+                                 device.firmware, *devices_[d]);
+    };
+    for (const auto& servo : servos_) levels_layout_.servos.push_back(layout(servo.device_index));
+    for (const auto& imu : imus_) levels_layout_.imus.push_back(layout(imu.device_index));
+    for (const auto& foot : feet_) levels_layout_.feet.push_back(layout(foot.device_index));
+    levels_ = std::make_unique<concurrency::Snapshot<body::BusLevelsSample>>();
+  }
   // The servo table's columns: each servo's registers found by their e-Manual names.
   for (const auto& servo : servos_) {
     const Gated& device = every_device_[servo.device_index];
@@ -289,6 +303,34 @@ void BusRuntime::before_dispatch() noexcept {
   for (std::size_t i = 0; i < imus_.size(); ++i) imus_[i].device->apply(feedback.imus[i]);
   for (std::size_t i = 0; i < feet_.size(); ++i) feet_[i].device->apply(feedback.feet[i]);
   for (dynamixel::SimulatedPowerBoard* power : power_boards_) power->apply(feedback.power);
+  if (levels_ != nullptr) sample_sensor_levels(feedback);
+}
+
+void BusRuntime::sample_sensor_levels(const BusFeedback& feedback) noexcept {
+  const int64_t t = feedback.power.sim_time_ns;
+  if (levels_sequence_ != 0 && t >= levels_last_ns_ && t < levels_next_ns_) return;  // not due (a reset goes back)
+  body::BusLevelsSample& sample = levels_->back();
+  sample.sequence = ++levels_sequence_;
+  sample.sim_time_ns = t;
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    const std::size_t d = servos_[i].device_index;
+    body::copy_table(levels_tables_[d], bus_devices_.powered(d), sample.servo_tables[i]);
+    sample.servo_truth[i] = feedback.servos[i];
+  }
+  for (std::size_t i = 0; i < imus_.size(); ++i) {
+    const std::size_t d = imus_[i].device_index;
+    body::copy_table(levels_tables_[d], bus_devices_.powered(d), sample.imu_tables[i]);
+    sample.imu_truth[i] = feedback.imus[i];
+  }
+  for (std::size_t i = 0; i < feet_.size(); ++i) {
+    const std::size_t d = feet_[i].device_index;
+    body::copy_table(levels_tables_[d], bus_devices_.powered(d), sample.foot_tables[i]);
+    sample.foot_truth[i] = feedback.feet[i];
+  }
+  levels_->publish();
+  levels_last_ns_ = t;
+  const int64_t slot = t >= 0 ? t / levels_period_ns_ : -1;
+  levels_next_ns_ = (slot + 1) * levels_period_ns_;
 }
 
 void BusRuntime::after_dispatch() noexcept {
@@ -509,6 +551,31 @@ std::vector<std::vector<uint16_t>> RobotRuntime::model_numbers() const {
   std::vector<std::vector<uint16_t>> out;
   for (const auto& bus : buses_) out.push_back(bus->model_numbers());
   return out;
+}
+
+bool RobotRuntime::sensor_levels(levels::SensorLevels& out) {
+  // One message per sample period: once every bus has a new sample (the buses sample the same grid
+  // of simulation time, each on its own thread).
+  levels_fresh_.resize(buses_.size(), false);
+  bool enabled = false, all_fresh = true;
+  for (std::size_t b = 0; b < buses_.size(); ++b) {
+    if (!buses_[b]->sensor_levels_enabled()) continue;
+    enabled = true;
+    if (buses_[b]->update_sensor_levels()) levels_fresh_[b] = true;
+    all_fresh = all_fresh && levels_fresh_[b];
+  }
+  if (!enabled || !all_fresh) return false;
+  std::fill(levels_fresh_.begin(), levels_fresh_.end(), false);
+  out.Clear();
+  out.set_robot(static_cast<uint32_t>(index_));
+  out.set_robot_name(config_.name);
+  out.set_sequence(++levels_sequence_);
+  for (auto& bus : buses_) {
+    if (bus->sensor_levels_enabled() && bus->sensor_levels().sequence != 0) {
+      body::append_bus_levels(bus->sensor_levels_layout(), bus->sensor_levels(), out);
+    }
+  }
+  return true;
 }
 
 std::vector<control::BusTable> RobotRuntime::servo_tables() {

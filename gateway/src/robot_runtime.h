@@ -9,6 +9,7 @@
 #include <atomic>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <thread>
 #include <vector>
@@ -16,6 +17,7 @@
 #include "bus/bus_server.h"
 #include "bus/latency_timer_files.h"
 #include "bus/pty_port.h"
+#include "body/sensor_levels.h"
 #include "body/simulated_body.h"
 #include "concurrency/snapshot.h"
 #include "control/sim_control.h"
@@ -115,7 +117,18 @@ class BusRuntime final : public bus::DeviceSync {
   // the bus thread (one at a time: a mutex on the reading side only).
   control::BusTable servo_table();
 
+  // Sensor levels (body/sensor_levels.h; Options::sensor_levels_hz > 0, else none). The levels
+  // thread only: takes the newest sample the bus thread published (true when it is new), and the
+  // sample itself. rt-safe.
+  bool sensor_levels_enabled() const noexcept { return levels_ != nullptr; }
+  bool update_sensor_levels() noexcept { return levels_ != nullptr && levels_->update(); }
+  const body::BusLevelsSample& sensor_levels() noexcept { return levels_->latest(); }
+  const body::BusLevelsLayout& sensor_levels_layout() const noexcept { return levels_layout_; }
+
  private:
+  // Copies every sensor's registers with the feedback they were set from into a sensor-levels
+  // sample when one is due in simulation time. Bus thread; rt-safe.
+  void sample_sensor_levels(const BusFeedback& feedback) noexcept;
   // Decodes every servo's registers into servo_table_ and publishes them. Bus thread; rt-safe.
   void publish_servo_table() noexcept;
   // Where a servo's table columns are in its control table (-1: the model has no such register).
@@ -182,6 +195,15 @@ class BusRuntime final : public bus::DeviceSync {
   concurrency::Snapshot<BusServoTable> servo_table_;
   std::mutex servo_table_mutex_;  // reading side only: the snapshot has one reader
   int servo_table_ticks_ = 0;     // bus thread
+  // Sensor levels: the layout (setup), each device's control table by device index, the snapshot
+  // and the bus thread's sampling grid.
+  body::BusLevelsLayout levels_layout_;
+  std::vector<std::span<const uint8_t>> levels_tables_;
+  std::unique_ptr<concurrency::Snapshot<body::BusLevelsSample>> levels_;
+  int64_t levels_period_ns_ = 0;
+  int64_t levels_last_ns_ = 0;
+  int64_t levels_next_ns_ = 0;
+  uint64_t levels_sequence_ = 0;
   std::atomic<uint64_t> collisions_{0};  // BusDevices' wire collisions, stored by the bus thread after each packet
   std::thread thread_;
 };
@@ -214,6 +236,9 @@ class RobotRuntime {
   // While the bus threads are stopped: the EEPROM areas now.
   RobotEeprom eeprom_now() const;
   std::vector<std::vector<uint16_t>> model_numbers() const;
+  // The levels thread: once every bus published a new sensor-levels sample since the last
+  // message, fills `out` (cleared first) with every bus' newest one and returns true. Not rt-safe (protobuf allocates).
+  bool sensor_levels(levels::SensorLevels& out);
   // Every bus' servo table (robot fields left to the caller). Any thread but the bus threads.
   std::vector<control::BusTable> servo_tables();
   std::size_t bus_count() const noexcept { return buses_.size(); }
@@ -224,6 +249,8 @@ class RobotRuntime {
   std::size_t index_;
   std::unique_ptr<body::SimulatedBody> body_;  // before the buses, which refer to it
   std::vector<std::unique_ptr<BusRuntime>> buses_;
+  uint64_t levels_sequence_ = 0;     // levels thread
+  std::vector<bool> levels_fresh_;  // levels thread: bus b has a sample not yet sent
 };
 
 }  // namespace doppel::gateway

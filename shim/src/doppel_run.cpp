@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bus/link_directory.h"
+#include "lockstep/clock_file.h"
 #include "shim/port_map.h"
 
 namespace {
@@ -86,6 +87,10 @@ int main(int argc, char** argv) {
                  "DEVICE=LINK: opening DEVICE opens Doppel's port LINK (repeatable). Default: /dev/ttyUSB<n>\n"
                  "and /dev/ttyACM<n> -> LINK-DIR/ttyDXL<n> for every ttyDXL<n> there, /dev/U2D2 -> ttyDXL0");
   app.add_option("--link-dir", link_dir, "Doppel's link directory (doppel --link-dir). Default: " + link_dir);
+  bool lockstep = false;
+  app.add_flag("--lockstep", lockstep,
+               "Give COMMAND doppel's simulation time (doppel --lockstep; docs/lockstep.md): its clocks, sleeps and\n"
+               "timeouts are simulation time, which advances only while all its threads wait");
   app.add_option("command", command, "the program and its arguments")->required();
   app.prefix_command();
   try {
@@ -93,7 +98,16 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  for (const std::string& extra : app.remaining()) command.push_back(extra);
+  // CLI11 hands back the "--" that separated doppel-run's options from the command as a remaining
+  // argument: it is not the command's.
+  bool separator_dropped = false;
+  for (const std::string& extra : app.remaining()) {
+    if (extra == "--" && !separator_dropped) {
+      separator_dropped = true;
+      continue;
+    }
+    command.push_back(extra);
+  }
 
   std::vector<PortOption> mappings;
   for (const std::string& port : ports) {
@@ -135,6 +149,18 @@ int main(int argc, char** argv) {
   if (shim.empty()) {
     std::cerr << "doppel-run: libdoppel_shim.so is neither beside doppel-run nor in ../lib: reinstall Doppel\n";
     return 1;
+  }
+  if (lockstep) {
+    const std::string clock = link_dir + "/" + doppel::lockstep::kClockFileName;
+    struct stat st {};
+    if (::stat(clock.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
+      std::cerr << "doppel-run: --lockstep: " << clock
+                << " does not exist: is doppel running with --lockstep (and this --link-dir)?\n";
+      return 1;
+    }
+    ::setenv(doppel::lockstep::kClockVariable, clock.c_str(), 1);
+  } else {
+    ::unsetenv(doppel::lockstep::kClockVariable);
   }
   const char* preload = std::getenv("LD_PRELOAD");
   const std::string preloads = preload != nullptr && *preload != '\0' ? shim + ":" + preload : shim;

@@ -26,6 +26,7 @@
 
 #include "base/latency_timer.h"
 #include "line_rate.h"
+#include "lockstep_shim.h"
 #include "shim/ftdi_serial.h"
 #include "shim/port_map.h"
 
@@ -427,6 +428,14 @@ int open_path(int (*fn)(const char*, int, ...), const char* path, int flags, mod
 __attribute__((constructor)) void load() noexcept { ready(); }
 
 }  // namespace
+
+int port_index_of_fd(int fd) noexcept {
+  if (fd < 0 || fd >= kMaxFds) return -1;
+  return static_cast<int>(g_fd_port[fd].load(std::memory_order_acquire)) - 1;
+}
+
+const char* port_pts(int port) noexcept { return port >= 0 && static_cast<std::size_t>(port) < g_port_count ? g_ports[port].pts : ""; }
+
 }  // namespace doppel::shim
 
 using namespace doppel::shim;
@@ -491,6 +500,7 @@ SHIM_EXPORT int fclose(FILE* file) {
 }
 
 SHIM_EXPORT int close(int fd) {
+  lockstep_closing(fd);
   untrack(fd);
   return real(&Real::close, "close")(fd);
 }
@@ -545,13 +555,25 @@ SHIM_EXPORT int ioctl(int fd, unsigned long request, ...) noexcept {
   va_start(args, request);
   void* arg = va_arg(args, void*);
   va_end(args);
-  if (Port* port = port_of_fd(fd)) return serial_ioctl(fd, *port, request, arg);
+  if (Port* port = port_of_fd(fd)) {
+    if (request != TCFLSH) return serial_ioctl(fd, *port, request, arg);
+    const int queue = static_cast<int>(reinterpret_cast<intptr_t>(arg));
+    lockstep_flushing(fd, queue, false);
+    const int r = serial_ioctl(fd, *port, request, arg);
+    lockstep_flushing(fd, queue, true);
+    return r;
+  }
   return real(&Real::ioctl, "ioctl")(fd, request, arg);
 }
 
 // glibc's tcflush and tcsetattr call ioctl inside libc, where the ioctl above cannot see them.
 SHIM_EXPORT int tcflush(int fd, int queue) noexcept {
-  if (Port* port = port_of_fd(fd)) return serial_ioctl(fd, *port, TCFLSH, reinterpret_cast<void*>(static_cast<intptr_t>(queue)));
+  if (Port* port = port_of_fd(fd)) {
+    lockstep_flushing(fd, queue, false);
+    const int r = serial_ioctl(fd, *port, TCFLSH, reinterpret_cast<void*>(static_cast<intptr_t>(queue)));
+    lockstep_flushing(fd, queue, true);
+    return r;
+  }
   return real(&Real::tcflush, "tcflush")(fd, queue);
 }
 SHIM_EXPORT int tcsetattr(int fd, int when, const struct termios* termios) noexcept {

@@ -25,6 +25,7 @@ TEST(Feedback, ServoReadsItsMotor) {
   EXPECT_EQ(sut.velocity_rad_s, -1.5);
   EXPECT_EQ(sut.torque_ratio, -0.4);
   EXPECT_EQ(sut.current_a, -1.1);  // the winding's, signed like the torque
+  EXPECT_EQ(sut.torque_nm, -2.0);  // the sensor levels' truth
   EXPECT_EQ(sut.temperature_c, 41.0);
   EXPECT_EQ(sut.voltage_v, 12.0);
   EXPECT_TRUE(sut.overload);

@@ -68,5 +68,33 @@ TEST(BusRuntimeAllocations, PublishingTheServoTableAllocatesNothingAndListsTheSe
   std::filesystem::remove_all(dir);
 }
 
+// With sensor levels on (--sensor-levels), the bus thread also copies every sensor's registers and
+// the feedback they came from into its sample at 100 Hz of simulation time, still without allocating.
+TEST(BusRuntimeAllocations, SamplingSensorLevelsAllocatesNothing) {
+  const RobotConfig robot = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-levels-alloc-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  body::KinematicBody body;
+  Options options;
+  options.sensor_levels_hz = 100.0;
+  BusRuntime sut(robot.buses[0], 0, body, (dir / "ttyDXL0").string(), options);
+  int samples = 0;
+  for (int tick = 0; tick < 200; ++tick) {  // 200 ms of simulation, one bus tick per step
+    doppel::testing::count_allocations_on_this_thread(true);
+    sut.sense(int64_t{tick} * 1'000'000, 0.0);
+    sut.on_tick();
+    const bool fresh = sut.update_sensor_levels();
+    doppel::testing::count_allocations_on_this_thread(false);
+    if (fresh) {
+      ++samples;
+      EXPECT_EQ(sut.sensor_levels().sim_time_ns % 10'000'000, 0);
+    }
+  }
+  EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 steps";
+  EXPECT_EQ(samples, 20);
+  EXPECT_FALSE(sut.sensor_levels_layout().servos.empty());
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace doppel::gateway

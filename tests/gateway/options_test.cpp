@@ -206,5 +206,13 @@ TEST(Options, GameControllerIsOffAndLoopbackUnlessTheUserSaysOtherwise) {
   }
 }
 
+TEST(Options, SensorLevelsRate) {
+  EXPECT_EQ(parse({}).sensor_levels_hz, 0.0) << "off unless asked";
+  EXPECT_EQ(parse({"--sensor-levels", "100"}).sensor_levels_hz, 100.0);
+  EXPECT_THROW(parse({"--sensor-levels", "0"}), std::invalid_argument);
+  EXPECT_THROW(parse({"--sensor-levels", "1001"}), std::invalid_argument);
+  EXPECT_NE(usage().find("--sensor-levels HZ"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace doppel::gateway

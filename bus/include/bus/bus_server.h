@@ -26,6 +26,10 @@
 #include "dynamixel/packet_framer.h"
 #include "dynamixel/usb2ax.h"
 
+namespace doppel {
+class Fnv1a;
+}
+
 namespace doppel::bus {
 
 struct BusServerOptions {
@@ -39,6 +43,10 @@ struct BusServerOptions {
   int64_t idle_wait_ns = 10'000'000;    // longest single wait: bounds how soon run() notices stop
   bool record_traces = false;           // push one ReplyTrace per reply into traces()
   TrafficTap* tap = nullptr;            // when set, every byte, instruction and reply is reported there (record/)
+  // Lockstep (docs/lockstep.md): time is read from here (simulation ns) instead of CLOCK_MONOTONIC,
+  // and serve_lockstep() replaces run(). nullptr = the wall clock.
+  const std::atomic<int64_t>* clock = nullptr;
+  Fnv1a* hash = nullptr;                // when set, every byte in and out is folded in with its time and direction
 };
 
 // Delivery lateness (written - due) is counted in bins of kLatenessBinNs; the last bin also holds
@@ -108,6 +116,22 @@ class BusServer {
   // dispatches and writes what is due. For callers with their own loop. rt-safe.
   void run_once(int64_t max_wait_ns) noexcept;
 
+  // Sets options.clock and options.hash (see there) before the server is first served. Setup.
+  void use_lockstep_clock(const std::atomic<int64_t>* clock, Fnv1a* hash) noexcept {
+    options_.clock = clock;
+    options_.hash = hash;
+  }
+  // Lockstep: one pass at the time of options.clock, called by the simulation thread instead of
+  // run(). Accepts a client, reads until `input_total` bytes have been read since construction
+  // (what the controller wrote before it waited; at most `settle_ns` of wall time for the pty to
+  // hand them over), dispatches them and writes the bytes that are due. With nothing to read it
+  // asks the pty only when `check_line` (a hang-up, a client that writes without the shim). rt-safe.
+  void serve_lockstep(uint64_t input_total, int64_t settle_ns, bool check_line) noexcept;
+  // Status bytes written to the client so far (BusDiagnostics::bytes_out, without the copy). rt-safe.
+  uint64_t bytes_out() const noexcept { return counters_.bytes_out.load(std::memory_order_relaxed); }
+  // When the next reply bytes are due; INT64_MAX when none are (or the client's queue is full). rt-safe.
+  int64_t next_due_ns() const noexcept;
+
   // Snapshot of the counters. Any thread, lock-free.
   BusDiagnostics diagnostics() const noexcept;
 
@@ -136,6 +160,8 @@ class BusServer {
   };
 
   void read_input() noexcept;
+  int64_t now() const noexcept;  // options_.clock or CLOCK_MONOTONIC
+  void hash_bytes(uint8_t direction, int64_t t_ns, const uint8_t* bytes, std::size_t n) noexcept;
   void process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept;
   void dispatch(const dynamixel::InstructionPacket& packet, int64_t instruction_end_ns, int64_t seen_ns,
                 uint32_t baud_bps, uint64_t stream_end) noexcept;
@@ -170,6 +196,8 @@ class BusServer {
   int64_t last_input_ns_ = 0;   // when the previous input chunk had crossed the wire (fast: was read)
   int64_t last_tick_ns_ = 0;    // last DeviceSync::on_tick
   bool write_blocked_ = false;  // the client's queue was full at the last write
+  uint8_t hashed_direction_ = 0;   // options_.hash: direction and time of the bytes folded in last
+  int64_t hashed_ns_ = -1;
   uint64_t stream_offset_ = 0;  // driver bytes read so far (the tap's stream positions)
   uint64_t sequence_ = 0;       // transaction (framed instruction) being served
   uint64_t next_sequence_ = 0;  // the next framed instruction's, per bus from 0

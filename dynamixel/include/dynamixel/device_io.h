@@ -55,6 +55,7 @@ struct ServoFeedback {
   double voltage_v = kDefaultSupplyVoltage_v;  // supply at the servo
   double temperature_c = 25.0;   // motor temperature
   double current_a = 0.0;        // motor current, + = CCW torque (Present Current of servos that sense it)
+  double torque_nm = 0.0;        // output torque, + = CCW: no register shows it; the sensor levels' truth
   bool overload = false;         // the firmware's motor controller reports overload (ControllerOutput)
   int64_t sim_time_ns = 0;       // simulation time of the measurement (MX Realtime Tick)
 };

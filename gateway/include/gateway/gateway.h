@@ -7,6 +7,9 @@
 // feedback cross between them as lock-free snapshots.
 
 #include <atomic>
+#include <cstdint>
+#include <fstream>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -18,6 +21,12 @@
 
 namespace doppel::physics {
 class World;
+}
+namespace doppel::lockstep {
+class Coordinator;
+}
+namespace doppel {
+class Fnv1a;
 }
 
 namespace doppel::control {
@@ -46,6 +55,7 @@ class FieldServices;
 class CameraFeed;
 class SimController;
 class LiveRobots;
+class SensorLevelsFeed;
 
 class Gateway {
  public:
@@ -73,12 +83,26 @@ class Gateway {
   // session handshake): Hub::add_robot and remove_robot are thread-safe. Null without --teamcomm.
   teamcomm::Hub* teamcomm_hub() noexcept;
 
+  // Lockstep (options.lockstep, docs/lockstep.md): `callback` gets the run hash of every simulated
+  // second (1, 2, ...) on the simulation thread, right after the physics step at its end; it must
+  // be quick and must not call back into the gateway. Set before start(); replaces --hashes output.
+  using HashCallback = std::function<void(int64_t second, uint64_t hash)>;
+  void on_second_hash(HashCallback callback);
+  // Simulation time, ns (lockstep or not: the world's, or the simulation thread's count). Any thread.
+  int64_t sim_time_ns() const noexcept { return sim_time_ns_.load(std::memory_order_relaxed); }
+  // The lockstep clock file controllers are started with (doppel-run --lockstep); "" without --lockstep.
+  std::string lockstep_clock_path() const;
+
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
   // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
   bool save_state(bool published);
 
  private:
   void simulate() noexcept;
+  void simulate_lockstep() noexcept;  // simulate() on the lockstep clock (docs/lockstep.md)
+  // One simulation tick (1 ms): drives, steps, senses. Simulation thread; rt-safe.
+  void step_world(int64_t& sim_time_ns) noexcept;
+  void set_up_lockstep();  // constructor, --lockstep; throws
   void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
   void start_truth(const std::vector<RobotConfig>& configs, const std::vector<std::optional<std::size_t>>& in_world);
   void start_recorder(const std::vector<RobotConfig>& configs);  // --record: opens the file; throws
@@ -89,7 +113,8 @@ class Gateway {
   std::vector<std::unique_ptr<RobotRuntime>> robots_;
   std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
   std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
-  std::unique_ptr<truth::TruthService> truth_;  // --world-model; after cameras_: gone before their iceoryx
+  std::unique_ptr<SensorLevelsFeed> levels_feed_;  // --sensor-levels: a poller of truth_, so it outlives it
+  std::unique_ptr<truth::TruthService> truth_;  // --world-model, --sensor-levels; after cameras_: gone before their iceoryx
   std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
@@ -101,6 +126,11 @@ class Gateway {
   std::vector<std::string> state_files_;  // per robot; empty without a state directory
   bool state_saved_ = false;               // stop() saved the final state
   uint64_t missed_ticks_ = 0;
+  std::atomic<int64_t> sim_time_ns_{0};
+  std::unique_ptr<lockstep::Coordinator> lockstep_;  // --lockstep; before the buses stop serving, after links_
+  std::vector<std::unique_ptr<Fnv1a>> bus_hashes_;   // --lockstep: per bus (robot order), folded by its server
+  HashCallback hash_callback_;
+  std::ofstream hashes_file_;
   bool viewer_page_ = false;  // control_api_ serves the viewer's page too
 };
 

@@ -65,6 +65,14 @@ struct Options {
   uint16_t truth_udp_port = 7600;                // --truth-udp-port BASE (truth::kDefaultUdpBasePort)
   std::string truth_udp_address = "127.0.0.1";   // --truth-udp-address ADDR
   bool truth_iceoryx = true;                     // --no-truth-iceoryx: UDP only (no RouDi needed)
+  // Lockstep time (docs/lockstep.md): --lockstep, --hashes / --hashes-file FILE, --lockstep-watchdog S,
+  // --lockstep-epoch S.
+  bool lockstep = false;
+  bool hashes = false;                   // print `hash SECOND HEX` lines on standard output
+  std::string hashes_file;               // the same lines to this file; "" = not
+  double lockstep_watchdog_s = 5.0;
+  std::optional<double> lockstep_epoch_s;  // CLOCK_REALTIME at simulation time 0; unset = doppel's start
+  double sensor_levels_hz = 0.0;         // --sensor-levels HZ: sensor levels per second of simulation time (docs/multilevel.md), published on the truth transport; 0 = off
   std::string command_line;              // argv joined by spaces (what a recording says it ran)
   // The GameController inside doppel (docs/gamecontroller.md): off unless --gamecontroller (or
   // doppel-ctl game on); packets to 127.0.0.1 unless the user names another destination.
