@@ -7,12 +7,14 @@
 #include <cstdlib>
 #include <exception>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <string_view>
 #include <thread>
 
 #include "gateway/gateway.h"
+#include "gateway/handshake_service.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "scenario/run.h"
@@ -102,9 +104,12 @@ int main(int argc, char** argv) {
       return 0;
     }
     gateway.start();
-    std::cout << gateway.describe() << std::flush;
+    // The session handshake (docs/handshake.md): control software adds and removes robots through it.
+    std::unique_ptr<doppel::handshake::Server> handshake = start_handshake(options, gateway.robot_host(), std::cerr);
+    std::cout << (handshake ? handshake->describe() : std::string()) << gateway.describe() << std::flush;
     received.wait(0);
     std::cout << "doppel: " << signal_name(received.load()) << ", stopping\n" << std::flush;
+    handshake.reset();  // its clients' requests end before the gateway stops
     gateway.stop();
     std::cout << gateway.summary() << std::flush;
   } catch (const std::exception& e) {

@@ -84,6 +84,18 @@ Options:
   --viewer-dir DIR       The viewer's page (index.html, viewer.js) from DIR instead of the source tree's
                          viewer/ (or $DOPPEL_VIEWER_DIR). three.js comes from Debian's libjs-three.
   --no-viewer            Serve neither the viewer nor simulation control.
+  --handshake-socket PATH
+                         Serve the session handshake (docs/handshake.md: control software asks for
+                         robots, their cameras and sensors, and gets their links) on this Unix socket.
+                         Default: LINK_DIR/handshake.sock.
+  --handshake-port PORT  Also serve it over TCP on PORT (default 7590, used only if free; 0 = any free
+                         port, printed at start).
+  --handshake-address ADDR
+                         Address of the TCP handshake (default 127.0.0.1: this machine only). Anyone
+                         who can reach it can add and remove robots: name another address only on a
+                         network you trust.
+  --no-handshake-tcp     Serve the handshake on the Unix socket only.
+  --no-handshake         Serve no handshake.
   --record FILE.mcap     Record the run to FILE (MCAP, docs/recording.md): every bus transaction with
                          its bytes and times, the world state at 100 Hz, servo tables, the scene.
                          Read it with doppel-bus report, doppel-replay or Foxglove.
@@ -195,6 +207,11 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--viewer-dir", options.viewer_dir)->check(not_empty("the folder"));
   app.add_flag("--no-viewer{false}", options.viewer);
   app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
+  app.add_option("--handshake-socket", options.handshake_socket)->check(not_empty("the socket path"));
+  app.add_option("--handshake-port", options.handshake_port)->transform(number_in<uint16_t>(0, 65535));
+  app.add_option("--handshake-address", options.handshake_address)->check(not_empty("the address"));
+  app.add_flag("--no-handshake-tcp{false}", options.handshake_tcp);
+  app.add_flag("--no-handshake{false}", options.handshake);
   app.add_option("--record", options.record_path)->check(not_empty("the file name"));
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));

@@ -52,6 +52,9 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
   if (std::find(args.begin(), args.end(), "--viewer") == args.end()) {
     args.push_back("--no-viewer");  // tests run side by side: none takes the default control port
   }
+  if (std::find(args.begin(), args.end(), "--handshake-port") == args.end()) {
+    args.push_back("--no-handshake-tcp");  // nor the handshake's default port (its socket is in link_dir)
+  }
   if (std::find(args.begin(), args.end(), "--state-dir") == args.end()) {
     args.push_back("--state-dir");
     args.push_back(std::string(dir_template) + "/state");

@@ -15,7 +15,8 @@ class DoppelProcess {
   // Starts doppel with `args` plus --link-dir (a fresh temporary directory), --state-dir (a fresh
   // one beside it, unless `args` name one) and, unless `camera`,
   // --no-camera (only one iceoryx RouDi serves a machine: camera tests hold a CTest lock), unless
-  // `args` name --viewer, --no-viewer (no test takes the default control port), and
+  // `args` name --viewer, --no-viewer (no test takes the default control port), unless they name
+  // --handshake-port, --no-handshake-tcp (nor the handshake's), and
   // waits until `link_name` (e.g. "ttyDXL0") exists in it. Throws std::runtime_error if it does not start.
   DoppelProcess(std::vector<std::string> args, const std::string& link_name = "ttyDXL0", bool camera = false);
   // Stops the process if still running.

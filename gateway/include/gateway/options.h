@@ -46,6 +46,15 @@ struct Options {
   std::optional<uint16_t> viewer_port;   // unset = control::kDefaultPort
   std::string viewer_address = "127.0.0.1";
   std::string viewer_dir;                // --viewer-dir DIR: the viewer's page; "" = $DOPPEL_VIEWER_DIR or the source tree's viewer/
+  // The session handshake (handshake/, docs/handshake.md): control software asks for robots over a
+  // Unix socket (--handshake-socket PATH; "" = LINK_DIR/handshake.sock) and TCP (--handshake-port
+  // PORT, 0 = any free port; unset = handshake::kDefaultPort, used only if free;
+  // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither.
+  bool handshake = true;
+  std::string handshake_socket;
+  bool handshake_tcp = true;
+  std::optional<uint16_t> handshake_port;
+  std::string handshake_address = "127.0.0.1";
   std::string record_path;               // --record FILE.mcap: record the run (docs/recording.md); "" = off
   double record_camera_hz = 0.0;         // --record-cameras HZ: camera stills per second in the recording; 0 = none
   std::string record_compression = "zstd";  // --record-compression zstd|lz4|none

@@ -1,0 +1,23 @@
+#pragma once
+// Wiring of the session handshake (handshake/, docs/handshake.md) into doppel: the server serves
+// whatever control::RobotHost the gateway hands it, on the endpoints the options name.
+
+#include <iosfwd>
+#include <memory>
+
+#include "control/robot_host.h"
+#include "gateway/options.h"
+#include "handshake/server.h"
+
+namespace doppel::gateway {
+
+// The server's endpoints from the options: the Unix socket (default LINK_DIR/handshake.sock) and
+// TCP (handshake::kDefaultPort unless named, on 127.0.0.1 unless named).
+handshake::ServerOptions handshake_options(const Options& options);
+
+// Starts serving `host` (which must outlive the server); null with --no-handshake. A port or socket
+// the user named must work (std::runtime_error naming the option otherwise); when the default TCP
+// port is taken doppel serves the Unix socket only and says so on `notes`.
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host, std::ostream& notes);
+
+}  // namespace doppel::gateway

@@ -1,0 +1,38 @@
+#include "gateway/handshake_service.h"
+
+#include <ostream>
+#include <stdexcept>
+#include <string>
+
+namespace doppel::gateway {
+
+handshake::ServerOptions handshake_options(const Options& options) {
+  handshake::ServerOptions out;
+  out.unix_path = options.handshake_socket.empty() ? options.link_dir + "/" + handshake::kSocketName
+                                                   : options.handshake_socket;
+  if (options.handshake_tcp) {
+    out.tcp_port = options.handshake_port.value_or(handshake::kDefaultPort);
+  }
+  out.tcp_address = options.handshake_address;
+  return out;
+}
+
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host, std::ostream& notes) {
+  if (!options.handshake) {
+    return nullptr;
+  }
+  handshake::ServerOptions server = handshake_options(options);
+  try {
+    return std::make_unique<handshake::Server>(host, server);
+  } catch (const std::runtime_error& e) {
+    if (!server.tcp_port || options.handshake_port) {
+      throw;  // its message names the socket or the address and port
+    }
+    server.tcp_port.reset();
+    auto unix_only = std::make_unique<handshake::Server>(host, server);  // throws if the socket was the problem
+    notes << "doppel: handshake over TCP off: " << e.what() << "; --handshake-port PORT picks another port\n";
+    return unix_only;
+  }
+}
+
+}  // namespace doppel::gateway
