@@ -15,8 +15,6 @@ usage: doppel_gamecontroller_test.py DOPPEL DOPPEL_CTL
 import json
 import os
 import re
-import shutil
-import signal
 import socket
 import struct
 import subprocess
@@ -28,13 +26,8 @@ import urllib.request
 TEAM_A, TEAM_B = 5, 6
 
 
-class Failure(Exception):
-    pass
-
-
-def check(condition, message):
-    if not condition:
-        raise Failure(message)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from doppel_script_test import Failure, check, script_test_main, stop_doppel  # noqa: E402
 
 
 def golden(state, packet_number, kick_off=TEAM_A, penalties=(), scores=(0, 0)):
@@ -218,26 +211,8 @@ def run(doppel, doppel_ctl):
         print("doppel GameController test: passed")
     finally:
         robot.close()
-        if process is not None and process.poll() is None:
-            process.send_signal(signal.SIGINT)
-            try:
-                process.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        shutil.rmtree(work, ignore_errors=True)
-
-
-def main():
-    if len(sys.argv) != 3:
-        print(__doc__)
-        return 2
-    try:
-        run(sys.argv[1], sys.argv[2])
-    except Failure as failure:
-        print(f"doppel GameController test: FAILED: {failure}")
-        return 1
-    return 0
+        stop_doppel(process, work)
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(script_test_main("doppel GameController test", __doc__, 2, run))
