@@ -54,6 +54,15 @@ physics::RobotPlacement kick_off_placement(std::size_t r) {
   return placement;
 }
 
+namespace {
+
+// Where robot r starts: where the options put it (a scenario's start pose), else its kick-off spot.
+physics::RobotPlacement start_placement(const Options& options, std::size_t r) {
+  return r < options.placements.size() && options.placements[r] ? *options.placements[r] : kick_off_placement(r);
+}
+
+}  // namespace
+
 std::vector<RobotConfig> load_robots(const Options& options) {
   const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
   std::vector<RobotConfig> configs;
@@ -78,8 +87,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       if (configs[r].body) {
         in_world[r] = bodies.size();
         bodies.push_back(*configs[r].body);
-        placements.push_back(r < options.placements.size() && options.placements[r] ? *options.placements[r]
-                                                                                    : kick_off_placement(r));
+        placements.push_back(start_placement(options, r));
       }
     }
   }
@@ -241,7 +249,7 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
     if (!in_world[r] || !options_.world_model) continue;
     truth::RobotBinding binding;
     binding.in_world = *in_world[r];
-    binding.team = kick_off_placement(r).team;
+    binding.team = start_placement(options_, r).team;
     if (!configs[r].cameras.empty()) {  // the head camera: the file's first
       binding.has_camera = true;
       binding.camera_body = configs[r].cameras.front().body;
