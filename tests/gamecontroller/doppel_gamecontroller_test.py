@@ -21,13 +21,12 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 
 TEAM_A, TEAM_B = 5, 6
 
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from doppel_script_test import Failure, check, script_test_main, stop_doppel  # noqa: E402
+from doppel_script_test import Failure, api, check, script_test_main, stop_doppel  # noqa: E402
 
 
 def golden(state, packet_number, kick_off=TEAM_A, penalties=(), scores=(0, 0)):
@@ -57,17 +56,6 @@ def golden(state, packet_number, kick_off=TEAM_A, penalties=(), scores=(0, 0)):
             b += bytes(info)
     check(len(b) == 688, f"the golden packet has {len(b)} bytes, the header's struct 688")
     return b
-
-
-def api(url, path, body=None, method=None):
-    request = urllib.request.Request(url + path, data=None if body is None else json.dumps(body).encode(),
-                                     method=method or ("GET" if body is None else "POST"),
-                                     headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(request, timeout=10) as response:
-            return response.status, json.load(response)
-    except urllib.error.HTTPError as error:
-        return error.code, json.load(error)
 
 
 def next_packet(robot, state, what, tries=20):

@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "doppel_process.h"
+#include "controlled_doppel.h"
 #include "reference_client.h"
 #include "sim_time.h"
 
@@ -23,34 +23,6 @@ using nlohmann::json;
 constexpr uint32_t kBaud = 1000000;
 constexpr uint8_t kRead = 0x02, kWrite = 0x03, kPing = 0x01;
 constexpr uint8_t kTorqueEnable = 24;
-
-// doppel with its control API on a port the system picks, and that port.
-struct ControlledDoppel {
-  explicit ControlledDoppel(std::vector<std::string> args) : doppel([&] {
-    args.insert(args.end(), {"--viewer", "0", "--timing", "fast"});
-    return args;
-  }()) {
-    const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");
-    std::smatch match;
-    if (!std::regex_search(output, match, std::regex(R"(simulation control on http://127\.0\.0\.1:(\d+))"))) {
-      throw std::runtime_error("doppel did not say where its control is: " + output);
-    }
-    url = "http://127.0.0.1:" + match[1].str();
-  }
-  // Runs doppel-ctl with `arguments`: its exit code and output.
-  std::pair<int, std::string> ctl(const std::string& arguments) const {
-    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " " + arguments);
-  }
-  json ok(const std::string& arguments) const {
-    const auto [code, output] = ctl(arguments);
-    EXPECT_EQ(code, 0) << "doppel-ctl " << arguments << ": " << output;
-    json answer = json::parse(output, nullptr, false);
-    EXPECT_FALSE(answer.is_discarded()) << output;
-    return answer;
-  }
-  DoppelProcess doppel;
-  std::string url;
-};
 
 TEST(SimControl, PauseFreezesTheWorldWhileTheBusAnswersAndStepRunsExactlyWhatWasAsked) {
   ControlledDoppel doppel({"--physics", "ode"});

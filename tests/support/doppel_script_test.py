@@ -1,13 +1,17 @@
-"""What doppel's Python end-to-end tests share: their failure, its check, stopping the doppel they
-started (SIGINT as a user's ^C, then SIGKILL after 30 s) and their main().
+"""What doppel's Python end-to-end tests share: their failure, its check, a JSON request to doppel's
+control API, stopping the doppel they started (SIGINT as a user's ^C, then SIGKILL after 30 s) and
+their main().
 
 A test puts this folder on sys.path and imports it:
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
 """
+import json
 import shutil
 import signal
 import subprocess
 import sys
+import urllib.error
+import urllib.request
 
 
 class Failure(Exception):
@@ -17,6 +21,19 @@ class Failure(Exception):
 def check(condition, message):
     if not condition:
         raise Failure(message)
+
+
+def api(url, path, body=None, method=None):
+    """`method` (GET without a body, POST with one) of `url + path` with `body` as JSON: the HTTP status
+    and the JSON answer, also for an error status."""
+    request = urllib.request.Request(url + path, data=None if body is None else json.dumps(body).encode(),
+                                     method=method or ("GET" if body is None else "POST"),
+                                     headers={"Content-Type": "application/json"})
+    try:
+        with urllib.request.urlopen(request, timeout=10) as response:
+            return response.status, json.load(response)
+    except urllib.error.HTTPError as error:
+        return error.code, json.load(error)
 
 
 def stop_doppel(process, work):

@@ -16,23 +16,10 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.error
-import urllib.request
 
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from doppel_script_test import Failure, check, script_test_main, stop_doppel  # noqa: E402
-
-
-def api(url, path, body=None, method=None):
-    request = urllib.request.Request(url + path, data=None if body is None else json.dumps(body).encode(),
-                                     method=method or ("GET" if body is None else "POST"),
-                                     headers={"Content-Type": "application/json"})
-    try:
-        with urllib.request.urlopen(request, timeout=10) as response:
-            return response.status, json.load(response)
-    except urllib.error.HTTPError as error:
-        return error.code, json.load(error)
+from doppel_script_test import Failure, api, check, script_test_main, stop_doppel  # noqa: E402
 
 
 def receive(sock, timeout):

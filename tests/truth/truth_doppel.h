@@ -5,15 +5,13 @@
 #include <chrono>
 #include <functional>
 #include <optional>
-#include <regex>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "doppel_process.h"
+#include "controlled_doppel.h"
 #include "proto/truth.pb.h"
 #include "truth/subscriber.h"
 
@@ -22,32 +20,19 @@ namespace doppel::testing {
 using nlohmann::json;
 using proto::truth::WorldModel;
 
+// Robot 0's truth UDP port, bound before doppel starts (a base of TruthDoppel, so it comes first).
+struct TruthPort {
+  truth::UdpReceiver udp{0};
+};
+
 // doppel --world-model with its control API on a free port, the truth UDP port of robot 0 bound here first.
-struct TruthDoppel {
+struct TruthDoppel : TruthPort, ControlledDoppel {
   explicit TruthDoppel(std::vector<std::string> args, bool iceoryx = false)
-      : udp(0), doppel([&] {
-          args.insert(args.end(), {"--world-model", "--truth-udp-port", std::to_string(udp.port()), "--viewer", "0",
-                                   "--timing", "fast"});
+      : ControlledDoppel([&] {
+          args.insert(args.end(), {"--world-model", "--truth-udp-port", std::to_string(udp.port())});
           if (!iceoryx) args.push_back("--no-truth-iceoryx");
           return args;
-        }()) {
-    const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");
-    std::smatch match;
-    if (!std::regex_search(output, match, std::regex(R"(simulation control on http://127\.0\.0\.1:(\d+))"))) {
-      throw std::runtime_error("doppel did not say where its control is: " + output);
-    }
-    url = "http://127.0.0.1:" + match[1].str();
-  }
-  std::pair<int, std::string> ctl(const std::string& arguments) const {
-    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " " + arguments);
-  }
-  json ok(const std::string& arguments) const {
-    const auto [code, output] = ctl(arguments);
-    EXPECT_EQ(code, 0) << "doppel-ctl " << arguments << ": " << output;
-    json answer = json::parse(output, nullptr, false);
-    EXPECT_FALSE(answer.is_discarded()) << output;
-    return answer;
-  }
+        }()) {}
   // The next robot-0 message over UDP for which `accept` holds (60 s: a loaded machine runs slowly).
   WorldModel next(const std::function<bool(const WorldModel&)>& accept) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
@@ -63,9 +48,6 @@ struct TruthDoppel {
     ADD_FAILURE() << "no such world-model message within 60 s; " << doppel.output();
     return {};
   }
-  truth::UdpReceiver udp;
-  DoppelProcess doppel;
-  std::string url;
 };
 
 }  // namespace doppel::testing
