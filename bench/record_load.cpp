@@ -72,8 +72,9 @@ int main(int argc, char** argv) {
     rounds = 1;
   }
   const std::string file = std::filesystem::temp_directory_path() / ("record_load_" + std::to_string(getpid()) + ".mcap");
-  DoppelProcess plain({"--viewer", "0", "--timing", timing});
-  DoppelProcess recording({"--viewer", "0", "--timing", timing, "--record", file, "--record-compression", compression});
+  // --no-token: both runs alike, and the phases read /api/state without a token (load_phase.h).
+  DoppelProcess plain({"--viewer", "0", "--no-token", "--timing", timing});
+  DoppelProcess recording({"--viewer", "0", "--no-token", "--timing", timing, "--record", file, "--record-compression", compression});
   const int plain_port = control_port(plain);
   const int recording_port = control_port(recording);
   SerialClient plain_client(plain.link(), kBaud);

@@ -146,7 +146,9 @@ int main(int argc, char** argv) {
     std::printf("viewer_load: SKIPPED: chromium is not installed (scripts/setup installs it)\n");
     return 77;
   }
-  DoppelProcess doppel({"--viewer", "0", "--timing", timing});
+  // --no-token: this tool polls the API as the page does, without a cookie jar; the token check is a
+  // 32-byte compare per request.
+  DoppelProcess doppel({"--viewer", "0", "--no-token", "--timing", timing});
   const std::string output = doppel.wait_for_output("viewer on http://127.0.0.1:");
   std::smatch match;
   if (!std::regex_search(output, match, std::regex(R"(viewer on (http://127\.0\.0\.1:(\d+)/))"))) {

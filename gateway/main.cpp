@@ -105,7 +105,9 @@ int main(int argc, char** argv) {
     }
     gateway.start();
     // The session handshake (docs/handshake.md): control software adds and removes robots through it.
-    std::unique_ptr<doppel::handshake::Server> handshake = start_handshake(options, gateway.robot_host(), std::cerr);
+    std::unique_ptr<doppel::handshake::Server> handshake =
+        start_handshake(options, gateway.robot_host(), gateway.access_token(), std::cerr);
+    if (handshake != nullptr && handshake->tcp_port() != 0) gateway.publish_token(handshake->tcp_port());
     std::cout << (handshake ? handshake->describe() : std::string()) << gateway.describe() << std::flush;
     received.wait(0);
     std::cout << "doppel: " << signal_name(received.load()) << ", stopping\n" << std::flush;

@@ -1,5 +1,7 @@
 #include "control/http_api.h"
 
+#include "control/access.h"
+
 #include <httplib.h>
 #include <sys/socket.h>
 
@@ -604,8 +606,9 @@ std::string static_files_problem(const StaticFiles& files) {
   return "";
 }
 
-HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files)
-    : control_(control), address_(address), server_(std::make_unique<httplib::Server>()) {
+HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files,
+                 std::string token)
+    : control_(control), address_(address), token_(std::move(token)), server_(std::make_unique<httplib::Server>()) {
   // The viewer: its page at /, three.js at /three/. Files only; the API answers JSON below.
   if (const std::string problem = static_files_problem(files); !problem.empty()) throw std::runtime_error(problem);
   if (!files.viewer_dir.empty()) server_->set_mount_point("/", files.viewer_dir);
@@ -616,6 +619,32 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
   server_->set_socket_options([](int socket) {
     const int yes = 1;
     ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
+  // Every request, files and API alike, before routing: Host, Origin, Content-Type and the token
+  // (control/access.h). Endpoints added later are covered without a line of their own.
+  server_->set_pre_routing_handler([this](const httplib::Request& request, httplib::Response& response) {
+    RequestHeaders headers;
+    headers.method = request.method;
+    headers.path = request.path;
+    headers.host = request.get_header_value("Host");
+    headers.origin = request.get_header_value("Origin");
+    headers.content_type = request.get_header_value("Content-Type");
+    headers.authorization = request.get_header_value("Authorization");
+    headers.doppel_token = request.get_header_value("X-Doppel-Token");
+    headers.cookie = request.get_header_value("Cookie");
+    headers.query_token = request.get_param_value("token");
+    const AccessVerdict verdict = check_access(policy_, headers);
+    if (verdict.status != 200) {
+      response.status = verdict.status;
+      response.set_header("Connection", "close");  // an unread body must not be taken for the next request
+      response.set_content(error_body(verdict.error).dump(), "application/json");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (verdict.set_cookie) {
+      response.set_header("Set-Cookie", token_cookie_name(policy_.port) + "=" + policy_.token +
+                                            "; Path=/; HttpOnly; SameSite=Strict");
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
   });
   auto serve = [this](const httplib::Request& request, httplib::Response& response) {
     const Answer answer = handle(control_, request.method, request.path, request.body);
@@ -652,6 +681,7 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     }
     port_ = port;
   }
+  policy_ = access_policy(address, port_, token_);
 }
 
 HttpApi::~HttpApi() { stop(); }

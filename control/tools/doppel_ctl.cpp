@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "base/command_line.h"
+#include "bus/link_directory.h"
+#include "control/access.h"
 #include "control/http_api.h"
 
 namespace {
@@ -37,6 +39,11 @@ int main(int argc, char** argv) {
                "doppel-ctl");
   std::string url = "http://127.0.0.1:" + std::to_string(doppel::control::kDefaultPort);
   app.add_option("--url", url, "doppel's control address (doppel --viewer PORT)")->capture_default_str();
+  std::string link_dir = doppel::bus::default_link_dir();
+  app.add_option("--link-dir", link_dir,
+                 "doppel's link directory (doppel --link-dir), where its access token is (token-PORT); $DOPPEL_TOKEN "
+                 "overrides it")
+      ->capture_default_str();
   app.require_subcommand(1);
 
   app.add_subcommand("state", "time, pause state, every robot's pose, joints and whether it fell");
@@ -195,9 +202,18 @@ int main(int argc, char** argv) {
     return 2;
   }
   client.set_connection_timeout(2);
+  // The run's access token (control/access.h): $DOPPEL_TOKEN or LINK_DIR/token-PORT. Without one the
+  // request goes anyway: a doppel with --no-token needs none, any other answers 401 and says why.
+  const std::size_t colon = url.rfind(':');
+  const std::string port_text = colon == std::string::npos ? "" : url.substr(colon + 1, url.find('/', colon) - colon - 1);
+  const bool numeric = !port_text.empty() && port_text.size() <= 5 && port_text.find_first_not_of("0123456789") == std::string::npos;
+  const auto port_number = static_cast<uint16_t>(numeric && std::stoul(port_text) <= 65535 ? std::stoul(port_text) : 80);
+  if (const std::optional<std::string> token = doppel::control::find_access_token(link_dir, port_number)) {
+    client.set_bearer_token_auth(token->c_str());
+  }
   client.set_read_timeout(static_cast<time_t>(doppel::control::kMaxStepMs / 1000 + 30));
   httplib::Result result = method == "GET"      ? client.Get(path)
-                           : method == "DELETE" ? client.Delete(path)
+                           : method == "DELETE" ? client.Delete(path, "", "application/json")
                            : method == "PUT"    ? client.Put(path, body.dump(), "application/json")
                                                 : client.Post(path, body.dump(), "application/json");
   if (!result) {
@@ -209,6 +225,10 @@ int main(int argc, char** argv) {
   if (result->status != 200) {
     const std::string reason = !answer.is_discarded() && answer.contains("error") ? answer["error"].get<std::string>() : result->body;
     std::fprintf(stderr, "doppel-ctl: %s: %s (HTTP %d)\n", command.c_str(), reason.c_str(), result->status);
+    if (result->status == 401) {
+      std::fprintf(stderr, "doppel-ctl: the token was looked for in %s (--link-dir names doppel's link directory)\n",
+                   doppel::control::token_file_path(link_dir, port_number).c_str());
+    }
     return 1;
   }
   std::cout << (answer.is_discarded() ? result->body : answer.dump(2)) << "\n";

@@ -9,12 +9,17 @@ Needs Debian's python3-protobuf and python3-serial (run it with /usr/bin/python3
 handshake_pb2, which the build generates from proto/handshake.proto into build/python
 (PYTHONPATH=build/python, or --python-dir, or $DOPPEL_PYTHON_DIR).
 
+Over TCP it sends doppel's access token, which it reads from LINK_DIR/token-PORT (find_token; other
+Python scripts import this module for it).
+
   /usr/bin/python3 examples/handshake/doppel_session.py --robot op3 --camera head --width 320 --height 240
 """
 
 import argparse
 import os
+import pwd
 import socket
+import stat
 import struct
 import sys
 import time
@@ -37,21 +42,53 @@ def import_messages(python_dir):
     return handshake_pb2
 
 
-def default_socket():
+def default_link_dir():
+    """doppel's default link directory (bus/link_directory.h): $XDG_RUNTIME_DIR/doppel when that is a
+    directory of the user's that nobody else can write, else /tmp/doppel-USER."""
     runtime = os.environ.get("XDG_RUNTIME_DIR")
-    base = os.path.join(runtime, "doppel") if runtime else "/tmp/doppel-%s" % os.environ.get("USER", "")
-    return os.path.join(base, "handshake.sock")
+    try:
+        st = os.stat(runtime) if runtime else None
+    except OSError:
+        st = None
+    if st is not None and stat.S_ISDIR(st.st_mode) and st.st_uid == os.geteuid() and not st.st_mode & 0o022:
+        return os.path.join(runtime, "doppel")
+    try:
+        user = pwd.getpwuid(os.geteuid()).pw_name
+    except KeyError:
+        user = str(os.geteuid())
+    return "/tmp/doppel-%s" % user
+
+
+def default_socket(link_dir=None):
+    return os.path.join(link_dir or default_link_dir(), "handshake.sock")
+
+
+def find_token(port, link_dir=None):
+    """The access token of the doppel (or doppel-replay) serving TCP port `port` (its control API or
+    its handshake; docs/security.md), as doppel-ctl finds it: $DOPPEL_TOKEN when set, else the first
+    line of LINK_DIR/token-PORT (doppel writes it there, mode 0600). None when there is neither."""
+    if os.environ.get("DOPPEL_TOKEN"):
+        return os.environ["DOPPEL_TOKEN"].strip()
+    try:
+        with open(os.path.join(link_dir or default_link_dir(), "token-%d" % int(port)), encoding="ascii") as f:
+            return f.readline().strip() or None
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 class Session:
     """One connection: each request gets exactly one reply, framed as a 4-byte little-endian length
     and the serialized message (proto/handshake.proto)."""
 
-    def __init__(self, pb, unix_path=None, tcp=None, timeout_s=30.0):
+    def __init__(self, pb, unix_path=None, tcp=None, timeout_s=30.0, link_dir=None):
+        """Over TCP every request carries the run's access token (find_token with `link_dir`); the
+        Unix socket needs none."""
         self.pb = pb
+        self.token = None
         try:
             if tcp:
                 host, _, port = tcp.rpartition(":")
+                self.token = find_token(int(port), link_dir)
                 self.sock = socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s)
             else:
                 self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -73,6 +110,8 @@ class Session:
         return data
 
     def call(self, request):
+        if self.token:
+            request.access_token = self.token
         payload = request.SerializeToString()
         self.sock.sendall(struct.pack("<I", len(payload)) + payload)
         (length,) = struct.unpack("<I", self._read(4))
@@ -116,6 +155,8 @@ def main():
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--unix", metavar="PATH", help="doppel's handshake socket (default: LINK_DIR/handshake.sock)")
     where.add_argument("--tcp", metavar="HOST:PORT", help="doppel's TCP handshake, e.g. 127.0.0.1:7590")
+    parser.add_argument("--link-dir", metavar="DIR",
+                        help="doppel's link directory (doppel --link-dir): its handshake socket and access token")
     what = parser.add_mutually_exclusive_group()
     what.add_argument("--robot", default=None, help="robot name or file as doppel --robot takes it (default fumanoid-2011)")
     what.add_argument("--description", metavar="FILE", help="send this Robot Description File's text instead")
@@ -166,7 +207,7 @@ def main():
             add.world_model.position_sigma_m = args.world_model_sigma
     add.sensor_levels = args.sensor_levels
 
-    endpoint = {"tcp": args.tcp} if args.tcp else {"unix_path": args.unix or default_socket()}
+    endpoint = {"tcp": args.tcp, "link_dir": args.link_dir} if args.tcp else {"unix_path": args.unix or default_socket(args.link_dir)}
     try:
         session = Session(pb, **endpoint)
         added = session.call(request).robot_added

@@ -23,6 +23,7 @@
 #include "physics/world.h"
 #include "eeprom_state.h"
 #include "field_services.h"
+#include "control/access.h"
 #include "control/http_api.h"
 #include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
@@ -127,6 +128,12 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   } catch (const bus::UnsafeLinkDirectory& e) {
     throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
   }
+  if (options.token) {
+    access_token_ = control::new_access_token();
+  } else if (options.viewer || (options.handshake && options.handshake_tcp)) {
+    std::cerr << "doppel: warning: --no-token: every local user and program can use the control API and the TCP "
+                 "handshake (docs/security.md)\n";
+  }
   for (std::size_t r = 0; r < configs.size(); ++r) {
     std::unique_ptr<body::SimulatedBody> body;
     if (in_world[r]) {
@@ -182,13 +189,15 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     viewer_page_ = !files.viewer_dir.empty();
     try {
       control_api_ = std::make_unique<control::HttpApi>(*controller_, options.viewer_address,
-                                                        options.viewer_port.value_or(control::kDefaultPort), files);
+                                                        options.viewer_port.value_or(control::kDefaultPort), files,
+                                                        access_token_);
     } catch (const std::runtime_error& e) {
       if (options.viewer_port) {
         throw std::runtime_error(std::string("--viewer: ") + e.what());
       }
       std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
     }
+    if (control_api_ != nullptr) publish_token(control_api_->port());
   }
   if (!options.record_path.empty()) start_recorder(configs);
   // Robots added and removed while doppel runs (the session handshake); these are robots 0..n-1.
@@ -357,6 +366,11 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
 }
 
 Gateway::~Gateway() { stop(); }
+
+void Gateway::publish_token(uint16_t port) {
+  if (access_token_.empty()) return;
+  token_files_.push_back(std::make_unique<control::TokenFile>(control::token_file_path(links_->path(), port), access_token_));
+}
 
 teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }
 
@@ -654,8 +668,12 @@ std::string Gateway::describe() const {
     out << "doppel: simulation control on http://" << control_api_->address() << ":" << control_api_->port()
         << "/api/state (doppel-ctl --url http://" << control_api_->address() << ":" << control_api_->port() << ")\n";
     if (viewer_page_) {
-      out << "doppel: viewer on http://" << control_api_->address() << ":" << control_api_->port() << "/\n";
+      out << "doppel: viewer on http://" << control_api_->address() << ":" << control_api_->port() << "/"
+          << (access_token_.empty() ? "" : "?token=" + access_token_) << "\n";
     }
+  }
+  for (const auto& file : token_files_) {
+    out << "doppel: access token in " << file->path() << " (doppel-ctl, doppel_session.py read it; docs/security.md)\n";
   }
   out << field_->describe();
   const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";

@@ -6,7 +6,7 @@
 
 namespace doppel::gateway {
 
-handshake::ServerOptions handshake_options(const Options& options) {
+handshake::ServerOptions handshake_options(const Options& options, const std::string& token) {
   handshake::ServerOptions out;
   out.unix_path = options.handshake_socket.empty() ? options.link_dir + "/" + handshake::kSocketName
                                                    : options.handshake_socket;
@@ -14,14 +14,16 @@ handshake::ServerOptions handshake_options(const Options& options) {
     out.tcp_port = options.handshake_port.value_or(handshake::kDefaultPort);
   }
   out.tcp_address = options.handshake_address;
+  out.tcp_token = token;
   return out;
 }
 
-std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host, std::ostream& notes) {
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host,
+                                                   const std::string& token, std::ostream& notes) {
   if (!options.handshake) {
     return nullptr;
   }
-  handshake::ServerOptions server = handshake_options(options);
+  handshake::ServerOptions server = handshake_options(options, token);
   try {
     return std::make_unique<handshake::Server>(host, server);
   } catch (const std::runtime_error& e) {

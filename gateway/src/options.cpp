@@ -96,6 +96,10 @@ Options:
                          network you trust.
   --no-handshake-tcp     Serve the handshake on the Unix socket only.
   --no-handshake         Serve no handshake.
+  --no-token             Let any local user and program use the control API and the TCP handshake
+                         without the run's access token (the old behaviour; only for a machine of
+                         your own with no other users: docs/security.md). Host and Origin are
+                         checked still.
   --record FILE.mcap     Record the run to FILE (MCAP, docs/recording.md): every bus transaction with
                          its bytes and times, the world state at 100 Hz, servo tables, the scene.
                          Read it with doppel-bus report, doppel-replay or Foxglove.
@@ -212,6 +216,7 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--handshake-address", options.handshake_address)->check(not_empty("the address"));
   app.add_flag("--no-handshake-tcp{false}", options.handshake_tcp);
   app.add_flag("--no-handshake{false}", options.handshake);
+  app.add_flag("--no-token{false}", options.token);
   app.add_option("--record", options.record_path)->check(not_empty("the file name"));
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));

@@ -6,7 +6,6 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
-#include <sys/random.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -17,11 +16,11 @@
 #include <cstring>
 #include <exception>
 #include <list>
-#include <random>
 #include <stdexcept>
 #include <thread>
 #include <variant>
 
+#include "control/access.h"
 #include "handshake/request.h"
 
 namespace doppel::handshake {
@@ -37,33 +36,6 @@ wire::ServerMessage error_reply(std::string field, std::string message) {
   e->set_field(std::move(field));
   e->set_message(std::move(message));
   return reply;
-}
-
-// 128 random bits as hex: a token is a capability, not a counter a neighbour could guess.
-std::string random_token() {
-  uint8_t bytes[16];
-  std::size_t got = 0;
-  while (got < sizeof bytes) {
-    const ssize_t n = getrandom(bytes + got, sizeof bytes - got, 0);
-    if (n < 0 && errno == EINTR) {
-      continue;
-    }
-    if (n <= 0) {
-      std::random_device device;
-      for (uint8_t& b : bytes) {
-        b = static_cast<uint8_t>(device());
-      }
-      break;
-    }
-    got += static_cast<std::size_t>(n);
-  }
-  static constexpr char kHex[] = "0123456789abcdef";
-  std::string token;
-  for (uint8_t b : bytes) {
-    token.push_back(kHex[b >> 4]);
-    token.push_back(kHex[b & 0xF]);
-  }
-  return token;
 }
 
 int remaining_ms(Clock::time_point deadline) {
@@ -115,7 +87,7 @@ wire::ServerMessage Sessions::add(const wire::AddRobot& message) {
     return error_reply(proto_field_path(refusal->field), refusal->message);
   }
   const auto& added = std::get<control::RobotAdded>(result);
-  std::string token = random_token();
+  std::string token = control::new_access_token();  // a capability, not a counter a neighbour could guess
   tokens_[token] = Owned{added.robot, added.name};
   wire::ServerMessage reply;
   *reply.mutable_robot_added() = to_wire(added);
@@ -170,6 +142,7 @@ wire::ServerMessage Sessions::list() {
 struct Server::Impl {
   struct Connection {
     int fd = -1;
+    bool tcp = false;  // needs options.tcp_token
     std::thread thread;
     std::atomic<bool> done{false};
   };
@@ -315,6 +288,7 @@ void Server::Impl::accept_one(int listen_fd) noexcept {
     }
     Connection& c = clients.emplace_back();
     c.fd = fd;
+    c.tcp = listen_fd == tcp_fd;
     c.thread = std::thread([this, &c] { serve(c); });
   } catch (const std::exception&) {
     // No memory or no thread for it: the client is turned away, the server keeps running.
@@ -422,6 +396,13 @@ void Server::Impl::serve(Connection& c) noexcept {
           return;
         }
         decoder.next();
+        if (c.tcp && !options.tcp_token.empty() && !control::same_token(request.access_token(), options.tcp_token)) {
+          send_message(c.fd, error_reply("access_token", request.access_token().empty()
+                                                             ? "this doppel needs its access token over TCP (the "
+                                                               "file LINK_DIR/token-PORT; docs/security.md); closing"
+                                                             : "wrong access token; closing"));
+          return;
+        }
         if (!send_message(c.fd, sessions.handle(request))) {
           return;
         }

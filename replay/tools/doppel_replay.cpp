@@ -18,6 +18,8 @@
 #include <vector>
 
 #include "base/command_line.h"
+#include "bus/link_directory.h"
+#include "control/access.h"
 #include "control/http_api.h"
 #include "replay/bus_replay.h"
 #include "replay/recording.h"
@@ -34,6 +36,8 @@ struct Options {
   uint16_t viewer_port = control::kDefaultPort;
   std::string viewer_address = "127.0.0.1";
   std::string viewer_dir;
+  std::string link_dir = bus::default_link_dir();  // where the access token goes (token-PORT)
+  bool token = true;
   double speed = 1.0;
   bool paused = false;
   double start_s = -1.0;
@@ -119,10 +123,26 @@ int serve(const Options& options) {
   control.change_replay(change);
   control::StaticFiles files = control::default_static_files();
   if (!options.viewer_dir.empty()) files.viewer_dir = options.viewer_dir;
-  control::HttpApi api(control, options.viewer_address, options.viewer_port, files);
+  // The same access rules as doppel's (control/access.h, docs/security.md): a recording can hold
+  // camera images and everything the robots did.
+  std::string token;
+  if (options.token) {
+    token = control::new_access_token();
+  } else {
+    std::fprintf(stderr, "doppel-replay: warning: --no-token: every local user and program can use the viewer's API "
+                         "(docs/security.md)\n");
+  }
+  control::HttpApi api(control, options.viewer_address, options.viewer_port, files, token);
+  std::unique_ptr<bus::LinkDirectory> link_dir;
+  std::unique_ptr<control::TokenFile> token_file;
+  if (!token.empty()) {
+    link_dir = std::make_unique<bus::LinkDirectory>(options.link_dir, false, std::cerr);
+    token_file = std::make_unique<control::TokenFile>(control::token_file_path(link_dir->path(), api.port()), token);
+  }
   api.start();
-  std::printf("doppel-replay: %s, %.3f s; viewer on http://%s:%u/ (Ctrl-C stops)\n", options.file.c_str(),
-              recording.end_ns() * 1e-9, api.address().c_str(), api.port());
+  std::printf("doppel-replay: %s, %.3f s; viewer on http://%s:%u/%s (Ctrl-C stops)\n", options.file.c_str(),
+              recording.end_ns() * 1e-9, api.address().c_str(), api.port(), token.empty() ? "" : ("?token=" + token).c_str());
+  if (token_file != nullptr) std::printf("doppel-replay: access token in %s (doppel-ctl reads it)\n", token_file->path().c_str());
   std::fflush(stdout);
   signal(SIGINT, [](int) { g_stop = 1; });
   signal(SIGTERM, [](int) { g_stop = 1; });
@@ -281,6 +301,9 @@ int main(int argc, char** argv) {
       ->capture_default_str()->transform(number_in<uint16_t>(0, 65535));
   app.add_option("--viewer-address", options.viewer_address, "address to serve on")->capture_default_str();
   app.add_option("--viewer-dir", options.viewer_dir, "the viewer's page from this folder");
+  app.add_option("--link-dir", options.link_dir, "where the run's access token goes (token-PORT; as doppel's --link-dir)")
+      ->capture_default_str();
+  app.add_flag("--no-token{false}", options.token, "serve the API without an access token (docs/security.md)");
   app.add_option("--speed", options.speed, "playback speed (viewer: 0.1..10; --bus: the recorded pace times this)")
       ->capture_default_str()->transform(number_in<double>(control::kMinReplaySpeed, control::kMaxReplaySpeed));
   app.add_option("--start", options.start_s, "start at this many seconds into the recording")->transform(number_in<double>(0.0, 1e9));

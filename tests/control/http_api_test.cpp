@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -397,6 +398,94 @@ TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
   const httplib::Result jpeg = client.Get("/api/camera/jpeg");
   ASSERT_TRUE(jpeg);
   EXPECT_EQ(jpeg->get_header_value("Content-Type"), "image/jpeg");
+  api.stop();
+}
+
+// The checks over a socket (control/access.h): what a web page, a rebinding name or a request
+// without the token gets, and that none of it reaches the simulation.
+TEST(HttpApi, RefusesForeignHostsOriginsPlainTextAndMissingTokensBeforeAnythingRuns) {
+  RecordingControl control;
+  const std::string token = new_access_token();
+  HttpApi api(control, "127.0.0.1", 0, {}, token);
+  api.start();
+  const std::string self = "127.0.0.1:" + std::to_string(api.port());
+  auto send = [&](const std::string& method, const std::string& path, httplib::Headers headers, const std::string& type,
+                  const std::string& body = "{}") {
+    httplib::Client client("127.0.0.1", api.port());
+    client.set_read_timeout(std::chrono::seconds(10));
+    httplib::Request request;
+    request.method = method;
+    request.path = path;
+    request.headers = std::move(headers);
+    if (!type.empty()) request.set_header("Content-Type", type);
+    if (method != "GET") request.body = body;
+    return client.send(request);
+  };
+  const httplib::Headers bearer = {{"Authorization", "Bearer " + token}};
+
+  // The two requests: a "simple" cross-origin POST, and a rebinding name's read.
+  httplib::Headers page = bearer;
+  page.emplace("Origin", "http://evil.example");
+  httplib::Result r = send("POST", "/api/pause", page, "text/plain");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  r = send("POST", "/api/pause", page, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  r = send("POST", "/api/pause", bearer, "text/plain");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  EXPECT_NE(nlohmann::json::parse(r->body)["error"].get<std::string>().find("application/json"), std::string::npos);
+  httplib::Headers rebound = bearer;
+  rebound.emplace("Host", "attacker.example:" + std::to_string(api.port()));
+  r = send("GET", "/api/state", rebound, "");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  EXPECT_EQ(r->body.find("fumanoid"), std::string::npos);
+  EXPECT_TRUE(r->get_header_value("Access-Control-Allow-Origin").empty());
+
+  // Without the token, or with a wrong one: 401, nothing read or changed.
+  for (const httplib::Headers& headers : {httplib::Headers{}, httplib::Headers{{"Authorization", "Bearer " + std::string(32, '0')}},
+                                          httplib::Headers{{"X-Doppel-Token", "x"}}, httplib::Headers{{"Cookie", "doppel_token_1=" + token}}}) {
+    r = send("POST", "/api/pause", headers, "application/json");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 401);
+    r = send("GET", "/api/state", headers, "");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 401);
+    EXPECT_EQ(r->body.find("fumanoid"), std::string::npos);
+  }
+  EXPECT_TRUE(control.calls.empty());
+
+  // The user's own requests: the token as a header, as the page's cookie, from the printed link.
+  r = send("POST", "/api/pause", bearer, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  r = send("GET", "/api/state", {{"X-Doppel-Token", token}}, "");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  httplib::Headers own_page = {{"Cookie", "doppel_token_" + std::to_string(api.port()) + "=" + token},
+                               {"Origin", "http://" + self}};
+  r = send("POST", "/api/resume", own_page, "application/json");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  r = send("GET", "/api/state?token=" + token, {}, "");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  const std::string cookie = r->get_header_value("Set-Cookie");
+  EXPECT_EQ(cookie, "doppel_token_" + std::to_string(api.port()) + "=" + token + "; Path=/; HttpOnly; SameSite=Strict");
+  EXPECT_EQ(control.calls, (std::vector<std::string>{"pause", "resume"}));
+
+  // Requests no client should send do not stop the server.
+  for (const std::string& junk : {std::string(8000, 'x'), std::string("\x01\x02\xff"), std::string("Bearer")}) {
+    r = send("POST", "/api/reset", {{"Authorization", junk}, {"Origin", junk}, {"Cookie", junk}}, junk);
+    ASSERT_TRUE(r);
+    EXPECT_GE(r->status, 400);
+  }
+  EXPECT_EQ(control.calls.size(), 2u);
+  r = send("GET", "/api/state", bearer, "");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
   api.stop();
 }
 

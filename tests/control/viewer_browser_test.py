@@ -29,19 +29,12 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from doppel_script_test import Api, Failure, check  # noqa: E402  (requests with the run's access token)
 
 SKIP = 77
 ROBOT = "fumanoid-2011"  # doppel's default robot
-
-
-class Failure(Exception):
-    pass
-
-
-def check(condition, message):
-    if not condition:
-        raise Failure(message)
 
 
 def tear_down(browser, process, work, out_dir, logs):
@@ -83,7 +76,7 @@ def browser_test_main(name, doc, argument_count, run):
 class Browser:
     """Headless Chromium and a DevTools session with its one page."""
 
-    def __init__(self, executable, profile, width=1280, height=900):
+    def __init__(self, executable, profile, width=1280, height=900, extra_args=()):
         to_browser_read, to_browser_write = os.pipe()
         from_browser_read, from_browser_write = os.pipe()
 
@@ -96,7 +89,7 @@ class Browser:
             [executable, "--headless=new", "--remote-debugging-pipe", "--no-sandbox", "--no-first-run",
              "--no-default-browser-check", "--disable-gpu-sandbox", "--use-angle=swiftshader",
              "--enable-unsafe-swiftshader", "--disable-dev-shm-usage", f"--user-data-dir={profile}",
-             f"--window-size={width},{height}", "about:blank"],
+             f"--window-size={width},{height}", *extra_args, "about:blank"],
             pass_fds=(3, 4), preexec_fn=child_fds, start_new_session=True,
             stdout=subprocess.DEVNULL, stderr=open(os.path.join(profile, "chromium.log"), "wb"))
         os.close(to_browser_read)
@@ -201,22 +194,20 @@ class Browser:
             pass
 
 
-def get_state(url):
-    with urllib.request.urlopen(url + "api/state", timeout=10) as response:
-        return json.load(response)
+def get_state(api):
+    return api.get("api/state")
 
 
-def get_game(url):
-    with urllib.request.urlopen(url + "api/game", timeout=10) as response:
-        return json.load(response)
+def get_game(api):
+    return api.get("api/game")
 
 
-def wait_sim_time(url, seconds, what, timeout_s=60):
+def wait_sim_time(api, seconds, what, timeout_s=60):
     """Waits until simulation time has advanced by `seconds` (judged on simulation time)."""
-    start = get_state(url)["sim_time_s"]
+    start = get_state(api)["sim_time_s"]
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        if get_state(url)["sim_time_s"] >= start + seconds:
+        if get_state(api)["sim_time_s"] >= start + seconds:
             return
         time.sleep(0.05)
     raise Failure(f"simulation time did not advance by {seconds} s ({what})")
@@ -249,18 +240,20 @@ def ping(link, servo_id, count):
 
 
 def start_doppel(doppel, work, extra=()):
+    """doppel with its viewer on a free port: the process, its API (with the run's token) and the
+    page's link as doppel prints it (http://127.0.0.1:PORT/?token=...)."""
     output_path = os.path.join(work, "doppel.txt")
     output = open(output_path, "wb")
+    links = os.path.join(work, "links")
     process = subprocess.Popen([doppel, "--viewer", "0", "--no-camera", "--timing", "fast",
-                                "--link-dir", os.path.join(work, "links"), "--state-dir", os.path.join(work, "state"),
-                                *extra],
+                                "--link-dir", links, "--state-dir", os.path.join(work, "state"), *extra],
                                stdout=output, stderr=subprocess.STDOUT)
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         text = open(output_path, encoding="utf-8", errors="replace").read()
-        match = re.search(r"viewer on (http://127\.0\.0\.1:\d+/)", text)
+        match = re.search(r"viewer on ((http://127\.0\.0\.1:\d+/)\S*)", text)
         if match:
-            return process, match.group(1)
+            return process, Api(match.group(2), links), match.group(1)
         if process.poll() is not None:
             raise Failure(f"doppel exited ({process.returncode}) before serving its viewer:\n{text}")
         time.sleep(0.05)
@@ -274,14 +267,14 @@ def run(doppel, out_dir, chromium):
     # (off until the page turns it on) sends there and receives return packets on any free port.
     robot = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     robot.bind(("127.0.0.1", 0))
-    process, url = start_doppel(doppel, work, ("--gc-destination", f"127.0.0.1:{robot.getsockname()[1]}",
+    process, api, page = start_doppel(doppel, work, ("--gc-destination", f"127.0.0.1:{robot.getsockname()[1]}",
                                                "--gc-return", "127.0.0.1:0", "--gc-watch", "off"))
     browser = None
     try:
         profile = os.path.join(work, "chromium")
         os.makedirs(profile)
         browser = Browser(chromium, profile)
-        browser.open(url)
+        browser.open(page)
 
         # The robot is drawn: its shapes are in the 3D scene and the frame shows it.
         robots = browser.wait_for("window.doppelViewer && window.doppelViewer.robotCount()", "the robot in the 3D view")
@@ -331,7 +324,7 @@ def run(doppel, out_dir, chromium):
 
         # Sensor plots: one for the IMU's angles, one for its gyro, one per foot board, each with a
         # line drawn (pixels that are not the white background, below the legend).
-        state = get_state(url)["robots"][0]
+        state = get_state(api)["robots"][0]
         check(len(state["imus"]) >= 1 and len(state["feet"]) >= 2,
               f"the state lists {len(state['imus'])} IMUs and {len(state['feet'])} foot boards")
         wanted = 2 * len(state["imus"]) + len(state["feet"])
@@ -354,10 +347,9 @@ def run(doppel, out_dir, chromium):
         # The camera panel shows the first camera's still: a PNG of the camera's size with carpet in it.
         image = browser.wait_for("window.doppelViewer.cameraImages() > 0 && window.doppelViewer.cameraImage()",
                                  "the camera image")
-        with urllib.request.urlopen(url + "api/camera/" + state["cameras"][0]["name"], timeout=30) as answer:
-            png = answer.read()
-            check(answer.headers["Content-Type"] == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n",
-                  f"/api/camera/{state['cameras'][0]['name']} is not a PNG ({answer.headers['Content-Type']})")
+        status, content_type, png = api.raw("api/camera/" + state["cameras"][0]["name"], timeout=30)
+        check(status == 200 and content_type == "image/png" and png[:8] == b"\x89PNG\r\n\x1a\n",
+              f"/api/camera/{state['cameras'][0]['name']} is not a PNG ({status}, {content_type})")
         width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
         check((image["width"], image["height"]) == (width, height),
               f"the page shows a {image['width']}x{image['height']} image, the camera's still is {width}x{height}")
@@ -371,10 +363,10 @@ def run(doppel, out_dir, chromium):
         # Pause: simulation time stands still.
         browser.click_element("#pause")
         browser.wait_for("window.doppelViewer.state() && window.doppelViewer.state().paused", "the page to show 'paused'")
-        check(get_state(url)["paused"], "doppel is not paused after a click on Pause")
-        frozen = get_state(url)["sim_time_s"]
+        check(get_state(api)["paused"], "doppel is not paused after a click on Pause")
+        frozen = get_state(api)["sim_time_s"]
         time.sleep(0.3)
-        check(get_state(url)["sim_time_s"] == frozen, "simulation time runs on while paused")
+        check(get_state(api)["sim_time_s"] == frozen, "simulation time runs on while paused")
 
         # Shift-click on the carpet places the robot there (paused: it stays where it was put).
         target = (0.5, -0.3)
@@ -383,7 +375,7 @@ def run(doppel, out_dir, chromium):
         deadline = time.monotonic() + 20
         pose = None
         while time.monotonic() < deadline:
-            pose = get_state(url)["robots"][0]["pose"]
+            pose = get_state(api)["robots"][0]["pose"]
             if abs(pose["x"] - target[0]) < 0.03 and abs(pose["y"] - target[1]) < 0.03:
                 break
             time.sleep(0.1)
@@ -405,12 +397,12 @@ def run(doppel, out_dir, chromium):
         # The GameController panel: off at start; On, then Ready, and the game is READY through
         # /api/game and in the packets a robot receives (byte 9: state, RoboCupGameControlData.h).
         browser.wait_for("window.doppelViewer.gameShown()", "the GameController panel")
-        check(not get_game(url)["on"], "doppel's GameController is on without --gamecontroller")
+        check(not get_game(api)["on"], "doppel's GameController is on without --gamecontroller")
         browser.click_element("#game-on")
         browser.wait_for("window.doppelViewer.game() && window.doppelViewer.game().on", "the GameController to be on")
         browser.click_element('#game-states button[data-state="ready"]')
         browser.wait_for("window.doppelViewer.game().state === 'ready'", "the page to show READY")
-        check(get_game(url)["state"] == "ready", f"/api/game says {get_game(url)['state']} after a click on Ready")
+        check(get_game(api)["state"] == "ready", f"/api/game says {get_game(api)['state']} after a click on Ready")
         check(browser.evaluate("window.doppelViewer.error()") == "", f"Ready was refused: {browser.page_error()}")
         robot.settimeout(5)
         states = []
@@ -422,8 +414,8 @@ def run(doppel, out_dir, chromium):
 
         # Resume: simulation time runs again.
         browser.click_element("#resume")
-        wait_sim_time(url, 0.5, "after a click on Resume")
-        check(not get_state(url)["paused"], "doppel is still paused after a click on Resume")
+        wait_sim_time(api, 0.5, "after a click on Resume")
+        check(not get_state(api)["paused"], "doppel is still paused after a click on Resume")
         browser.wait_for("!window.doppelViewer.state().paused", "the page to show 'running'")
 
         shot = os.path.join(out_dir, "viewer.png")

@@ -135,7 +135,7 @@ struct WalkingDoppel {
     url = "http://127.0.0.1:" + match[1].str();
   }
   json state() const {
-    const auto [code, output] = run_command(std::string(DOPPEL_CTL) + " --url " + url + " state");
+    const auto [code, output] = run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " state");
     EXPECT_EQ(code, 0) << output;
     return json::parse(output);
   }

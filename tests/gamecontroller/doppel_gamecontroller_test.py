@@ -26,7 +26,7 @@ TEAM_A, TEAM_B = 5, 6
 
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from doppel_script_test import Failure, api, check, script_test_main, stop_doppel  # noqa: E402
+from doppel_script_test import Api, Failure, check, script_test_main, stop_doppel  # noqa: E402
 
 
 def golden(state, packet_number, kick_off=TEAM_A, penalties=(), scores=(0, 0)):
@@ -68,8 +68,9 @@ def next_packet(robot, state, what, tries=20):
     raise Failure(f"{what}: no packet with state {state} in {tries}")
 
 
-def ctl(doppel_ctl, url, *args):
-    return subprocess.run([doppel_ctl, "--url", url.rstrip("/"), *args], capture_output=True, text=True, timeout=30)
+def ctl(doppel_ctl, url, links, *args):
+    return subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "--link-dir", links, *args],
+                          capture_output=True, text=True, timeout=30)
 
 
 def start_doppel(doppel, work, args):
@@ -100,19 +101,21 @@ def run(doppel, doppel_ctl):
             "--gamecontroller", "--gc-teams", f"{TEAM_A},{TEAM_B}",
             "--gc-destination", f"127.0.0.1:{robot.getsockname()[1]}",
             "--gc-return", "127.0.0.1:0", "--gc-watch", "127.0.0.1:0"])
+        links = os.path.join(work, "links")
+        api = Api(url, links)
 
         # INITIAL, as the header lays it out.
         data = robot.recv(2048)
         check(data == golden(0, data[6]), f"the first packet differs from the header's INITIAL packet:\n{data.hex()}")
 
         # doppel-ctl game ready: READY reaches the robot.
-        answer = ctl(doppel_ctl, url, "game", "ready")
+        answer = ctl(doppel_ctl, url, links, "game", "ready")
         check(answer.returncode == 0, f"doppel-ctl game ready: {answer.returncode} {answer.stderr}")
         data = next_packet(robot, 1, "after doppel-ctl game ready")
         check(data == golden(1, data[6]), f"the READY packet differs from the header's:\n{data.hex()}")
 
         # A penalty through the API: player 2 of team B, physical contact (31), 30 s counting down.
-        status, game = api(url, "api/game", {"command": "penalize", "team": "B", "player": 2, "seconds": 30,
+        status, game = api("api/game", {"command": "penalize", "team": "B", "player": 2, "seconds": 30,
                                              "reason": "physical_contact"})
         check(status == 200, f"penalize: {status} {game}")
         check(game["teams"][1]["penalties"][0]["player"] == 2 and game["teams"][1]["penalties"][0]["penalty"] == 31,
@@ -127,34 +130,34 @@ def run(doppel, doppel_ctl):
         check(data == golden(1, data[6], penalties=[(1, 2, 31, secs)]), f"the penalty packet differs:\n{data.hex()}")
 
         # The same through doppel-ctl: player 3 of team A (by its number), 20 s, service (35).
-        answer = ctl(doppel_ctl, url, "game", "penalize", str(TEAM_A), "3", "20", "--reason", "service")
+        answer = ctl(doppel_ctl, url, links, "game", "penalize", str(TEAM_A), "3", "20", "--reason", "service")
         check(answer.returncode == 0, f"doppel-ctl game penalize: {answer.returncode} {answer.stderr}")
         penalties = json.loads(answer.stdout)["teams"][0]["penalties"]
         check([(p["player"], p["penalty"], p["reason"]) for p in penalties] == [(3, 35, "service")],
               f"after doppel-ctl game penalize: {penalties}")
-        answer = ctl(doppel_ctl, url, "game", "unpenalize", "A", "3")
+        answer = ctl(doppel_ctl, url, links, "game", "unpenalize", "A", "3")
         check(answer.returncode == 0 and not json.loads(answer.stdout)["teams"][0]["penalties"],
               f"doppel-ctl game unpenalize: {answer.stdout} {answer.stderr}")
-        answer = ctl(doppel_ctl, url, "game", "goal", "B")
+        answer = ctl(doppel_ctl, url, links, "game", "goal", "B")
         check(answer.returncode == 1 and "goal is not allowed in READY" in answer.stderr, f"goal in READY: {answer.stderr}")
 
         # A robot's return packet ("RGrt", version 2, team, player, message 2 = alive) shows in /api/game.
-        _, game = api(url, "api/game")
+        _, game = api("api/game")
         return_port = int(game["return_address"].rsplit(":", 1)[1])
         robot.sendto(b"RGrt" + bytes([2, TEAM_A, 1, 2]), ("127.0.0.1", return_port))
         deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and not api(url, "api/game")[1]["returns"]:
+        while time.monotonic() < deadline and not api("api/game")[1]["returns"]:
             time.sleep(0.05)
-        returns = api(url, "api/game")[1]["returns"]
+        returns = api("api/game")[1]["returns"]
         check(returns and returns[0]["team"] == TEAM_A and returns[0]["player"] == 1 and returns[0]["message"] == "alive",
               f"the return packet is not in /api/game: {returns}")
 
         # A refused change: the game's reason; a bad request: its field; neither reaches the robot.
-        answer = ctl(doppel_ctl, url, "game", "playing")
+        answer = ctl(doppel_ctl, url, links, "game", "playing")
         check(answer.returncode == 1 and "not allowed in READY" in answer.stderr, f"playing in READY: {answer.stderr}")
-        status, error = api(url, "api/game", {"command": "penalize", "team": "B", "player": 12})
+        status, error = api("api/game", {"command": "penalize", "team": "B", "player": 12})
         check(status == 400 and "'player'" in error["error"], f"player 12: {status} {error}")
-        status, error = api(url, "api/game", {"command": "state", "state": "halftime"})
+        status, error = api("api/game", {"command": "state", "state": "halftime"})
         check(status == 400 and "'state'" in error["error"], f"state halftime: {status} {error}")
 
         # Another GameController appears (this test plays it, on doppel's watch port): doppel's
@@ -166,9 +169,9 @@ def run(doppel, doppel_ctl):
         other.bind(("127.0.0.1", 0))
         other.sendto(bytes(foreign), ("127.0.0.1", watch_port))
         deadline = time.monotonic() + 5
-        while time.monotonic() < deadline and api(url, "api/game")[1]["sending"]:
+        while time.monotonic() < deadline and api("api/game")[1]["sending"]:
             time.sleep(0.05)
-        _, game = api(url, "api/game")
+        _, game = api("api/game")
         check(not game["sending"], "doppel's GameController still sends with another one on the network")
         check(f"127.0.0.1:{other.getsockname()[1]}" in game["stepped_aside"], f"stepped_aside: {game['stepped_aside']}")
         check(game["foreign"]["teams"] == [21, 22] and game["foreign"]["state"] == "playing", f"foreign: {game['foreign']}")
@@ -188,12 +191,12 @@ def run(doppel, doppel_ctl):
         check("stopped sending" in log, f"doppel did not say it stepped aside:\n{log}")
 
         # doppel-ctl game on: it sends again, the game as it was.
-        answer = ctl(doppel_ctl, url, "game", "on")
+        answer = ctl(doppel_ctl, url, links, "game", "on")
         check(answer.returncode == 0, f"doppel-ctl game on: {answer.stderr}")
         robot.settimeout(5)
         data = robot.recv(2048)
         check(data[:4] == b"RGme" and data[9] == 1, f"after game on: {data[:12].hex()}")
-        answer = ctl(doppel_ctl, url, "game", "status")
+        answer = ctl(doppel_ctl, url, links, "game", "status")
         check(answer.returncode == 0 and json.loads(answer.stdout)["sending"], f"doppel-ctl game status: {answer.stdout}")
         other.close()
         print("doppel GameController test: passed")

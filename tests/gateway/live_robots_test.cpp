@@ -77,6 +77,7 @@ class LiveRobots : public ::testing::Test {
   nlohmann::json get(const std::string& path) {
     httplib::Client client("127.0.0.1", gateway_->control_port());
     client.set_read_timeout(std::chrono::seconds(10));
+    client.set_bearer_token_auth(gateway_->access_token());
     const httplib::Result result = client.Get(path);
     if (!result || result->status != 200) {
       ADD_FAILURE() << "GET " << path << " failed";

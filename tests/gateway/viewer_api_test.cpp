@@ -47,6 +47,7 @@ struct ViewedDoppel {
   json get(const std::string& path) {
     httplib::Client client("127.0.0.1", port);
     client.set_read_timeout(std::chrono::seconds(10));
+    client.set_bearer_token_auth(doppel.access_token(static_cast<uint16_t>(port)));
     const httplib::Result result = client.Get(path);
     if (!result || result->status != 200) {
       ADD_FAILURE() << "GET " << path << " failed";
@@ -57,6 +58,7 @@ struct ViewedDoppel {
   json post(const std::string& path, const json& body) {
     httplib::Client client("127.0.0.1", port);
     client.set_read_timeout(std::chrono::seconds(10));
+    client.set_bearer_token_auth(doppel.access_token(static_cast<uint16_t>(port)));
     const httplib::Result result = client.Post(path, body.dump(), "application/json");
     if (!result || result->status != 200) {
       ADD_FAILURE() << "POST " << path << " failed: " << (result ? result->body : "no answer");

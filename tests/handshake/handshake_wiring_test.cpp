@@ -29,7 +29,7 @@ Options parse(std::vector<const char*> args) {
 TEST(HandshakeOptions, DefaultsServeTheLinkDirectorysSocketAndLoopbackPort7590) {
   const Options o = parse({"--link-dir", "/run/x"});
   EXPECT_TRUE(o.handshake);
-  const handshake::ServerOptions s = handshake_options(o);
+  const handshake::ServerOptions s = handshake_options(o, "");
   EXPECT_EQ(s.unix_path, "/run/x/handshake.sock");
   EXPECT_EQ(s.tcp_port, uint16_t{7590});
   EXPECT_EQ(s.tcp_address, "127.0.0.1");
@@ -37,11 +37,12 @@ TEST(HandshakeOptions, DefaultsServeTheLinkDirectorysSocketAndLoopbackPort7590) 
 
 TEST(HandshakeOptions, EachOptionChangesItsPart) {
   const handshake::ServerOptions s = handshake_options(
-      parse({"--handshake-socket", "/tmp/h.sock", "--handshake-port", "0", "--handshake-address", "::1"}));
+      parse({"--handshake-socket", "/tmp/h.sock", "--handshake-port", "0", "--handshake-address", "::1"}), "secret");
   EXPECT_EQ(s.unix_path, "/tmp/h.sock");
   EXPECT_EQ(s.tcp_port, uint16_t{0});
   EXPECT_EQ(s.tcp_address, "::1");
-  EXPECT_FALSE(handshake_options(parse({"--no-handshake-tcp"})).tcp_port.has_value());
+  EXPECT_EQ(s.tcp_token, "secret");
+  EXPECT_FALSE(handshake_options(parse({"--no-handshake-tcp"}), "").tcp_port.has_value());
   EXPECT_FALSE(parse({"--no-handshake"}).handshake);
   EXPECT_THROW(parse({"--handshake-port", "65536"}), std::invalid_argument);
   EXPECT_THROW(parse({"--handshake-socket", ""}), std::invalid_argument);
@@ -64,7 +65,7 @@ class LinkDir : public ::testing::Test {
 
 TEST_F(LinkDir, ServesTheHostOnBothEndpoints) {
   std::ostringstream notes;
-  auto server = start_handshake(parse({"--link-dir", dir_.c_str(), "--handshake-port", "0"}), host_, notes);
+  auto server = start_handshake(parse({"--link-dir", dir_.c_str(), "--handshake-port", "0"}), host_, "", notes);
   ASSERT_TRUE(server);
   EXPECT_EQ(server->unix_path(), dir_ + "/handshake.sock");
   ASSERT_NE(server->tcp_port(), 0);
@@ -73,7 +74,7 @@ TEST_F(LinkDir, ServesTheHostOnBothEndpoints) {
   EXPECT_EQ(TestClient::unix_socket(server->unix_path()).call(list).robot_list().robot(0).name(), "fumanoid-2011");
   EXPECT_EQ(TestClient::tcp(server->tcp_port()).call(list).robot_list().robot_size(), 1);
   EXPECT_TRUE(notes.str().empty());
-  EXPECT_FALSE(start_handshake(parse({"--no-handshake"}), host_, notes));
+  EXPECT_FALSE(start_handshake(parse({"--no-handshake"}), host_, "", notes));
 }
 
 // Holds a loopback TCP port (7590 if it is free: then the default is taken for sure).
@@ -101,7 +102,7 @@ struct PortHolder {
 TEST_F(LinkDir, ATakenDefaultPortLeavesTheUnixSocketAndSaysSo) {
   PortHolder holder;  // 7590, or held by someone else already: taken either way
   std::ostringstream notes;
-  auto server = start_handshake(parse({"--link-dir", dir_.c_str()}), host_, notes);
+  auto server = start_handshake(parse({"--link-dir", dir_.c_str()}), host_, "", notes);
   ASSERT_TRUE(server);
   EXPECT_EQ(server->tcp_port(), 0);
   EXPECT_NE(notes.str().find("handshake over TCP off"), std::string::npos) << notes.str();
@@ -114,7 +115,7 @@ TEST_F(LinkDir, ATakenNamedPortIsAnError) {
   PortHolder holder;
   std::ostringstream notes;
   const std::string port = std::to_string(holder.port);
-  EXPECT_THROW(start_handshake(parse({"--link-dir", dir_.c_str(), "--handshake-port", port.c_str()}), host_, notes),
+  EXPECT_THROW(start_handshake(parse({"--link-dir", dir_.c_str(), "--handshake-port", port.c_str()}), host_, "", notes),
                std::runtime_error);
   EXPECT_FALSE(std::filesystem::exists(dir_ + "/handshake.sock"));  // nothing left half set up
 }

@@ -13,10 +13,12 @@
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <thread>
 
 #include "fake_robot_host.h"
+#include "control/access.h"
 #include "handshake/server.h"
 
 namespace doppel::handshake {
@@ -115,9 +117,14 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   ServerOptions options;
   options.unix_path = dir + "/handshake.sock";
   options.tcp_port = 0;
+  options.tcp_token = control::new_access_token();  // as doppel serves TCP: the client finds it in the link directory
   Server server(host, options);
-  const ClientRun run = run_client(tcp ? "--tcp 127.0.0.1:" + std::to_string(server.tcp_port()) : "--unix " + options.unix_path);
+  std::optional<control::TokenFile> token_file;
+  token_file.emplace(control::token_file_path(dir, server.tcp_port()), options.tcp_token);
+  const ClientRun run = run_client(tcp ? "--tcp 127.0.0.1:" + std::to_string(server.tcp_port()) + " --link-dir " + dir
+                                       : "--unix " + options.unix_path);
   server.stop();
+  token_file.reset();
   std::filesystem::remove_all(dir);
 
   EXPECT_EQ(run.exit_code, 0) << run.output;

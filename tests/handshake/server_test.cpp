@@ -419,5 +419,44 @@ TEST(HandshakeServerSocket, ATakenPortIsAnError) {
   }
 }
 
+
+// With the run's access token (docs/security.md), TCP needs it in every message: none or a wrong
+// one gets an Error for "access_token", the connection closes and the host is never asked; the
+// Unix socket, private by its mode, needs none.
+TEST(HandshakeAccessToken, TcpNeedsTheTokenTheUnixSocketDoesNot) {
+  TempDir dir;
+  FakeRobotHost host;
+  ServerOptions options;
+  options.unix_path = dir.path() + "/handshake.sock";
+  options.tcp_port = 0;
+  options.tcp_token = "0123456789abcdef0123456789abcdef";
+  Server server(host, options);
+  const std::string add = R"(add_robot { robot: "op3" })";
+  for (const std::string& offered : {std::string(), std::string("0123456789abcdef0123456789abcdee"), std::string("x")}) {
+    TestClient c = TestClient::tcp(server.tcp_port());
+    wire::ClientMessage m = request(add);
+    m.set_access_token(offered);
+    const wire::ServerMessage reply = c.call(m);
+    ASSERT_TRUE(reply.has_error()) << reply.ShortDebugString();
+    EXPECT_EQ(reply.error().field(), "access_token");
+    EXPECT_FALSE(c.receive(2s).has_value()) << "the connection stays open after a wrong token";
+  }
+  EXPECT_EQ(host.add_calls, 0);
+  EXPECT_EQ(host.robots_calls, 0);
+
+  TestClient good = TestClient::tcp(server.tcp_port());
+  wire::ClientMessage list = request("list_robots {}");
+  list.set_access_token(options.tcp_token);
+  EXPECT_TRUE(good.call(list).has_robot_list());
+  wire::ClientMessage added = request(add);
+  added.set_access_token(options.tcp_token);
+  EXPECT_TRUE(good.call(added).has_robot_added());
+  // A later message of the same connection without it is refused as well.
+  EXPECT_EQ(good.call(request("list_robots {}")).error().field(), "access_token");
+
+  TestClient local = TestClient::unix_socket(server.unix_path());
+  EXPECT_TRUE(local.call(request("list_robots {}")).has_robot_list());
+}
+
 }  // namespace
 }  // namespace doppel::handshake

@@ -23,29 +23,27 @@ import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "control"))
-from viewer_browser_test import Browser, Failure, browser_test_main, check, tear_down  # noqa: E402
+from viewer_browser_test import Api, Browser, Failure, browser_test_main, check, tear_down  # noqa: E402
 
 SECONDS = 10.0
 
 
-def get(url, path):
-    with urllib.request.urlopen(url + path, timeout=10) as response:
-        return json.load(response)
-
-
 def start_replay(tool, recording, work):
+    """doppel-replay on a free port, its token in the test's own link directory: the process, its
+    API and the page's link as doppel-replay prints it (with ?token=)."""
     output_path = os.path.join(work, "doppel-replay.txt")
     output = open(output_path, "wb")
-    process = subprocess.Popen([tool, recording, "--viewer", "0", "--paused"], stdout=output, stderr=subprocess.STDOUT)
+    links = os.path.join(work, "links")
+    process = subprocess.Popen([tool, recording, "--viewer", "0", "--paused", "--link-dir", links],
+                               stdout=output, stderr=subprocess.STDOUT)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline:
         text = open(output_path, encoding="utf-8", errors="replace").read()
-        match = re.search(r"viewer on (http://127\.0\.0\.1:\d+/)", text)
+        match = re.search(r"viewer on ((http://127\.0\.0\.1:\d+/)\S*)", text)
         if match:
-            return process, match.group(1)
+            return process, Api(match.group(2), links), match.group(1)
         if process.poll() is not None:
             raise Failure(f"doppel-replay exited ({process.returncode}) before serving its viewer:\n{text}")
         time.sleep(0.05)
@@ -73,19 +71,19 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
     os.makedirs(out_dir, exist_ok=True)
     recording = os.path.join(work, "fall.mcap")
     subprocess.run([fixture_tool, recording, str(SECONDS), "21", "60", "500", "0"], check=True)
-    process, url = start_replay(replay_tool, recording, work)
+    process, api, page = start_replay(replay_tool, recording, work)
     browser = None
     try:
         profile = os.path.join(work, "chromium")
         os.makedirs(profile)
         browser = Browser(chromium, profile)
-        browser.open(url)
+        browser.open(page)
 
         browser.wait_for("window.doppelViewer && window.doppelViewer.timelineShown()", "the replay timeline")
         robots = browser.wait_for("window.doppelViewer.robotCount()", "the robot in the 3D view")
         check(robots == 1, f"the view draws {robots} robots, the recording has 1")
         browser.wait_for("window.doppelViewer.frames() > 5 && window.doppelViewer.sceneUpdates() > 2", "frames drawn")
-        replay = get(url, "api/replay")
+        replay = api.get("api/replay")
         check(abs(replay["end_s"] - SECONDS) < 1e-9 and not replay["playing"],
               f"/api/replay says {replay}, the recording is {SECONDS} s and doppel-replay started --paused")
         before = trunk(browser.evaluate("window.doppelViewer.scene()"))
@@ -97,7 +95,7 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         browser.click(box["x"] + 0.75 * box["w"], box["y"])
         deadline = time.monotonic() + 20
         while time.monotonic() < deadline:
-            position = get(url, "api/replay")["position_s"]
+            position = api.get("api/replay")["position_s"]
             if position > 0.6 * SECONDS:
                 break
             time.sleep(0.1)
@@ -118,7 +116,7 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
                                   " return p.x > r.left && p.x < r.right && p.y > r.top && p.y < r.bottom; })()")
         check(inside, f"the scrubbed trunk at {where} is outside the 3D view")
         at_trunk = browser.evaluate(PIXEL_AT + where)
-        state = get(url, "api/state")
+        state = api.get("api/state")
         check(state["paused"] and state["robots"][0]["fallen"], f"at {position:.2f} s the state is {state['robots'][0]}")
         shot = os.path.join(out_dir, "replay.png")
         browser.screenshot(shot)
@@ -139,27 +137,27 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         browser.click_element("#replay-play")
         browser.wait_for("window.doppelViewer.replay().playing", "the page to show playing")
         time.sleep(0.5)
-        later = get(url, "api/replay")["position_s"]
+        later = api.get("api/replay")["position_s"]
         check(later > position + 0.2, f"playing moved the replay from {position:.3f} s to {later:.3f} s in 0.5 s")
         browser.click_element("#replay-play")
         browser.wait_for("!window.doppelViewer.replay().playing", "the page to show paused")
-        held = get(url, "api/replay")["position_s"]
+        held = api.get("api/replay")["position_s"]
         time.sleep(0.3)
-        check(get(url, "api/replay")["position_s"] == held, "the replay runs on after Pause")
+        check(api.get("api/replay")["position_s"] == held, "the replay runs on after Pause")
 
         # The speed selector.
         browser.evaluate("(() => { const s = document.getElementById('replay-speed'); s.value = '4';"
                          " s.dispatchEvent(new Event('change')); })()")
         deadline = time.monotonic() + 10
-        while time.monotonic() < deadline and get(url, "api/replay")["speed"] != 4:
+        while time.monotonic() < deadline and api.get("api/replay")["speed"] != 4:
             time.sleep(0.1)
-        check(get(url, "api/replay")["speed"] == 4, "the speed selector did not set 4x")
+        check(api.get("api/replay")["speed"] == 4, "the speed selector did not set 4x")
         check(browser.evaluate("document.querySelector('#push-buttons button').disabled"),
               "the push buttons are enabled in a replay")
 
         # The Bus panel: the analyzer's report of the fixture's traffic, one READ every 2 ms: 500 Hz.
         browser.wait_for("window.doppelViewer.analysisShown()", "the Bus panel")
-        cycle = get(url, "api/analysis")["reports"][0]["cycle"]
+        cycle = api.get("api/analysis")["reports"][0]["cycle"]
         check(cycle["found"] and abs(cycle["rate_hz"] - 500.0) < 0.01,
               f"/api/analysis finds the cycle {cycle}, the fixture reads every 2 ms (500 Hz)")
         text = browser.evaluate("window.doppelViewer.analysisCycleText()")

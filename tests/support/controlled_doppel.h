@@ -1,7 +1,8 @@
 #pragma once
 // doppel with its control API on a loopback port the system picks (--viewer 0), where it says it
 // serves, and doppel-ctl against it, as a user drives it. Tests that include this define
-// DOPPEL_CTL (the doppel-ctl executable) for their target.
+// DOPPEL_CTL (the doppel-ctl executable) for their target. doppel-ctl finds the run's access token
+// in the test's link directory, as it finds it in the default one for a user.
 
 #include <gtest/gtest.h>
 
@@ -28,10 +29,11 @@ struct ControlledDoppel {
       throw std::runtime_error("doppel did not say where its control is: " + output);
     }
     url = "http://127.0.0.1:" + match[1].str();
+    port = static_cast<uint16_t>(std::stoi(match[1].str()));
   }
   // Runs doppel-ctl with `arguments`: its exit code and output.
   std::pair<int, std::string> ctl(const std::string& arguments) const {
-    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " " + arguments);
+    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " " + arguments);
   }
   // doppel-ctl that must succeed, its JSON answer.
   nlohmann::json ok(const std::string& arguments) const {
@@ -43,6 +45,7 @@ struct ControlledDoppel {
   }
   DoppelProcess doppel;
   std::string url;
+  uint16_t port = 0;
 };
 
 }  // namespace doppel::testing

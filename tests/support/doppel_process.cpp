@@ -15,6 +15,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "control/access.h"
+
 namespace doppel::testing {
 
 std::string doppel_executable() {
@@ -129,6 +131,10 @@ std::string DoppelProcess::output() const {
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
+}
+
+std::string DoppelProcess::access_token(uint16_t port) const {
+  return control::find_access_token(link_dir_, port).value_or("");
 }
 
 }  // namespace doppel::testing

@@ -4,6 +4,8 @@
 
 #include <sys/types.h>
 
+#include <cstdint>
+
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +36,9 @@ class DoppelProcess {
   // doppel's "running until" line, printed once it serves every port); returns the output then.
   std::string wait_for_output(const std::string& text) const;
   pid_t pid() const { return pid_; }
+  // The run's access token for its TCP listener on `port` (the control API or the handshake), read
+  // as every client reads it (control::find_access_token: LINK_DIR/token-PORT); "" without one.
+  std::string access_token(uint16_t port) const;
 
  private:
   pid_t pid_ = -1;

@@ -19,7 +19,7 @@ import time
 
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
-from doppel_script_test import Failure, api, check, script_test_main, stop_doppel  # noqa: E402
+from doppel_script_test import Api, Failure, check, script_test_main, stop_doppel  # noqa: E402
 
 
 def receive(sock, timeout):
@@ -54,17 +54,18 @@ def run(doppel, doppel_ctl):
             else:
                 time.sleep(0.05)
         check(url is not None, "doppel did not start serving within 120 s")
+        api = Api(url, os.path.join(work, "links"))
         hub_match = re.search(r"team communication hub on 127\.0\.0\.1:(\d+), 0 robots", text)
         check(hub_match, f"doppel does not say where its hub listens:\n{text}")
         hub = ("127.0.0.1", int(hub_match.group(1)))
 
         # Registration: a through the API, b through doppel-ctl.
-        status, answer = api(url, "api/teamcomm/robots", {"team": 7, "player": 1, "port": a.getsockname()[1]})
+        status, answer = api("api/teamcomm/robots", {"team": 7, "player": 1, "port": a.getsockname()[1]})
         check(status == 200, f"POST /api/teamcomm/robots: {status} {answer}")
-        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "teamcomm", "add", "7", "2", str(b.getsockname()[1])],
+        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "--link-dir", os.path.join(work, "links"), "teamcomm", "add", "7", "2", str(b.getsockname()[1])],
                               capture_output=True, text=True, timeout=30)
         check(done.returncode == 0, f"doppel-ctl teamcomm add: {done.returncode} {done.stderr}")
-        _, robots = api(url, "api/teamcomm/robots")
+        _, robots = api("api/teamcomm/robots")
         check(sorted((r["team"], r["player"]) for r in robots) == [(7, 1), (7, 2)], f"registered: {robots}")
 
         message = bytes(range(256)) * 3
@@ -73,29 +74,29 @@ def run(doppel, doppel_ctl):
         check(receive(a, 0.3) is None, "the sender received its own message back")
         b.sendto(b"from 7:2", hub)
         check(receive(a, 5) == b"from 7:2", "robot 7:1 did not receive 7:2's message")
-        _, status_now = api(url, "api/teamcomm")
+        _, status_now = api("api/teamcomm")
         links = {(l["from"]["player"], l["to"]["player"]): l for l in status_now["links"]}
         check(links[(1, 2)]["relayed"] == 1 and links[(2, 1)]["relayed"] == 1, f"link counters: {status_now['links']}")
         check(status_now["received"] == 2, f"received {status_now['received']}, 2 were sent")
 
         # A bad registration names its field and changes nothing; a second 7:2 is refused.
-        status, error = api(url, "api/teamcomm/robots", {"team": 7, "player": 3, "port": 0})
+        status, error = api("api/teamcomm/robots", {"team": 7, "player": 3, "port": 0})
         check(status == 400 and "'port'" in error["error"], f"port 0: {status} {error}")
-        status, error = api(url, "api/teamcomm/robots", {"team": 7, "player": 2, "port": 40999})
+        status, error = api("api/teamcomm/robots", {"team": 7, "player": 2, "port": 40999})
         check(status == 409 and "7:2 is registered twice" in error["error"], f"7:2 again: {status} {error}")
-        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "teamcomm", "add", "7", "3", "0"],
+        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "--link-dir", os.path.join(work, "links"), "teamcomm", "add", "7", "3", "0"],
                               capture_output=True, text=True, timeout=30)
         check(done.returncode != 0, "doppel-ctl teamcomm add with port 0 succeeded")
 
         # Removed (7:2 through the API, a third one through doppel-ctl), 7:2 hears nothing more.
-        status, answer = api(url, "api/teamcomm/robots/7/2", method="DELETE")
+        status, answer = api("api/teamcomm/robots/7/2", method="DELETE")
         check(status == 200 and len(answer["robots"]) == 1, f"DELETE 7/2: {status} {answer}")
-        api(url, "api/teamcomm/robots", {"team": 8, "player": 1, "port": 40998})
-        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "teamcomm", "remove", "8", "1"],
+        api("api/teamcomm/robots", {"team": 8, "player": 1, "port": 40998})
+        done = subprocess.run([doppel_ctl, "--url", url.rstrip("/"), "--link-dir", os.path.join(work, "links"), "teamcomm", "remove", "8", "1"],
                               capture_output=True, text=True, timeout=30)
         check(done.returncode == 0 and [r["team"] for r in json.loads(done.stdout)["robots"]] == [7],
               f"doppel-ctl teamcomm remove: {done.returncode} {done.stdout} {done.stderr}")
-        status, error = api(url, "api/teamcomm/robots/7/2", method="DELETE")
+        status, error = api("api/teamcomm/robots/7/2", method="DELETE")
         check(status == 404 and "7:2" in error["error"], f"DELETE 7/2 again: {status} {error}")
         a.sendto(b"after", hub)
         check(receive(b, 0.5) is None, "a removed robot still receives its team's messages")

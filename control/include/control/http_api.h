@@ -23,6 +23,7 @@
 //   GET|POST /api/teamcomm/robots {"team": 7, "player": 2, "port": 44002}
 //   DELETE /api/teamcomm/robots/TEAM/PLAYER
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
+// Every request passes control/access.h's checks first: Host, Origin, Content-Type, the token.
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
 
 #include <cstdint>
@@ -32,6 +33,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "control/access.h"
 #include "control/sim_control.h"
 
 namespace httplib {
@@ -79,7 +81,10 @@ class HttpApi {
   // Binds `address`:`port` at once (port 0: any free port), so that a port in use is reported
   // before anything runs. Throws std::runtime_error naming the address and port.
   // `files`: the viewer served at / (a folder that does not exist is an error naming it).
-  HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files = {});
+  // `token`: the access token every /api/ request must bring ("" = none: --no-token); the Host,
+  // Origin and Content-Type checks apply either way (control/access.h).
+  HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files = {},
+          std::string token = "");
   ~HttpApi();
   HttpApi(const HttpApi&) = delete;
   HttpApi& operator=(const HttpApi&) = delete;
@@ -93,6 +98,8 @@ class HttpApi {
   SimControl& control_;
   std::string address_;
   uint16_t port_ = 0;
+  std::string token_;
+  AccessPolicy policy_;
   std::unique_ptr<httplib::Server> server_;
   std::thread thread_;
 };

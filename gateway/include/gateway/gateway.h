@@ -31,6 +31,7 @@ class Fnv1a;
 
 namespace doppel::control {
 class HttpApi;
+class TokenFile;
 class RobotHost;
 }
 namespace doppel::record {
@@ -110,6 +111,12 @@ class Gateway {
   // The physics world (setup: look-ups such as find_motor); null when no robot has a body.
   const physics::World* world() const noexcept { return world_.get(); }
 
+  // The run's access token for the HTTP API and the TCP handshake ("" with --no-token).
+  const std::string& access_token() const noexcept { return access_token_; }
+  // Writes the token for a TCP listener on `port` to LINK_DIR/token-PORT (0600; removed at exit);
+  // nothing with --no-token. Setup only; throws std::runtime_error naming the file.
+  void publish_token(uint16_t port);
+
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
   // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
   bool save_state(bool published);
@@ -135,6 +142,8 @@ class Gateway {
   std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
+  std::string access_token_;                       // control/access.h; "" with --no-token
+  std::vector<std::unique_ptr<control::TokenFile>> token_files_;  // after links_: removed before its directory
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
   std::unique_ptr<LiveRobots> live_;  // robots added while running; last: goes first, using the parts above
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop

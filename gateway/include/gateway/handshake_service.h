@@ -4,6 +4,7 @@
 
 #include <iosfwd>
 #include <memory>
+#include <string>
 
 #include "control/robot_host.h"
 #include "gateway/options.h"
@@ -12,12 +13,14 @@
 namespace doppel::gateway {
 
 // The server's endpoints from the options: the Unix socket (default LINK_DIR/handshake.sock) and
-// TCP (handshake::kDefaultPort unless named, on 127.0.0.1 unless named).
-handshake::ServerOptions handshake_options(const Options& options);
+// TCP (handshake::kDefaultPort unless named, on 127.0.0.1 unless named), TCP clients needing
+// `token` (the run's access token; "" = none).
+handshake::ServerOptions handshake_options(const Options& options, const std::string& token);
 
 // Starts serving `host` (which must outlive the server); null with --no-handshake. A port or socket
 // the user named must work (std::runtime_error naming the option otherwise); when the default TCP
 // port is taken doppel serves the Unix socket only and says so on `notes`.
-std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host, std::ostream& notes);
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host,
+                                                   const std::string& token, std::ostream& notes);
 
 }  // namespace doppel::gateway

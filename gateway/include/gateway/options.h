@@ -51,6 +51,9 @@ struct Options {
   // PORT, 0 = any free port; unset = handshake::kDefaultPort, used only if free;
   // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither.
   bool handshake = true;
+  // The run's access token (control/access.h, docs/security.md) for the HTTP API and the TCP
+  // handshake, in LINK_DIR/token-PORT; --no-token: none (with a warning).
+  bool token = true;
   std::string handshake_socket;
   bool handshake_tcp = true;
   std::optional<uint16_t> handshake_port;

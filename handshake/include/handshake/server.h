@@ -34,6 +34,7 @@ struct ServerOptions {
   std::string unix_path;                // "" = no Unix socket
   std::optional<uint16_t> tcp_port;     // nullopt = no TCP; 0 = any free port (tcp_port() tells)
   std::string tcp_address = "127.0.0.1";  // a numeric IPv4 or IPv6 address
+  std::string tcp_token;                // the access token every TCP message must carry; "" = none
   uint32_t max_frame_bytes = kDefaultMaxFrameBytes;
   int max_clients = 32;
   std::chrono::milliseconds first_request_timeout{10000};
