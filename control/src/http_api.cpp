@@ -1,7 +1,5 @@
 #include "control/http_api.h"
 
-#include "control/access.h"
-
 #include <httplib.h>
 #include <sys/socket.h>
 
@@ -608,7 +606,7 @@ std::string static_files_problem(const StaticFiles& files) {
 
 HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files,
                  std::string token)
-    : control_(control), address_(address), token_(std::move(token)), server_(std::make_unique<httplib::Server>()) {
+    : control_(control), address_(address), server_(std::make_unique<httplib::Server>()) {
   // The viewer: its page at /, three.js at /three/. Files only; the API answers JSON below.
   if (const std::string problem = static_files_problem(files); !problem.empty()) throw std::runtime_error(problem);
   if (!files.viewer_dir.empty()) server_->set_mount_point("/", files.viewer_dir);
@@ -681,7 +679,7 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     }
     port_ = port;
   }
-  policy_ = access_policy(address, port_, token_);
+  policy_ = access_policy(address, port_, std::move(token));
 }
 
 HttpApi::~HttpApi() { stop(); }

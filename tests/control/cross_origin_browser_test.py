@@ -77,7 +77,8 @@ def serve_attack_page(doppel_url):
 def run(doppel, out_dir, chromium):
     work = tempfile.mkdtemp(prefix="doppel-cross-origin-test-")
     os.makedirs(out_dir, exist_ok=True)
-    process, api, page = start_doppel(doppel, work, ("--physics", "none"))
+    process, api, page = start_doppel(doppel, work)
+    print(f"cross-origin test: doppel serves {page}", flush=True)
     browser = None
     attacker = None
     try:
@@ -93,6 +94,7 @@ def run(doppel, out_dir, chromium):
         check(browser.evaluate("document.cookie") == "", "the token's cookie is readable by the page's scripts")
         check(not get_state(api)["paused"], "doppel is paused before the attack")
 
+        print("cross-origin test: the viewer works", flush=True)
         # Another site's page in the same browser.
         attacker, attack_url = serve_attack_page(api.url)
         browser.call("Page.navigate", {"url": attack_url})

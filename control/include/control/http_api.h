@@ -98,8 +98,7 @@ class HttpApi {
   SimControl& control_;
   std::string address_;
   uint16_t port_ = 0;
-  std::string token_;
-  AccessPolicy policy_;
+  AccessPolicy policy_;  // set once bound (the Host checks need the port); read by the server's threads
   std::unique_ptr<httplib::Server> server_;
   std::thread thread_;
 };
