@@ -664,6 +664,88 @@
     poll('/api/game', 500, applyGame);
   }).catch(() => {});
 
+  // --- faults on demand (GET/POST/DELETE /api/faults, docs/faults.md) ------------------------------
+  // The form offers every kind the API lists, with the value field that kind takes; the table lists
+  // every fault of the run with a button that ends it.
+  let lastFaults = null;
+  let faultKinds = [];
+  function selectedKind() {
+    return faultKinds.find((k) => k.kind === $('fault-kind').value);
+  }
+  function showKindFields() {
+    const k = selectedKind();
+    if (!k) return;
+    $('fault-value-name').textContent = k.value_field || 'value';
+    $('fault-value').disabled = !k.value_field;
+    $('fault-rate').disabled = !k.rate;
+    $('fault-what').textContent = `${k.kind} (${k.scope}): ${k.what}`;
+  }
+  function faultTarget(f) {
+    return `robot ${f.robot}` + (f.bus !== undefined ? ` bus ${f.bus}` : '') + (f.id !== undefined ? ` id ${f.id}` : '');
+  }
+  function applyFaults(list) {
+    lastFaults = list;
+    $('faults').hidden = false;
+    if (faultKinds.length === 0 && list.kinds) {
+      faultKinds = list.kinds;
+      const select = $('fault-kind');
+      faultKinds.forEach((k) => {
+        const option = document.createElement('option');
+        option.value = k.kind;
+        option.textContent = k.kind;
+        select.appendChild(option);
+      });
+      showKindFields();
+    }
+    const body = $('fault-list').tBodies[0];
+    body.textContent = '';
+    list.faults.forEach((f) => {
+      const row = body.insertRow();
+      row.dataset.number = f.number;
+      cell(row, f.number);
+      cell(row, f.kind, 'text');
+      cell(row, faultTarget(f), 'text');
+      cell(row, fixed(f.start_s, 3));
+      cell(row, f.end_s === null ? '–' : fixed(f.end_s, 3));
+      cell(row, f.active ? 'active' : f.ended ? 'ended' : 'pending', 'text');
+      const td = row.insertCell();
+      if (!f.ended) {
+        const button = document.createElement('button');
+        button.textContent = 'Clear';
+        button.className = 'fault-clear';
+        button.addEventListener('click', () => faultRequest('DELETE', `/api/faults/${f.number}`));
+        td.appendChild(button);
+      }
+    });
+  }
+  async function faultRequest(method, path, body) {
+    try {
+      applyFaults(await api(method, path, body));
+      clearError();
+    } catch (e) {
+      showError(e.message);
+    }
+  }
+  $('fault-kind').addEventListener('change', showKindFields);
+  $('fault-add').addEventListener('click', () => {
+    const k = selectedKind();
+    if (!k) return;
+    const body = { kind: k.kind, robot: Number($('fault-robot').value) };
+    const whole = (id) => ($(id).value === '' ? undefined : Number($(id).value));
+    if (whole('fault-bus') !== undefined) body.bus = whole('fault-bus');
+    if (whole('fault-id') !== undefined) body.id = whole('fault-id');
+    if (k.value_field && $('fault-value').value !== '') body[k.value_field] = Number($('fault-value').value);
+    if (k.rate && $('fault-rate').value !== '') body.rate = Number($('fault-rate').value);
+    if ($('fault-for').value !== '') body.duration_s = Number($('fault-for').value);
+    faultRequest('POST', '/api/faults', body);
+  });
+  $('fault-clear-all').addEventListener('click', () => faultRequest('DELETE', '/api/faults'));
+  fetch('/api/faults', { cache: 'no-store' }).then(async (response) => {
+    if (!response.ok) return;  // no faults here (a replay)
+    applyFaults(await response.json());
+    poll('/api/faults', 500, applyFaults);
+  }).catch(() => {});
+
   // --- bus analysis of a replay (GET /api/analysis: analyzer/, docs/analyzer.md) --------------------
   // Drawn once (the recording does not change); the period plot's cursor follows the replay.
   const SPLIT_PARTS = [  // the time split's parts (analyzer KindStats), in the order they add up
@@ -877,6 +959,9 @@
     buses: () => lastBuses,
     game: () => lastGame,
     gameShown: () => !$('game').hidden,
+    faults: () => lastFaults,
+    faultsShown: () => !$('faults').hidden,
+    faultRows: () => Array.from($('fault-list').tBodies[0].rows).map((r) => Array.from(r.cells).map((c) => c.textContent)),
     scene: () => lastScene,
     error: () => ($('error').hidden ? '' : $('error').textContent),
     // Where field point (x, y, z) is on the page (CSS pixels), to click on it.

@@ -250,8 +250,11 @@ void BusServer::dispatch(const dynamixel::InstructionPacket& packet, int64_t ins
   }
   if (options_.adapter == AdapterProfile::kUsb2ax && usb2ax_intercepts(packet, seen_ns, baud_bps)) return;
   if (sync_ != nullptr) sync_->before_dispatch();
-  const auto statuses = devices_.dispatch(packet, baud_bps);
-  if (sync_ != nullptr) sync_->after_dispatch();
+  std::span<const dynamixel::OutgoingStatus> statuses = devices_.dispatch(packet, baud_bps);
+  if (sync_ != nullptr) {
+    sync_->after_dispatch();
+    statuses = sync_->impair(packet, statuses);
+  }
   if (statuses.empty()) return;
 
   std::size_t total = 0;

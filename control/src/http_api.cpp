@@ -384,7 +384,158 @@ Answer teamcomm_request(SimControl& control, const std::string& method, const st
   return {200, after ? teamcomm_json(*after) : json(nullptr)};
 }
 
+const char* scope_name(faults::FaultScope scope) {
+  switch (scope) {
+    case faults::FaultScope::kServo:
+      return "servo";
+    case faults::FaultScope::kBus:
+      return "bus";
+    case faults::FaultScope::kRobot:
+      return "robot";
+    case faults::FaultScope::kSensor:
+      return "sensor";
+  }
+  return "";
+}
+
+// A whole number field within least..most, or `fallback` when absent.
+int64_t optional_whole(const json& request, const std::string& field, int64_t least, int64_t most, int64_t fallback) {
+  if (!request.contains(field)) return fallback;
+  const json& value = request.at(field);
+  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field '" + field + "' must be a whole number"};
+  if (value.is_number_unsigned() && value.get<uint64_t>() > static_cast<uint64_t>(most)) {
+    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most)};
+  }
+  const int64_t x = value.get<int64_t>();
+  if (x < least || x > most) {
+    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) +
+                           ", got " + std::to_string(x)};
+  }
+  return x;
+}
+
+// POST /api/faults: the fields of one fault, checked completely (types here, ranges and the
+// kind's fields by faults::check) before anything is added.
+faults::FaultSpec fault_spec(const json& request, const SimState& state) {
+  if (!request.contains("kind")) throw Refused{400, "missing field 'kind' (one of " + faults::fault_kind_names() + ")"};
+  const json& kind_value = request.at("kind");
+  const std::optional<faults::FaultKind> kind =
+      kind_value.is_string() ? faults::fault_kind(kind_value.get<std::string>()) : std::nullopt;
+  if (!kind) throw Refused{400, "field 'kind' must be one of " + faults::fault_kind_names() + ", got " + kind_value.dump()};
+  const faults::FaultKindInfo& info = faults::info(*kind);
+  std::set<std::string> allowed = {"kind", "robot", "bus", "id", "start_s", "duration_s", "seed"};
+  if (info.needs_rate) allowed.insert("rate");
+  if (!info.value_field.empty()) allowed.insert(std::string(info.value_field));
+  for (const auto& [key, value] : request.items()) {
+    if (allowed.count(key) == 0) {
+      throw Refused{400, "field '" + key + "' does not belong to a " + std::string(info.name) + " fault"};
+    }
+  }
+  faults::FaultSpec spec;
+  spec.kind = *kind;
+  spec.robot = static_cast<uint32_t>(robot_index(request, state));
+  spec.bus = static_cast<int32_t>(optional_whole(request, "bus", 0, 255, -1));
+  spec.id = static_cast<int32_t>(optional_whole(request, "id", 0, 253, -1));
+  if (request.contains("start_s")) {
+    const double start = number(request, "start_s");
+    if (start < 0.0 || start > faults::kMaxStartS) {
+      throw Refused{400, "field 'start_s' must be within 0.." + json(faults::kMaxStartS).dump() + " s, got " + json(start).dump()};
+    }
+    spec.start_ns = std::llround(start * 1e9);
+  }
+  if (request.contains("duration_s")) {
+    const double duration = number(request, "duration_s");
+    const double most = static_cast<double>(faults::kMaxDurationNs) * 1e-9;
+    if (duration < 0.0 || duration > most) {
+      throw Refused{400, "field 'duration_s' must be within 0.." + json(most).dump() + " s (0: until cleared), got " +
+                             json(duration).dump()};
+    }
+    spec.duration_ns = std::llround(duration * 1e9);
+  }
+  if (request.contains("seed")) {
+    const json& seed = request.at("seed");
+    if (!seed.is_number_unsigned() && !(seed.is_number_integer() && seed.get<int64_t>() >= 0)) {
+      throw Refused{400, "field 'seed' must be a whole number >= 0"};
+    }
+    spec.seed = seed.get<uint64_t>();
+  }
+  if (info.needs_rate) spec.rate = number(request, "rate");
+  if (!info.value_field.empty()) spec.value = number(request, std::string(info.value_field));
+  if (const std::string problem = faults::check(spec); !problem.empty()) throw Refused{400, problem};
+  return spec;
+}
+
+Answer faults_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
+  if (!control.faults()) return {404, error_body("no faults here: /api/faults is served by a live doppel (docs/faults.md)")};
+  try {
+    std::optional<uint32_t> added;
+    if (action == "faults") {
+      if (method == "POST") {
+        const faults::FaultSpec spec = fault_spec(parse_object(body), control.state());
+        const FaultAnswer answer = control.add_fault(spec);
+        if (answer.status != 200) return {answer.status, error_body(answer.error)};
+        added = answer.number;
+      } else if (method == "DELETE") {
+        if (!body.empty()) only_fields(parse_object(body), {});
+        const Outcome outcome = control.clear_faults();
+        if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+      } else if (method != "GET") {
+        return {405, error_body("/api/faults is read with GET, added to with POST and cleared with DELETE")};
+      }
+    } else {
+      const std::string number = action.substr(std::string("faults/").size());
+      if (number.empty() || number.size() > 9 || number.find_first_not_of("0123456789") != std::string::npos) {
+        return {404, error_body("no such path: /api/" + action + " (/api/faults/N, N a fault's number)")};
+      }
+      if (method != "DELETE") return {405, error_body("/api/faults/N is cleared with DELETE")};
+      const Outcome outcome = control.clear_fault(static_cast<uint32_t>(std::stoul(number)));
+      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
+    }
+    const std::optional<FaultList> list = control.faults();
+    json out = list ? faults_json(*list) : json::object();
+    if (added) out["added"] = *added;
+    return {200, out};
+  } catch (const Refused& refused) {
+    return {refused.status, error_body(refused.message)};
+  }
+}
+
 }  // namespace
+
+json fault_json(const FaultEntry& entry) {
+  const faults::Fault& f = entry.fault;
+  const faults::FaultKindInfo& info = faults::info(f.spec.kind);
+  json out = {{"number", f.number},
+              {"kind", std::string(info.name)},
+              {"scope", scope_name(info.scope)},
+              {"robot", f.spec.robot},
+              {"seed", f.spec.seed},
+              {"start_s", static_cast<double>(f.start_ns) * 1e-9},
+              {"active", entry.active},
+              {"ended", entry.ended}};
+  out["end_s"] = f.end_ns == INT64_MAX ? json(nullptr) : json(static_cast<double>(f.end_ns) * 1e-9);
+  if (f.spec.bus >= 0) out["bus"] = f.spec.bus;
+  if (f.spec.id >= 0) out["id"] = f.spec.id;
+  if (info.needs_rate) out["rate"] = f.spec.rate;
+  if (!info.value_field.empty()) out[std::string(info.value_field)] = f.spec.value;
+  return out;
+}
+
+json faults_json(const FaultList& list) {
+  json faults = json::array();
+  for (const FaultEntry& entry : list.faults) faults.push_back(fault_json(entry));
+  json kinds = json::array();
+  for (const faults::FaultKindInfo& k : faults::fault_kinds()) {
+    kinds.push_back({{"kind", std::string(k.name)},
+                     {"scope", scope_name(k.scope)},
+                     {"value_field", std::string(k.value_field)},
+                     {"value_min", k.value_min},
+                     {"value_max", k.value_max},
+                     {"rate", k.needs_rate},
+                     {"what", std::string(k.what)}});
+  }
+  return {{"sim_time_s", list.sim_time_s}, {"faults", faults}, {"kinds", kinds}};
+}
 
 json game_json(const GameStatus& status) {
   json teams = json::array();
@@ -556,6 +707,7 @@ Answer handle(SimControl& control, const std::string& method, const std::string&
     return world_model_request(control, method, action, body);
   }
   if (action == "game") return game_request(control, method, body);
+  if (action == "faults" || action.rfind("faults/", 0) == 0) return faults_request(control, method, action, body);
   if (action == "teamcomm" || action.rfind("teamcomm/robots", 0) == 0) return teamcomm_request(control, method, action, body);
   if (action == "analysis") {
     if (method != "GET") return {405, error_body("/api/analysis is read with GET")};

@@ -34,8 +34,8 @@ json team_ref(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app("doppel-ctl: pause, step, reset, place and push a running doppel's simulation; drive its GameController "
-               "and team-communication hub",
+  CLI::App app("doppel-ctl: pause, step, reset, place and push a running doppel's simulation; inject faults; drive its "
+               "GameController and team-communication hub",
                "doppel-ctl");
   std::string url = "http://127.0.0.1:" + std::to_string(doppel::control::kDefaultPort);
   app.add_option("--url", url, "doppel's control address (doppel --viewer PORT)")->capture_default_str();
@@ -132,6 +132,33 @@ int main(int argc, char** argv) {
   CLI::App* remove = teamcomm->add_subcommand("remove", "unregister robot TEAM PLAYER");
   remove->add_option("TEAM", score)->required()->transform(doppel::number_in<uint32_t>(0, 255));
   remove->add_option("PLAYER", player)->required()->transform(doppel::number_in<uint32_t>(0, 255));
+
+  // doppel-ctl fault ...: faults on demand (docs/faults.md).
+  CLI::App* fault = app.add_subcommand("fault", "faults on demand: list (default), add, clear");
+  fault->require_subcommand(0, 1);
+  fault->add_subcommand("list", "every fault of the run: number, kind, target, start, end, active");
+  std::string fault_kind, fault_robot, fault_clear;
+  std::optional<int32_t> fault_bus, fault_id;
+  std::optional<double> fault_at, fault_for, fault_rate, fault_value;
+  std::optional<uint64_t> fault_seed;
+  CLI::App* fault_add = fault->add_subcommand(
+      "add", "add a fault: KIND ROBOT [--bus B --id ID] [--value X] [--rate P] [--at S] [--for S] [--seed N]");
+  std::string kinds_help;
+  for (const doppel::faults::FaultKindInfo& k : doppel::faults::fault_kinds()) {
+    kinds_help += "\n  " + std::string(k.name) + (k.value_field.empty() ? "" : " --value " + std::string(k.value_field)) +
+                  (k.needs_rate ? " --rate P" : "") + ": " + std::string(k.what);
+  }
+  fault_add->add_option("KIND", fault_kind, "one of:" + kinds_help)->required();
+  fault_add->add_option("ROBOT", fault_robot, "the robot's index or name")->required();
+  fault_add->add_option("--bus", fault_bus, "the bus' index in the robot file")->transform(doppel::number_in<int32_t>(0, 255));
+  fault_add->add_option("--id", fault_id, "the device's ID in the robot file (collision: the stray device's)")
+      ->transform(doppel::number_in<int32_t>(0, 253));
+  fault_add->add_option("--value", fault_value, "the kind's value (rise_c_per_s, volts, sigma_rad, scale, delay_us, bias)");
+  fault_add->add_option("--rate", fault_rate, "probability per status (collision: per instruction), (0, 1]");
+  fault_add->add_option("--at", fault_at, "start at this simulation time, s (default: now)");
+  fault_add->add_option("--for", fault_for, "last this long, s (default: until cleared)");
+  fault_add->add_option("--seed", fault_seed, "the random stream of rate and noise faults (default 1)");
+  fault->add_subcommand("clear", "end fault N now, or every fault (all)")->add_option("N", fault_clear, "a fault's number or all")->required();
   CLI11_PARSE(app, argc, argv);
 
   const std::string command = app.get_subcommands().front()->get_name();
@@ -168,6 +195,36 @@ int main(int argc, char** argv) {
     if (sub == "remove") {
       path = "/api/teamcomm/robots/" + std::to_string(score) + "/" + std::to_string(player);
       method = "DELETE";
+    }
+  }
+  if (command == "fault") {
+    const std::string sub = fault->get_subcommands().empty() ? "list" : fault->get_subcommands().front()->get_name();
+    path = "/api/faults";
+    method = "GET";
+    if (sub == "add") {
+      method = "POST";
+      body = {{"kind", fault_kind}, {"robot", robot_ref(fault_robot)}};
+      if (fault_bus) body["bus"] = *fault_bus;
+      if (fault_id) body["id"] = *fault_id;
+      if (fault_at) body["start_s"] = *fault_at;
+      if (fault_for) body["duration_s"] = *fault_for;
+      if (fault_seed) body["seed"] = *fault_seed;
+      if (fault_rate) body["rate"] = *fault_rate;
+      if (fault_value) {
+        const std::optional<doppel::faults::FaultKind> known = doppel::faults::fault_kind(fault_kind);
+        const std::string field = known ? std::string(doppel::faults::info(*known).value_field) : "";
+        body[field.empty() ? "value" : field] = *fault_value;  // a kind without a value: doppel names the field
+      }
+    }
+    if (sub == "clear") {
+      method = "DELETE";
+      if (fault_clear != "all") {
+        if (fault_clear.empty() || fault_clear.size() > 9 || fault_clear.find_first_not_of("0123456789") != std::string::npos) {
+          std::fprintf(stderr, "doppel-ctl: fault clear: N must be a fault's number or all, got '%s'\n", fault_clear.c_str());
+          return 1;
+        }
+        path = "/api/faults/" + fault_clear;
+      }
     }
   }
   if (command == "step") body = {{"ms", step_ms}};

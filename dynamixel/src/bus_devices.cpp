@@ -61,12 +61,19 @@ void BusDevices::add(Device& device) {
                             " devices");
   }
   powered_[count_] = true;
+  reachable_[count_] = true;
   devices_[count_++] = &device;
 }
 
 void BusDevices::set_powered(std::size_t index, bool powered) noexcept {
   if (index < count_) {
     powered_[index] = powered;
+  }
+}
+
+void BusDevices::set_reachable(std::size_t index, bool reachable) noexcept {
+  if (index < count_) {
+    reachable_[index] = reachable;
   }
 }
 
@@ -85,7 +92,7 @@ std::span<const OutgoingStatus> BusDevices::dispatch(const InstructionPacket& pa
     r.chain_position = 0;
     r.status.size = 0;
     Device& d = *devices_[i];
-    if (!powered_[i]) {
+    if (!powered_[i] || !reachable_[i]) {
       continue;
     }
     ++powered;

@@ -29,6 +29,7 @@
 #include "base/monotonic_clock.h"
 #include "lockstep/coordinator.h"
 #include "record/recorder.h"
+#include "fault_board.h"
 #include "live_robots.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
@@ -177,6 +178,10 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   }
   field_ = std::make_unique<FieldServices>(options_);
   controller_->set_field_services(field_.get());
+  std::vector<RobotRuntime*> faulty;
+  for (auto& robot : robots_) faulty.push_back(robot.get());
+  faults_ = std::make_unique<FaultBoard>(std::move(faulty), sim_time_ns_);
+  controller_->set_fault_board(faults_.get());
   if (options.viewer) {
     // The viewer's page beside the API; without its files (no libjs-three) the API alone.
     control::StaticFiles files = control::default_static_files();
@@ -272,6 +277,8 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
 }
 
 control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
+
+control::FaultAnswer Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
 
 void Gateway::set_up_lockstep() {
   std::vector<lockstep::LockstepBus> buses;

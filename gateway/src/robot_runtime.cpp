@@ -85,6 +85,7 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     throw std::invalid_argument("bus '" + config.name + "' has more devices than Doppel supports");
   }
   wire_supply_switch();
+  stuck_.resize(servos_.size());
   if (options.sensor_levels_hz > 0.0) {
     static_assert(kMaxServos <= body::kLevelsMaxServos && kMaxBoards <= body::kLevelsMaxBoards);
     levels_period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.sensor_levels_hz));
@@ -294,16 +295,54 @@ void BusRuntime::before_dispatch() noexcept {
     supply_on_ = supply_switch_ == nullptr || supply_switch_->dxl_power_on();
     for (const Gated& gated : gated_) bus_devices_.set_powered(gated.device_index, supply_on_);
   }
-  // The simulation publishes at 1 kHz; between two of its steps the registers are already current.
-  if (!feedback_.update()) {
+  // The simulation publishes at 1 kHz; between two of its steps the registers are already current
+  // (unless the faults changed: they act on the newest measurements at once).
+  const bool new_faults = bus_faults_.update();
+  const bool new_feedback = feedback_.update();
+  if (!new_feedback && !new_faults) {
     return;
   }
   const BusFeedback& feedback = feedback_.latest();
-  for (std::size_t i = 0; i < servos_.size(); ++i) servos_[i].device->apply(feedback.servos[i]);
-  for (std::size_t i = 0; i < imus_.size(); ++i) imus_[i].device->apply(feedback.imus[i]);
-  for (std::size_t i = 0; i < feet_.size(); ++i) feet_[i].device->apply(feedback.feet[i]);
-  for (dynamixel::SimulatedPowerBoard* power : power_boards_) power->apply(feedback.power);
-  if (levels_ != nullptr) sample_sensor_levels(feedback);
+  const faults::FaultTable& table = bus_faults_.latest();
+  const int64_t t = feedback.power.sim_time_ns;
+  bus_sim_now_ns_ = t;
+  const auto bus = static_cast<uint32_t>(bus_index_);
+  for (std::size_t d = 0; d < devices_.size(); ++d) {
+    bus_devices_.set_reachable(d, !faults::unreachable(table, bus, config_.devices[d].id, t));
+  }
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    dynamixel::ServoFeedback measured = feedback.servos[i];
+    faults::apply_servo(table, bus, config_.devices[servos_[i].device_index].id, t, measured, stuck_[i]);
+    servos_[i].device->apply(measured);
+  }
+  for (std::size_t i = 0; i < imus_.size(); ++i) {
+    dynamixel::ImuFeedback measured = feedback.imus[i];
+    if (faults::apply_imu(table, bus, config_.devices[imus_[i].device_index].id, t, measured)) {
+      imus_[i].device->apply(measured);
+    }
+  }
+  for (std::size_t i = 0; i < feet_.size(); ++i) {
+    dynamixel::FootFeedback measured = feedback.feet[i];
+    if (faults::apply_foot(table, bus, config_.devices[feet_[i].device_index].id, t, measured)) {
+      feet_[i].device->apply(measured);
+    }
+  }
+  dynamixel::PowerFeedback power = feedback.power;
+  faults::apply_power(table, t, power);
+  for (dynamixel::SimulatedPowerBoard* board : power_boards_) board->apply(power);
+  if (levels_ != nullptr && new_feedback) sample_sensor_levels(feedback);
+}
+
+std::span<const dynamixel::OutgoingStatus> BusRuntime::impair(const dynamixel::InstructionPacket& packet,
+                                                              std::span<const dynamixel::OutgoingStatus> statuses) noexcept {
+  const std::span<const dynamixel::OutgoingStatus> out =
+      wire_faults_->apply(bus_faults_.latest(), static_cast<uint32_t>(bus_index_), bus_sim_now_ns_, packet, statuses);
+  const faults::WireCounters& c = wire_faults_->counters();
+  wire_counters_.corrupted.store(c.corrupted, std::memory_order_relaxed);
+  wire_counters_.dropped.store(c.dropped, std::memory_order_relaxed);
+  wire_counters_.delayed.store(c.delayed, std::memory_order_relaxed);
+  wire_counters_.stray.store(c.stray, std::memory_order_relaxed);
+  return out;
 }
 
 void BusRuntime::sample_sensor_levels(const BusFeedback& feedback) noexcept {
@@ -422,16 +461,42 @@ void BusRuntime::drive(double dt_s) noexcept {
     return;  // the commands are those from before a reset's power-on
   }
   const BusCommands& commands = commands_.latest();
-  for (std::size_t i = 0; i < servos_.size(); ++i) body_.drive(servos_[i].body_index, commands.servos[i], dt_s);
+  const faults::FaultTable& table = sim_faults_.latest();
+  for (std::size_t i = 0; i < servos_.size(); ++i) {
+    dynamixel::ServoCommand command = commands.servos[i];
+    const double scale = faults::torque_scale(table, static_cast<uint32_t>(bus_index_),
+                                              config_.devices[servos_[i].device_index].id, sim_now_ns_,
+                                              config_.supply_voltage_v);
+    command.torque_limit_ratio *= scale;  // a weak motor, a sagging supply: less torque at the horn
+    body_.drive(servos_[i].body_index, command, dt_s);
+  }
 }
 
 void BusRuntime::sense(int64_t sim_time_ns, double servo_current_a) noexcept {
+  sim_now_ns_ = sim_time_ns;
   BusFeedback& feedback = feedback_.back();
   for (std::size_t i = 0; i < servos_.size(); ++i) feedback.servos[i] = body_.servo(servos_[i].body_index, sim_time_ns);
   for (std::size_t i = 0; i < imus_.size(); ++i) feedback.imus[i] = body_.imu(imus_[i].body_index, sim_time_ns);
   for (std::size_t i = 0; i < feet_.size(); ++i) feedback.feet[i] = body_.foot(feet_[i].body_index, sim_time_ns);
   feedback.power = dynamixel::PowerFeedback{config_.supply_voltage_v, servo_current_a, sim_time_ns};
   feedback_.publish();
+}
+
+std::string_view BusRuntime::device_role(int32_t id) const noexcept {
+  for (std::size_t d = 0; d < config_.devices.size(); ++d) {
+    if (config_.devices[d].id != id) continue;
+    for (const auto& servo : servos_) {
+      if (servo.device_index == d) return "servo";
+    }
+    for (const auto& imu : imus_) {
+      if (imu.device_index == d) return "imu";
+    }
+    for (const auto& foot : feet_) {
+      if (foot.device_index == d) return "foot";
+    }
+    return "board";
+  }
+  return "";
 }
 
 std::string BusRuntime::describe() const {
@@ -472,6 +537,11 @@ std::string BusRuntime::summary() const {
       << " us late); delivery time minus due time: p50 <= " << bus::lateness_quantile_ns(d, 0.5) / 1000
       << " us, p99 <= " << bus::lateness_quantile_ns(d, 0.99) / 1000 << " us, p99.9 <= "
       << bus::lateness_quantile_ns(d, 0.999) / 1000 << " us\n";
+  const faults::WireCounters wire = wire_fault_counters();
+  if (wire.corrupted + wire.dropped + wire.delayed + wire.stray > 0) {
+    out << "    faults on the wire (docs/faults.md): statuses corrupted " << wire.corrupted << ", dropped " << wire.dropped
+        << ", late " << wire.delayed << ", stray " << wire.stray << "\n";
+  }
   return out.str();
 }
 

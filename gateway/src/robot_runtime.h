@@ -28,6 +28,8 @@
 #include "dynamixel/protocol2_device.h"
 #include "dynamixel/device_io.h"
 #include "eeprom_state.h"
+#include "faults/effects.h"
+#include "faults/fault.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 
@@ -86,6 +88,18 @@ class BusRuntime final : public bus::DeviceSync {
   void after_dispatch() noexcept override;
   // Also without traffic, so that time passes for the devices (Protocol 2.0 Bus Watchdog). rt-safe.
   void on_tick() noexcept override;
+  // The bus faults on the devices' statuses (late, lost, corrupted, stray). rt-safe.
+  std::span<const dynamixel::OutgoingStatus> impair(const dynamixel::InstructionPacket& packet,
+                                                    std::span<const dynamixel::OutgoingStatus> statuses) noexcept override;
+
+  // The faults that concern this bus (faults/), for its bus thread and the simulation thread. One
+  // writer at a time (the gateway's FaultBoard, under its mutex). rt-safe.
+  void set_faults(const faults::FaultTable& table) noexcept {
+    bus_faults_.publish(table);
+    sim_faults_.publish(table);
+  }
+  // What the wire faults did so far (bus thread writes; the counters are plain, read for a summary).
+  faults::WireCounters wire_fault_counters() const noexcept { return wire_counters_.latest_copy(); }
 
   // Simulation thread, before the world steps: hands every servo's latest command to the body. rt-safe.
   void drive(double dt_s) noexcept;
@@ -99,6 +113,11 @@ class BusRuntime final : public bus::DeviceSync {
 
   std::string describe() const;
   std::string summary() const;
+  // What the device with ID `id` in the robot file is on this bus: "servo", "imu", "foot",
+  // "board" (another device), or "" (no such ID). Setup data, any thread.
+  std::string_view device_role(int32_t id) const noexcept;
+  std::size_t imu_count() const noexcept { return imus_.size(); }
+  std::size_t foot_count() const noexcept { return feet_.size(); }
 
   bus::BusServer& server() noexcept { return *server_; }
   // Return Delay Time of device `index` (file order), µs; only while the bus thread is not running.
@@ -204,6 +223,22 @@ class BusRuntime final : public bus::DeviceSync {
   int64_t levels_last_ns_ = 0;
   int64_t levels_next_ns_ = 0;
   uint64_t levels_sequence_ = 0;
+  // Faults (faults/): the table as the bus thread and the simulation thread read it, the bus
+  // thread's wire faults and stuck positions (by servo index), and the simulation time each
+  // thread last saw.
+  concurrency::Snapshot<faults::FaultTable> bus_faults_;
+  concurrency::Snapshot<faults::FaultTable> sim_faults_;
+  std::unique_ptr<faults::WireFaults> wire_faults_ = std::make_unique<faults::WireFaults>();
+  std::vector<faults::StuckHold> stuck_;
+  int64_t bus_sim_now_ns_ = 0;  // bus thread
+  int64_t sim_now_ns_ = 0;      // simulation thread
+  struct WireCounterCopy {
+    std::atomic<uint64_t> corrupted{0}, dropped{0}, delayed{0}, stray{0};
+    faults::WireCounters latest_copy() const noexcept {
+      return {corrupted.load(std::memory_order_relaxed), dropped.load(std::memory_order_relaxed),
+              delayed.load(std::memory_order_relaxed), stray.load(std::memory_order_relaxed)};
+    }
+  } wire_counters_;
   std::atomic<uint64_t> collisions_{0};  // BusDevices' wire collisions, stored by the bus thread after each packet
   std::thread thread_;
 };
@@ -243,6 +278,7 @@ class RobotRuntime {
   std::vector<control::BusTable> servo_tables();
   std::size_t bus_count() const noexcept { return buses_.size(); }
   BusRuntime& bus(std::size_t index) noexcept { return *buses_[index]; }
+  const BusRuntime& bus(std::size_t index) const noexcept { return *buses_[index]; }
 
  private:
   RobotConfig config_;

@@ -5,6 +5,7 @@
 
 #include "camera/image_io.h"
 #include "camera/lens.h"
+#include "fault_board.h"
 #include "field_services.h"
 #include "robot_runtime.h"
 #include "truth/truth_service.h"
@@ -486,6 +487,26 @@ std::optional<control::TeamcommStatus> SimController::teamcomm() {
 control::Outcome SimController::teamcomm_add(const control::TeamcommRobot& robot) {
   if (field_ == nullptr) return control::SimControl::teamcomm_add(robot);
   return field_->teamcomm_add(robot);
+}
+
+std::optional<control::FaultList> SimController::faults() {
+  if (faults_ == nullptr) return control::SimControl::faults();
+  return faults_->list();
+}
+
+control::FaultAnswer SimController::add_fault(const faults::FaultSpec& spec) {
+  if (faults_ == nullptr) return control::SimControl::add_fault(spec);
+  return faults_->add(spec);
+}
+
+control::Outcome SimController::clear_fault(uint32_t number) {
+  if (faults_ == nullptr) return control::SimControl::clear_fault(number);
+  return faults_->clear(number);
+}
+
+control::Outcome SimController::clear_faults() {
+  if (faults_ == nullptr) return control::SimControl::clear_faults();
+  return faults_->clear_all();
 }
 
 control::Outcome SimController::teamcomm_remove(int team, int player) {

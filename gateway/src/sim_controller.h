@@ -32,6 +32,7 @@ namespace doppel::gateway {
 
 class RobotRuntime;
 class FieldServices;
+class FaultBoard;
 
 inline constexpr std::size_t kSimMaxRobots = physics::kMaxRobotGroups;
 inline constexpr std::size_t kSimMaxJoints = 64;
@@ -129,6 +130,12 @@ class SimController final : public control::SimControl {
   std::optional<control::TeamcommStatus> teamcomm() override;
   control::Outcome teamcomm_add(const control::TeamcommRobot& robot) override;
   control::Outcome teamcomm_remove(int team, int player) override;
+  // Faults on demand (fault_board.h); `board` outlives the controller. Setup, before the API serves.
+  void set_fault_board(FaultBoard* board) noexcept { faults_ = board; }
+  std::optional<control::FaultList> faults() override;
+  control::FaultAnswer add_fault(const faults::FaultSpec& spec) override;
+  control::Outcome clear_fault(uint32_t number) override;
+  control::Outcome clear_faults() override;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -156,6 +163,7 @@ class SimController final : public control::SimControl {
 
   physics::World* world_;
   FieldServices* field_ = nullptr;
+  FaultBoard* faults_ = nullptr;
   truth::TruthService* truth_ = nullptr;
   // Per robot index (kMaxRobots slots; an index without a robot has runtime null). An entry is
   // written only while neither side shows it: present_ (simulation thread) and shown_ (under

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iomanip>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <set>
 #include <sstream>
@@ -178,6 +179,7 @@ struct Recorder::Impl {
   bool stopped = false;
   std::string error;        // the first write error; nothing is written after it
   std::string scene_signature;
+  std::string fault_signature;  // the fault list last written (numbers, ends, active flags)
   double last_world_time_s = -1.0;
   std::atomic<uint64_t> messages{0}, transactions{0}, bytes{0};
   bus::TapEvent event;
@@ -235,6 +237,37 @@ struct Recorder::Impl {
     write("/doppel/world", world_state(state), now_ns);
   }
 
+  // /doppel/faults: the whole list whenever a fault was added or cleared, or started or ended.
+  void sample_faults(int64_t now_ns, bool force = false) {
+    const std::optional<control::FaultList> list = control->faults();
+    if (!list) return;
+    std::string signature;
+    recording::FaultList message;
+    message.set_sim_time_s(list->sim_time_s);
+    for (const control::FaultEntry& entry : list->faults) {
+      const faults::Fault& f = entry.fault;
+      const faults::FaultKindInfo& info = faults::info(f.spec.kind);
+      signature += std::to_string(f.number) + ":" + std::to_string(f.end_ns) + (entry.active ? "+" : "-") + ",";
+      recording::Fault* out = message.add_faults();
+      out->set_number(f.number);
+      out->set_kind(std::string(info.name));
+      out->set_robot(f.spec.robot);
+      out->set_bus(f.spec.bus);
+      out->set_id(f.spec.id);
+      out->set_start_s(static_cast<double>(f.start_ns) * 1e-9);
+      out->set_until_cleared(f.end_ns == INT64_MAX);
+      if (f.end_ns != INT64_MAX) out->set_end_s(static_cast<double>(f.end_ns) * 1e-9);
+      out->set_value_field(std::string(info.value_field));
+      out->set_value(f.spec.value);
+      out->set_rate(f.spec.rate);
+      out->set_seed(f.spec.seed);
+      out->set_active(entry.active);
+    }
+    if (list->faults.empty() || (!force && signature == fault_signature)) return;
+    fault_signature = signature;
+    write("/doppel/faults", message, now_ns);
+  }
+
   void sample_scene(int64_t now_ns) {
     const control::Scene scene = control->scene();
     if (scene.shapes.empty()) return;
@@ -283,6 +316,7 @@ struct Recorder::Impl {
       const int64_t now_ns = monotonic_now_ns();
       if (control != nullptr) {
         sample_world(now_ns);  // every state the simulation publishes (100 Hz of simulation time)
+        sample_faults(now_ns);
         if (options.servo_hz > 0 && now >= next_servo) {
           write("/doppel/servos", servo_tables(last_world_time_s, control->buses()), now_ns);
           next_servo = std::max(next_servo + period(options.servo_hz), now);
@@ -370,6 +404,7 @@ void Recorder::stop() {
   if (d.thread.joinable()) d.thread.join();
   d.drain_taps();
   for (BusTranscriber& transcriber : d.transcribers) transcriber.finish();
+  if (d.control != nullptr) d.sample_faults(monotonic_now_ns(), true);  // every fault's end as it stands
   recording::RecordingSummary summary;
   summary.set_messages(d.messages.load() + 1);
   summary.set_dropped_bus_events(d.dropped_bus_events());

@@ -195,6 +195,14 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
       }
     }
   }
+  // The file's faults, on the simulation clock (which starts at 0 with the run); their targets are
+  // checked here, before anything runs.
+  for (const FaultEvent& fault : scenario.faults) {
+    faults::FaultSpec spec = fault.spec;
+    if (fault.seed_from_run) spec.seed = seed;
+    const control::FaultAnswer answer = gateway.add_fault(spec);
+    if (answer.status != 200) throw std::invalid_argument(fault.location + ": " + answer.error);
+  }
   ScenarioObserver observer(scenario, schedule(scenario, seed), duration_ns, std::move(motors));
   gateway.set_step_observer(&observer);
   // The run hash of every simulated second, handed over on the simulation thread: room for all of
@@ -315,6 +323,18 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     events.push_back(entry);
   }
   result["events"] = events;
+  json faults_json = json::array();
+  for (const FaultEvent& fault : scenario.faults) {
+    const faults::FaultSpec& spec = fault.spec;
+    json entry = {{"kind", std::string(faults::info(spec.kind).name)}, {"robot", spec.robot},
+                  {"start_s", tidy(static_cast<double>(spec.start_ns) * 1e-9)}};
+    entry["end_s"] = spec.duration_ns == faults::kForever ? json(nullptr)
+                                                          : json(tidy(static_cast<double>(spec.start_ns + spec.duration_ns) * 1e-9));
+    if (spec.bus >= 0) entry["bus"] = spec.bus;
+    if (spec.id >= 0) entry["id"] = spec.id;
+    faults_json.push_back(entry);
+  }
+  result["faults"] = faults_json;
 
   std::vector<analyzer::CycleStats> cycles(configs.size());
   std::string cycle_problem;

@@ -140,6 +140,50 @@ Scenario check(const proto::ScenarioFile& file, const std::string& robots_dir) {
     out.pushes.push_back({push.time_s(), push.time_spread_s(), push.robot(), push.fx_n(), push.fy_n(), push.fz_n(),
                           static_cast<uint32_t>(steps), file.location(in, "push", i)});
   }
+  for (int i = 0; i < in.fault_size(); ++i) {
+    const proto::FaultEvent& fault = in.fault(i);
+    const std::optional<faults::FaultKind> kind = faults::fault_kind(fault.kind());
+    if (!kind) file.fail(fault, "kind", -1, "must be one of " + faults::fault_kind_names());
+    check_time(file, fault, fault.time_s(), 0.0, out.duration_s);
+    if (fault.robot() >= out.robots.size()) {
+      file.fail(fault, "robot", -1, "robot " + std::to_string(fault.robot()) + " does not exist (the file has " +
+                                        std::to_string(out.robots.size()) + ")");
+    }
+    if (!std::isfinite(fault.duration_s()) || fault.duration_s() < 0.0) {
+      file.fail(fault, "duration_s", -1, "must be finite and >= 0 s (0: to the end of the run)");
+    }
+    FaultEvent event;
+    event.spec.kind = *kind;
+    event.spec.robot = fault.robot();
+    event.spec.bus = fault.has_bus() ? static_cast<int32_t>(std::min<uint32_t>(fault.bus(), 255)) : -1;
+    event.spec.id = fault.has_id() ? static_cast<int32_t>(std::min<uint32_t>(fault.id(), 254)) : -1;
+    event.spec.start_ns = std::llround(fault.time_s() * 1e9);
+    event.spec.duration_ns = std::llround(std::min(fault.duration_s(), 1e7) * 1e9);
+    event.spec.value = fault.value();
+    event.spec.rate = fault.rate();
+    event.spec.seed = fault.seed();
+    event.seed_from_run = fault.seed() == 0;
+    const faults::FaultKindInfo& info = faults::info(*kind);
+    if (info.value_field.empty() && fault.value() != 0.0) {
+      file.fail(fault, "value", -1, "a " + std::string(info.name) + " fault takes no value");
+    }
+    if (!info.needs_rate && fault.rate() != 0.0) {
+      file.fail(fault, "rate", -1, "a " + std::string(info.name) + " fault takes no rate");
+    }
+    if (std::string problem = faults::check(event.spec); !problem.empty()) {
+      // faults::check names the control API's fields; the file has `value` and `time_s`.
+      const std::string value_field(info.value_field);
+      std::string field = "kind";
+      for (const char* name : {"bus", "id", "rate", "duration_s", "start_s"}) {
+        if (problem.find(std::string("'") + name + "'") != std::string::npos) field = name;
+      }
+      if (!value_field.empty() && problem.find("'" + value_field + "'") != std::string::npos) field = "value";
+      if (field == "start_s") field = "time_s";
+      file.fail(fault, field, -1, problem);
+    }
+    event.location = file.location(in, "fault", i);
+    out.faults.push_back(std::move(event));
+  }
   for (int i = 0; i < in.ball_size(); ++i) {
     const proto::BallMove& ball = in.ball(i);
     check_time(file, ball, ball.time_s(), ball.time_spread_s(), out.duration_s);

@@ -202,6 +202,10 @@ def get_game(api):
     return api.get("api/game")
 
 
+def get_faults(api):
+    return api.get("api/faults")
+
+
 def wait_sim_time(api, seconds, what, timeout_s=60):
     """Waits until simulation time has advanced by `seconds` (judged on simulation time)."""
     start = get_state(api)["sim_time_s"]
@@ -411,6 +415,32 @@ def run(doppel, out_dir, chromium):
             check(len(data) == 688 and data[:4] == b"RGme", f"the robot received {len(data)} bytes {data[:4]!r}")
             states.append(data[9])
             check(len(states) < 20, f"no READY packet among {states}")
+
+        # The Faults panel: a dead servo added from the form stops answering on the bus, its row
+        # says active, Clear on its row brings it back; a fault without its servo is refused with
+        # the field named (docs/faults.md).
+        browser.wait_for("window.doppelViewer.faultsShown() && document.querySelectorAll('#fault-kind option').length > 10",
+                         "the Faults panel with its kinds")
+        link = os.path.join(work, "links", "ttyDXL0")
+        check(ping(link, 1, 1) == 1, "servo 1 does not answer before any fault")
+        browser.evaluate("(() => { const k = document.getElementById('fault-kind'); k.value = 'dead';"
+                         " k.dispatchEvent(new Event('change')); document.getElementById('fault-bus').value = '0'; })()")
+        browser.click_element("#fault-add")
+        browser.wait_for("document.getElementById('error').textContent.includes(\"'id'\")",
+                         "the page to show that a dead fault needs its servo's id")
+        check(get_faults(api)["faults"] == [], f"a refused fault was added: {get_faults(api)['faults']}")
+        browser.evaluate("document.getElementById('fault-id').value = '1'")
+        browser.click_element("#fault-add")
+        browser.wait_for("window.doppelViewer.faultRows().length === 1 && window.doppelViewer.faultRows()[0][5] === 'active'",
+                         "the dead servo's row, active")
+        listed = get_faults(api)["faults"]
+        check(len(listed) == 1 and listed[0]["kind"] == "dead" and listed[0]["id"] == 1 and listed[0]["active"],
+              f"/api/faults lists {listed} after Add")
+        check(ping(link, 1, 1) == 0, "servo 1 answers while the page made it dead")
+        check(ping(link, 2, 1) == 1, "servo 2 does not answer while only servo 1 is dead")
+        browser.click_element("#fault-list button.fault-clear")
+        browser.wait_for("window.doppelViewer.faultRows()[0][5] === 'ended'", "the row to say ended after Clear")
+        check(ping(link, 1, 1) == 1, "servo 1 does not answer after Clear")
 
         # Resume: simulation time runs again.
         browser.click_element("#resume")

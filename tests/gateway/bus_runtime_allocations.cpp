@@ -12,6 +12,8 @@
 #include "allocation_counter.h"
 #include "body/kinematic_body.h"
 #include "dynamixel/models.h"
+#include "dynamixel/protocol1.h"
+#include "faults/fault.h"
 #include "dynamixel/protocol2_models.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -93,6 +95,55 @@ TEST(BusRuntimeAllocations, SamplingSensorLevelsAllocatesNothing) {
   EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 steps";
   EXPECT_EQ(samples, 20);
   EXPECT_FALSE(sut.sensor_levels_layout().servos.empty());
+  std::filesystem::remove_all(dir);
+}
+
+// Every fault kind active at once (docs/faults.md): the bus thread applies them to the feedback and
+// to the statuses it sends, the simulation thread to the drive, and neither allocates.
+TEST(BusRuntimeAllocations, ApplyingEveryFaultAllocatesNothing) {
+  const RobotConfig robot = load_robot("fumanoid-2011", DOPPEL_ROBOTS_DIR);
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-faults-alloc-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  body::KinematicBody body;
+  const Options options;
+  BusRuntime sut(robot.buses[0], 0, body, (dir / "ttyDXL0").string(), options);
+  faults::FaultTable table;
+  uint32_t number = 0;
+  for (const faults::FaultKindInfo& kind : faults::fault_kinds()) {
+    faults::Fault& f = table.faults[table.count++];
+    f.number = ++number;
+    f.spec.kind = kind.kind;
+    f.spec.bus = kind.scope == faults::FaultScope::kRobot ? -1 : 0;
+    f.spec.id = kind.scope == faults::FaultScope::kBus ? (kind.kind == faults::FaultKind::kCollision ? 30 : -1)
+                : kind.scope == faults::FaultScope::kSensor ? (kind.name.substr(0, 3) == "imu" ? 100 : 101)
+                : kind.kind == faults::FaultKind::kDead ? 2
+                                                        : 1;
+    f.spec.value = kind.value_field.empty() ? 0.0 : kind.value_max / 2;
+    f.spec.rate = kind.needs_rate ? 0.5 : 0.0;
+    ASSERT_EQ(faults::check(f.spec), "") << kind.name;
+  }
+  sut.set_faults(table);
+
+  dynamixel::StatusPacket status;
+  ASSERT_TRUE(dynamixel::encode_protocol1_status(1, 0, nullptr, 0, status));
+  const dynamixel::OutgoingStatus outgoing{&status, 1, 0, false, false, 0, false};
+  dynamixel::InstructionPacket ping;
+  ping.id = 1;
+  ping.instruction = dynamixel::instruction::kPing;
+  std::size_t answered = 0;
+  for (int tick = 0; tick < 200; ++tick) {
+    doppel::testing::count_allocations_on_this_thread(true);
+    sut.drive(0.001);
+    sut.sense(int64_t{tick} * 1'000'000, 0.0);
+    sut.on_tick();
+    answered += sut.impair(ping, {&outgoing, 1}).size();
+    doppel::testing::count_allocations_on_this_thread(false);
+  }
+  EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 steps with every fault active";
+  EXPECT_GT(answered, 0u);
+  EXPECT_LT(answered, 200u) << "drop at 0.5 lost some";
+  const control::BusTable servo_table = sut.servo_table();
+  EXPECT_GT(servo_table.servos[0].temperature, 25) << "ID 1 overheats";
   std::filesystem::remove_all(dir);
 }
 

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "controlled_doppel.h"
 #include "doppel_process.h"
 #include "mcap/mcap.h"
 #include "proto/recording.pb.h"
@@ -169,6 +170,73 @@ TEST(Recording, TenSecondsOfAControlLoopAreRecordedByteExactAndInOrder) {
     ASSERT_EQ(std::stoull(message.value("sequence", std::string("0"))), i);  // uint64 is a string in JSON
     ASSERT_EQ(message["instruction"].get<std::string>(), base64(log[i].sent)) << "transaction " << i;
   }
+  std::filesystem::remove(file);
+}
+
+// Faults in a recording (docs/faults.md): /doppel/faults lists each fault with its start and end
+// in simulation time, active while it acts, and the bus transactions show what it did: a late
+// answer starts exactly its delay later than a punctual one (wire model), a corrupted status has
+// a broken checksum.
+TEST(Recording, FaultsAreRecordedWithTheirStartEndAndWhatTheyDidOnTheBus) {
+  const std::string file = temp_file("recording_faults");
+  {
+    testing::ControlledDoppel doppel({"--record", file}, false);
+    SerialClient client(doppel.doppel.link(), 1'000'000);
+    doppel.ok("fault add late 0 --bus 0 --id 18 --value 3000");
+    for (uint8_t id : {17, 18}) EXPECT_EQ(client.transact(p1_instruction(id, 0x01), 6, 500).size(), 6u);
+    doppel.ok("fault add corrupt 0 --bus 0 --rate 1 --for 600");
+    EXPECT_EQ(client.transact(p1_instruction(1, 0x01), 6, 500).size(), 6u);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the recorder samples the list every 2 ms
+    doppel.ok("fault clear all");
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    ASSERT_EQ(doppel.doppel.stop(SIGTERM), 0);
+  }
+  const mcap::Reader reader(file);
+  EXPECT_TRUE(reader.complete()) << reader.recovery_note();
+  std::vector<recording::FaultList> lists;
+  mcap::ReadOptions options;
+  options.topics = {"/doppel/faults"};
+  reader.for_each_message(
+      [&](const mcap::Message& message) {
+        recording::FaultList list;
+        EXPECT_TRUE(list.ParseFromArray(message.data.data(), static_cast<int>(message.data.size())));
+        lists.push_back(list);
+        return true;
+      },
+      options);
+  ASSERT_GE(lists.size(), 3u) << "added, added, cleared (and the final list)";
+  EXPECT_EQ(lists.front().faults_size(), 1);
+  EXPECT_TRUE(lists.front().faults(0).active());
+  EXPECT_TRUE(lists.front().faults(0).until_cleared());
+  const recording::FaultList& last = lists.back();
+  ASSERT_EQ(last.faults_size(), 2);
+  EXPECT_EQ(last.faults(0).kind(), "late");
+  EXPECT_EQ(last.faults(0).id(), 18);
+  EXPECT_EQ(last.faults(0).value_field(), "delay_us");
+  EXPECT_EQ(last.faults(0).value(), 3000.0);
+  EXPECT_EQ(last.faults(1).kind(), "corrupt");
+  EXPECT_EQ(last.faults(1).bus(), 0);
+  EXPECT_EQ(last.faults(1).id(), -1);
+  EXPECT_EQ(last.faults(1).rate(), 1.0);
+  for (const recording::Fault& f : last.faults()) {
+    EXPECT_FALSE(f.until_cleared()) << f.kind() << ": cleared, so it has an end";
+    EXPECT_FALSE(f.active()) << f.kind();
+    EXPECT_GT(f.end_s(), f.start_s()) << f.kind();
+  }
+  EXPECT_GE(last.faults(1).start_s(), last.faults(0).start_s());
+
+  // The PINGs: 17 punctual, 18 exactly 3 ms later after its instruction, 1 corrupted.
+  const std::vector<recording::BusTransaction> recorded = transactions(reader);
+  ASSERT_EQ(recorded.size(), 3u);
+  for (const recording::BusTransaction& t : recorded) ASSERT_EQ(t.statuses_size(), 1);
+  const int64_t punctual = recorded[0].statuses(0).start_ns() - recorded[0].instruction_end_ns();
+  const int64_t late = recorded[1].statuses(0).start_ns() - recorded[1].instruction_end_ns();
+  EXPECT_EQ(late - punctual, 3'000'000);
+  const std::string& corrupted = recorded[2].statuses(0).bytes();
+  ASSERT_EQ(corrupted.size(), 6u);
+  uint8_t sum = 0;
+  for (std::size_t i = 2; i < 5; ++i) sum = static_cast<uint8_t>(sum + static_cast<uint8_t>(corrupted[i]));
+  EXPECT_NE(static_cast<uint8_t>(~sum), static_cast<uint8_t>(corrupted[5])) << "the checksum does not match";
   std::filesystem::remove(file);
 }
 

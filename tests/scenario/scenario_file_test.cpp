@@ -54,6 +54,8 @@ TEST(ScenarioFile, AFullFileKeepsEverything) {
   const Scenario s = parse(kHead + R"(
     push { time_s: 0.5 robot: 0 fy_n: 30 duration_s: 0.1 time_spread_s: 0.2 }
     ball { time_s: 1 x_m: 1 y_m: -0.5 vx_m_s: 2 }
+    fault { kind: "corrupt" robot: 0 bus: 0 time_s: 1 duration_s: 0.3 rate: 0.01 seed: 4 }
+    fault { kind: "brownout" time_s: 1.5 value: 9 }
     param { name: "speed" value: "0.1" }
     controller { argv: "prog" argv: "--port={link:0}" argv: "{param:speed}" doppel_run: true }
     metrics { energy: true peak_tilt: true }
@@ -69,6 +71,20 @@ TEST(ScenarioFile, AFullFileKeepsEverything) {
   EXPECT_NE(s.pushes[0].location.find("/some/dir/s.textproto:5:"), std::string::npos) << s.pushes[0].location;
   ASSERT_EQ(s.balls.size(), 1u);
   EXPECT_EQ(s.balls[0].vx_m_s, 2.0);
+  ASSERT_EQ(s.faults.size(), 2u);
+  EXPECT_EQ(s.faults[0].spec.kind, faults::FaultKind::kCorrupt);
+  EXPECT_EQ(s.faults[0].spec.bus, 0);
+  EXPECT_EQ(s.faults[0].spec.id, -1);
+  EXPECT_EQ(s.faults[0].spec.start_ns, 1'000'000'000);
+  EXPECT_EQ(s.faults[0].spec.duration_ns, 300'000'000);
+  EXPECT_EQ(s.faults[0].spec.rate, 0.01);
+  EXPECT_EQ(s.faults[0].spec.seed, 4u);
+  EXPECT_FALSE(s.faults[0].seed_from_run);
+  EXPECT_EQ(s.faults[1].spec.kind, faults::FaultKind::kBrownout);
+  EXPECT_EQ(s.faults[1].spec.bus, -1);
+  EXPECT_EQ(s.faults[1].spec.value, 9.0);
+  EXPECT_EQ(s.faults[1].spec.duration_ns, faults::kForever);
+  EXPECT_TRUE(s.faults[1].seed_from_run);
   EXPECT_TRUE(s.controllers[0].doppel_run);
   EXPECT_TRUE(s.metrics.energy && s.metrics.peak_tilt);
   EXPECT_FALSE(s.metrics.distance || s.metrics.time_to_fall || s.metrics.control_cycle);
@@ -124,6 +140,14 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"duplicate param", kHead + "param { name: \"a\" } param { name: \"a\" }\n", "s.textproto:4:29: Parameter.name: parameter 'a' is given twice"},
         BadCase{"bad param name", kHead + "param { name: \"a-b\" }\n", "Parameter.name"},
         BadCase{"unknown engine", kHead + "physics: \"mujoco\"\n", "s.textproto:4:1: Scenario.physics: 'mujoco' is no engine"},
+        BadCase{"fault kind", kHead + "fault { kind: \"melt\" }\n", "s.textproto:4:9: FaultEvent.kind: must be one of overheat"},
+        BadCase{"fault robot", kHead + "fault { kind: \"silent\" robot: 2 bus: 0 }\n", "FaultEvent.robot: robot 2 does not exist"},
+        BadCase{"fault time", kHead + "fault { kind: \"silent\" bus: 0 time_s: 3 }\n", "FaultEvent.time_s: at 3.000000 s"},
+        BadCase{"fault without bus", kHead + "fault { kind: \"overheat\" id: 3 value: 5 }\n", "FaultEvent.bus: missing field 'bus'"},
+        BadCase{"fault value range", kHead + "fault { kind: \"weak\" bus: 0 id: 15 value: 2 }\n", "FaultEvent.value: field 'scale' must be within 0..1"},
+        BadCase{"fault rate", kHead + "fault { kind: \"drop\" bus: 0 }\n", "FaultEvent.rate: field 'rate' must be within (0, 1]"},
+        BadCase{"fault value it takes none", kHead + "fault { kind: \"silent\" bus: 0 value: 3 }\n", "FaultEvent.value: a silent fault takes no value"},
+        BadCase{"fault duration", kHead + "fault { kind: \"silent\" bus: 0 duration_s: -1 }\n", "FaultEvent.duration_s"},
         BadCase{"long argument", kHead + "controller { argv: \"" + std::string(2000, 'a') + "\" }\n", "Controller.argv[0]: 2000 characters"}),
     [](const ::testing::TestParamInfo<BadCase>& param) {
       std::string name = param.param.what;

@@ -214,6 +214,51 @@ TEST_F(ScenarioRun, TheShippedWalkUnderLockstepGivesTheSameHashesTwice) {
   EXPECT_EQ(first["metrics"][0]["energy_j"], second["metrics"][0]["energy_j"]);
 }
 
+// A walk through a fault (scenarios/walk-weak-knee.textproto): the left knee weakens at 5 s. In
+// lockstep every second before the fault hashes as the same walk without it does, the seconds
+// after it differ, and the faulted walk is the same to the last bit when run again.
+TEST_F(ScenarioRun, AWalkThroughAWeakeningKneeIsTheSameWalkUntilTheFaultAndRepeatsExactly) {
+  RunOptions options;
+  options.tool_dirs = default_tool_dirs();
+  options.duration_s = 8.0;
+  const Scenario faulted = load_scenario(DOPPEL_SOURCE_SCENARIOS_DIR "/walk-weak-knee.textproto", kRobots);
+  ASSERT_EQ(faulted.faults.size(), 1u);
+  EXPECT_EQ(faulted.faults[0].spec.kind, faults::FaultKind::kWeak);
+  EXPECT_EQ(faulted.faults[0].spec.id, 15);
+  Scenario healthy = faulted;
+  healthy.faults.clear();
+  const json weak = run_scenario(faulted, options);
+  const json again = run_scenario(faulted, options);
+  const json plain = run_scenario(healthy, options);
+  for (const json* result : {&weak, &again, &plain}) {
+    ASSERT_EQ((*result)["ended"], "duration") << result->dump();
+    ASSERT_EQ((*result)["hashes"].size(), 8u) << (*result)["hashes"].dump();
+  }
+  for (int s = 0; s < 4; ++s) EXPECT_EQ(weak["hashes"][s], plain["hashes"][s]) << "second " << s + 1 << ", before the fault";
+  for (int s = 5; s < 8; ++s) EXPECT_NE(weak["hashes"][s], plain["hashes"][s]) << "second " << s + 1 << ", after the fault";
+  EXPECT_EQ(weak["hashes"], again["hashes"]);
+  EXPECT_EQ(weak["metrics"][0]["end"], again["metrics"][0]["end"]);
+  ASSERT_EQ(weak["faults"].size(), 1u);
+  EXPECT_EQ(weak["faults"][0]["kind"], "weak");
+  EXPECT_EQ(weak["faults"][0]["start_s"], 5.0);
+  EXPECT_EQ(weak["faults"][0]["end_s"], nullptr);
+  std::printf("walk with a weak left knee from 5 s: %s\nwithout: %s\n", weak["metrics"][0].dump().c_str(),
+              plain["metrics"][0].dump().c_str());
+}
+
+// A fault the gateway cannot place (a servo that is not on the bus) stops the run before it starts.
+TEST_F(ScenarioRun, AFaultOnADeviceThatIsNotThereIsAClearError) {
+  try {
+    run(R"(name: "nofault" duration_s: 1
+      robot { name: "fumanoid-2011" }
+      fault { kind: "dead" robot: 0 bus: 0 id: 77 time_s: 0.5 })");
+    FAIL() << "a fault on ID 77 ran";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("s.textproto:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("no device with ID 77"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(ScenarioRun, TheCommandRefusesBadInputWithExitCodes) {
   const auto exit_of = [](std::vector<std::string> args, std::string& message) {
     std::ostringstream out, err;

@@ -19,8 +19,10 @@
 namespace doppel::testing {
 
 struct ControlledDoppel {
-  explicit ControlledDoppel(std::vector<std::string> args) : doppel([&] {
-    args.insert(args.end(), {"--viewer", "0", "--timing", "fast"});
+  // `fast`: --timing fast (answers at once); false: doppel's default wire timing.
+  explicit ControlledDoppel(std::vector<std::string> args, bool fast = true) : doppel([&] {
+    args.insert(args.end(), {"--viewer", "0"});
+    if (fast) args.insert(args.end(), {"--timing", "fast"});
     return args;
   }()) {
     const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "bus/adapter_latency.h"
 #include "bus/adapter_profile.h"
@@ -90,6 +91,14 @@ class DeviceSync {
   // Called about every BusServer::kTickNs also without traffic (and without a client), so that
   // devices see time pass (Protocol 2.0 Bus Watchdog). Same rules as above.
   virtual void on_tick() noexcept {}
+  // Called with the statuses the devices gave for one packet, before they are timed and
+  // scheduled; may answer others (faults/: late, lost, corrupted or stray statuses) that stay
+  // valid until the next call. Same rules as above.
+  virtual std::span<const dynamixel::OutgoingStatus> impair(const dynamixel::InstructionPacket& packet,
+                                                            std::span<const dynamixel::OutgoingStatus> statuses) noexcept {
+    (void)packet;
+    return statuses;
+  }
 };
 
 class BusServer {

@@ -22,6 +22,9 @@
 //   GET  /api/teamcomm                                -> the team-communication hub (teamcomm_json); 404 without one
 //   GET|POST /api/teamcomm/robots {"team": 7, "player": 2, "port": 44002}
 //   DELETE /api/teamcomm/robots/TEAM/PLAYER
+//   GET  /api/faults                                  -> every fault of the run and the kinds (faults_json); 404 in a replay
+//   POST /api/faults {"kind": "overheat", "robot": 0, "bus": 0, "id": 14, "rise_c_per_s": 5, "start_s": 12}
+//   DELETE /api/faults | /api/faults/N                -> every fault / fault N ends now (docs/faults.md)
 //   GET  /, /three/...                                -> the viewer's files (docs/viewer.md)
 // Every request passes control/access.h's checks first: Host, Origin, Content-Type, the token.
 // Units: m, rad, N, ms, field frame. docs/control.md has the details.
@@ -53,6 +56,8 @@ nlohmann::json buses_json(const std::vector<BusTable>& buses);
 nlohmann::json replay_json(const ReplayStatus& status);
 nlohmann::json game_json(const GameStatus& status);
 nlohmann::json teamcomm_json(const TeamcommStatus& status);
+nlohmann::json fault_json(const FaultEntry& entry);
+nlohmann::json faults_json(const FaultList& list);
 inline constexpr uint32_t kMaxGamePlayers = 11;  // MAX_NUM_PLAYERS of the Humanoid GameController header
 
 // Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's

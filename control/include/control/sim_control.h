@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "control/world_model_settings.h"
+#include "faults/fault.h"
 
 namespace doppel::control {
 
@@ -269,6 +270,22 @@ struct WorldModelAnswer {
   WorldModelSettings settings;
 };
 
+// Faults on demand (docs/faults.md): every fault of the run (ended ones too) at `sim_time_s`.
+struct FaultEntry {
+  faults::Fault fault;
+  bool active = false;  // in force now
+  bool ended = false;   // its end has passed (cleared, or its duration ran out)
+};
+struct FaultList {
+  double sim_time_s = 0.0;
+  std::vector<FaultEntry> faults;
+};
+struct FaultAnswer {
+  int status = 200;  // 200, 400 a field (named in error), 404 no such robot / bus / device, 409 too many faults
+  std::string error;
+  uint32_t number = 0;  // the new fault's number
+};
+
 class SimControl {
  public:
   virtual ~SimControl() = default;
@@ -330,6 +347,19 @@ class SimControl {
     (void)robot;
     return Outcome::fail(404, "no team-communication hub (doppel --teamcomm)");
   }
+  // Faults on demand (none: /api/faults answers 404, e.g. in a replay). add_fault gets a spec that
+  // passed faults::check(); the target (robot, bus, device) is checked here.
+  virtual std::optional<FaultList> faults() { return std::nullopt; }
+  virtual FaultAnswer add_fault(const faults::FaultSpec& spec) {
+    (void)spec;
+    return {404, "no faults here (a replay shows the recorded ones)", 0};
+  }
+  // Ends fault `number` now (404: no such fault); clear_faults ends every one.
+  virtual Outcome clear_fault(uint32_t number) {
+    (void)number;
+    return Outcome::fail(404, "no faults here");
+  }
+  virtual Outcome clear_faults() { return Outcome::fail(404, "no faults here"); }
   virtual Outcome teamcomm_remove(int team, int player) {
     (void)team;
     (void)player;

@@ -54,6 +54,11 @@ class BusDevices {
   // powered when added; restoring RAM at power-on is the caller's (the device's power_cycle()). rt-safe.
   void set_powered(std::size_t index, bool powered) noexcept;
   bool powered(std::size_t index) const noexcept { return index < count_ && powered_[index]; }
+  // Cuts the device added `index`-th off the wire or connects it again (faults/: a dead servo, an
+  // unplugged cable): a cut-off device neither sees packets nor answers, its state stays. Devices
+  // are connected when added. rt-safe.
+  void set_reachable(std::size_t index, bool reachable) noexcept;
+  bool reachable(std::size_t index) const noexcept { return index < count_ && reachable_[index]; }
 
   std::span<Device* const> devices() const noexcept { return {devices_.data(), count_}; }
   const BusDeviceCounters& counters() const noexcept { return counters_; }
@@ -62,6 +67,7 @@ class BusDevices {
   std::array<Device*, kMaxDevices> devices_{};
   std::size_t count_ = 0;
   std::array<bool, kMaxDevices> powered_{};
+  std::array<bool, kMaxDevices> reachable_{};
   std::array<Response, kMaxDevices> responses_{};
   std::array<OutgoingStatus, kMaxDevices> outgoing_{};
   std::array<uint8_t, kMaxDevices> sender_ids_{};   // ID of each device before it handled the packet

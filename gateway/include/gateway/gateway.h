@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "control/sim_control.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 
@@ -57,6 +58,7 @@ class CameraFeed;
 class SimController;
 class LiveRobots;
 class SensorLevelsFeed;
+class FaultBoard;
 
 // Watches (and may act on) the world from the simulation thread after every step that advanced
 // it: a scenario run's schedule and metrics (scenario/). Implementations must be rt-safe: no
@@ -106,6 +108,9 @@ class Gateway {
   std::string lockstep_clock_path() const;
   // Before start(): `observer` (outlives the gateway's threads) sees every step. Null: none.
   void set_step_observer(StepObserver* observer) noexcept { step_observer_ = observer; }
+  // Faults on demand (docs/faults.md), as /api/faults adds them: a scenario adds its faults here
+  // before start(). Any thread.
+  control::FaultAnswer add_fault(const faults::FaultSpec& spec);
   // Robot r's index in the physics world; nullopt when it moves kinematically.
   std::optional<std::size_t> world_index(std::size_t robot) const;
   // The physics world (setup: look-ups such as find_motor); null when no robot has a body.
@@ -140,6 +145,7 @@ class Gateway {
   std::unique_ptr<SensorLevelsFeed> levels_feed_;  // --sensor-levels: a poller of truth_, so it outlives it
   std::unique_ptr<truth::TruthService> truth_;  // --world-model, --sensor-levels; after cameras_: gone before their iceoryx
   std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
+  std::unique_ptr<FaultBoard> faults_;          // every fault of the run; sets the buses' fault tables
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::string access_token_;                       // control/access.h; "" with --no-token

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "faults/fault.h"
 #include "gateway/robot_config.h"
 #include "physics/engines.h"
 
@@ -44,6 +45,14 @@ struct BallEvent {
   std::string location;
 };
 
+// A fault of the file, checked (faults::check) except for its target, which the gateway checks
+// when the run starts. seed_from_run: the file gave none, the run's seed is used.
+struct FaultEvent {
+  faults::FaultSpec spec;
+  bool seed_from_run = false;
+  std::string location;
+};
+
 struct ControllerSpec {
   std::vector<std::string> argv;  // as written, placeholders not yet replaced
   std::size_t robot = 0;
@@ -64,6 +73,7 @@ struct Scenario {
   double duration_s = 0.0;
   std::vector<PushEvent> pushes;   // in file order
   std::vector<BallEvent> balls;
+  std::vector<FaultEvent> faults;  // in file order
   std::vector<ControllerSpec> controllers;
   std::map<std::string, std::string> params;  // defaults
   MetricSet metrics;
