@@ -29,6 +29,7 @@
 #include "lockstep_shim.h"
 #include "shim/ftdi_serial.h"
 #include "shim/port_map.h"
+#include "v4l2_shim.h"
 
 #define SHIM_EXPORT extern "C" __attribute__((visibility("default")))
 
@@ -416,11 +417,13 @@ int serial_ioctl(int fd, Port& port, unsigned long request, void* arg) noexcept 
 }
 
 int open_at(int (*fn)(int, const char*, int, ...), int dirfd, const char* path, int flags, mode_t mode) noexcept {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(fn(dirfd, t.path, flags, mode), t);
 }
 
 int open_path(int (*fn)(const char*, int, ...), const char* path, int flags, mode_t mode) noexcept {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(fn(t.path, flags, mode), t);
 }
@@ -466,18 +469,22 @@ SHIM_EXPORT int openat64(int dirfd, const char* path, int flags, ...) {
   return open_at(real(&Real::openat64, "openat64"), dirfd, path, flags, mode);
 }
 SHIM_EXPORT int __open_2(const char* path, int flags) {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(real(&Real::open_2, "__open_2")(t.path, flags), t);
 }
 SHIM_EXPORT int __open64_2(const char* path, int flags) {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(real(&Real::open64_2, "__open64_2")(t.path, flags), t);
 }
 SHIM_EXPORT int __openat_2(int dirfd, const char* path, int flags) {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(real(&Real::openat_2, "__openat_2")(dirfd, t.path, flags), t);
 }
 SHIM_EXPORT int __openat64_2(int dirfd, const char* path, int flags) {
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
   const Target t = target_of(path);
   return opened(real(&Real::openat64_2, "__openat64_2")(dirfd, t.path, flags), t);
 }
@@ -500,6 +507,7 @@ SHIM_EXPORT int fclose(FILE* file) {
 }
 
 SHIM_EXPORT int close(int fd) {
+  if (v4l2_fd(fd)) return v4l2_close(fd);
   lockstep_closing(fd);
   untrack(fd);
   return real(&Real::close, "close")(fd);
@@ -555,6 +563,7 @@ SHIM_EXPORT int ioctl(int fd, unsigned long request, ...) noexcept {
   va_start(args, request);
   void* arg = va_arg(args, void*);
   va_end(args);
+  if (v4l2_fd(fd)) return v4l2_ioctl(fd, request, arg);
   if (Port* port = port_of_fd(fd)) {
     if (request != TCFLSH) return serial_ioctl(fd, *port, request, arg);
     const int queue = static_cast<int>(reinterpret_cast<intptr_t>(arg));
