@@ -221,6 +221,7 @@ Camera* camera_for(const char* device, const std::string& wanted) {
   }
   say(std::string(device) + ": doppel publishes no camera " + wanted + " (" + std::to_string(cameras.size()) +
       " camera(s) published; doppel-camera list)");
+  errno = ENOENT;  // as for a device node that does not exist
   return nullptr;
 }
 
@@ -888,8 +889,9 @@ int do_ioctl(File& file, unsigned long request, void* arg) {
 
 int api_open(const char* device, const char* camera_name, int flags) {
   try {
+    errno = ENODEV;
     Camera* cam = camera_for(device, camera_name);
-    if (cam == nullptr) return fail(ENODEV);
+    if (cam == nullptr) return -1;  // ENOENT: no such camera; ENODEV: unusable
     const int fd = ::eventfd(0, ((flags & O_NONBLOCK) != 0 ? EFD_NONBLOCK : 0) | ((flags & O_CLOEXEC) != 0 ? EFD_CLOEXEC : 0));
     if (fd < 0) return -1;
     auto* file = new File{fd, cam, V4L2_PRIORITY_DEFAULT};

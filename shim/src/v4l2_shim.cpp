@@ -5,13 +5,17 @@
 #include <dlfcn.h>
 #include <errno.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
 
+#include "lockstep/clock_file.h"
 #include "v4l2_api.h"
 #include "v4l2_shim.h"
 
@@ -96,13 +100,110 @@ const DoppelV4l2Api* api() noexcept {
 void* (*real_mmap)(void*, size_t, int, int, int, off_t) = nullptr;
 int (*real_munmap)(void*, size_t) = nullptr;
 
+int mapping_of(const char* path) noexcept {
+  if (path == nullptr || strncmp(path, "/dev/video", 10) != 0) return -1;
+  if (g_map_state.load(std::memory_order_acquire) != 2) parse_map();
+  for (int i = 0; i < g_camera_count; ++i) {
+    if (strcmp(path, g_cameras[i].device) == 0) return i;
+  }
+  return -1;
+}
+
+unsigned minor_of(const char* device) noexcept { return static_cast<unsigned>(atoi(device + 10)); }
+
+void fake_stat(unsigned minor, struct stat* buf) noexcept {
+  memset(buf, 0, sizeof(*buf));
+  buf->st_mode = S_IFCHR | 0660;
+  buf->st_rdev = makedev(81, minor);  // Documentation/admin-guide/devices.txt: 81 = video4linux
+  buf->st_nlink = 1;
+  buf->st_blksize = 4096;
+}
+
+int g_fd_minor[kMaxFds];
+
+// /sys/dev/char/81:<n>/uevent, which v4l-utils read to learn that a node is a video device: a
+// memfd per camera holding what the kernel writes there, opened again through /proc/self/fd.
+struct Uevent {
+  std::atomic<int> state{0};  // 0 none, 1 making, 2 ready
+  char path[48] = {};
+};
+Uevent g_uevents[kMaxCameras];
+
 }  // namespace
+
+const char* v4l2_sys_redirect(const char* path) noexcept {
+  constexpr char kPrefix[] = "/sys/dev/char/81:";
+  if (path == nullptr || strncmp(path, kPrefix, sizeof(kPrefix) - 1) != 0) return nullptr;
+  if (g_map_state.load(std::memory_order_acquire) != 2) parse_map();
+  const char* rest = path + sizeof(kPrefix) - 1;
+  char* end = nullptr;
+  const long minor = strtol(rest, &end, 10);
+  if (end == rest || strcmp(end, "/uevent") != 0) return nullptr;
+  for (int i = 0; i < g_camera_count; ++i) {
+    if (static_cast<long>(minor_of(g_cameras[i].device)) != minor) continue;
+    Uevent& u = g_uevents[i];
+    int expected = 0;
+    if (u.state.compare_exchange_strong(expected, 1)) {
+      const int fd = static_cast<int>(syscall(SYS_memfd_create, "doppel-uevent", 0));
+      char text[96];
+      const int n = snprintf(text, sizeof(text), "MAJOR=81\nMINOR=%ld\nDEVNAME=video%ld\n", minor, minor);
+      if (fd >= 0 && syscall(SYS_write, fd, text, n) == n) snprintf(u.path, sizeof(u.path), "/proc/self/fd/%d", fd);
+      u.state.store(2, std::memory_order_release);
+    }
+    while (u.state.load(std::memory_order_acquire) != 2) {
+    }
+    return u.path[0] != '\0' ? u.path : nullptr;
+  }
+  return nullptr;
+}
+
+bool v4l2_device_path(const char* path) noexcept { return mapping_of(path) >= 0; }
+
+int v4l2_stat(const char* path, struct stat* buf) noexcept {
+  if (buf == nullptr) {
+    errno = EFAULT;
+    return -1;
+  }
+  fake_stat(minor_of(g_cameras[mapping_of(path)].device), buf);
+  return 0;
+}
+
+int v4l2_statx(const char* path, struct statx* buf) noexcept {
+  if (buf == nullptr) {
+    errno = EFAULT;
+    return -1;
+  }
+  memset(buf, 0, sizeof(*buf));
+  buf->stx_mask = STATX_TYPE | STATX_MODE | STATX_NLINK;
+  buf->stx_mode = S_IFCHR | 0660;
+  buf->stx_nlink = 1;
+  buf->stx_blksize = 4096;
+  buf->stx_rdev_major = 81;
+  buf->stx_rdev_minor = minor_of(g_cameras[mapping_of(path)].device);
+  return 0;
+}
+
+int v4l2_stat_fd(int fd, struct stat* buf) noexcept {
+  if (buf == nullptr) {
+    errno = EFAULT;
+    return -1;
+  }
+  fake_stat(static_cast<unsigned>(g_fd_minor[fd]), buf);
+  return 0;
+}
 
 int v4l2_open(const char* path, int flags) noexcept {
   if (path == nullptr || strncmp(path, "/dev/video", 10) != 0) return kNotCamera;
   if (g_map_state.load(std::memory_order_acquire) != 2) parse_map();
   for (int i = 0; i < g_camera_count; ++i) {
     if (strcmp(path, g_cameras[i].device) != 0) continue;
+    if (getenv(lockstep::kClockVariable) != nullptr) {
+      // Doppel's camera thread renders in wall time beside a lockstep run (docs/lockstep.md), so
+      // frames would not be ready at their simulation time: refuse rather than break determinism.
+      say(path, ": cameras are not in lockstep yet (docs/lockstep.md); not opened under --lockstep");
+      errno = ENODEV;
+      return -1;
+    }
     const DoppelV4l2Api* a = api();
     if (a == nullptr) {
       errno = ENODEV;
@@ -115,7 +216,10 @@ int v4l2_open(const char* path, int flags) noexcept {
       errno = EMFILE;
       return -1;
     }
-    if (fd >= 0) g_fd_camera[fd].store(true, std::memory_order_release);
+    if (fd >= 0) {
+      g_fd_minor[fd] = static_cast<int>(minor_of(g_cameras[i].device));
+      g_fd_camera[fd].store(true, std::memory_order_release);
+    }
     return fd;
   }
   return kNotCamera;
