@@ -330,6 +330,9 @@ void stop_reading(Camera& cam, std::unique_lock<std::mutex>& lock) {
 }
 
 void free_buffers(Camera& cam) {
+  if (!cam.done.empty() && cam.owner != nullptr) eventfd_clear(cam.owner->fd);
+  cam.queued.clear();
+  cam.done.clear();
   if (cam.memory_base != nullptr) ::munmap(cam.memory_base, static_cast<size_t>(cam.buffer_stride) * cam.buffers.size());
   if (cam.memfd >= 0) syscall(SYS_close, cam.memfd);  // program mappings keep their pages (orphaned buffers)
   cam.memory_base = nullptr;
@@ -411,14 +414,15 @@ int find_control(uint32_t id) {
 }
 
 // Validates and clamps `value` for control `c` as the control framework does: integers are clamped
-// to the range, booleans become 0/1, a menu value outside the menu or skipped is ERANGE.
+// to the range, booleans become 0/1, a menu value outside the menu's range is ERANGE, a skipped item EINVAL.
 int check_value(const ControlInfo& c, int32_t& value) {
   switch (c.type) {
     case V4L2_CTRL_TYPE_BOOLEAN:
       value = value != 0 ? 1 : 0;
       return 0;
     case V4L2_CTRL_TYPE_MENU:
-      if (value < c.minimum || value > c.maximum || exposure_menu_name(value) == nullptr) return ERANGE;
+      if (value < c.minimum || value > c.maximum) return ERANGE;
+      if (exposure_menu_name(value) == nullptr) return EINVAL;  // a skipped item
       return 0;
     case V4L2_CTRL_TYPE_INTEGER:
       value = std::clamp(value, c.minimum, c.maximum);
@@ -462,9 +466,10 @@ int ext_controls(File& file, unsigned long request, v4l2_ext_controls* ec) {
     const ControlInfo c = control_at(index, cam.source.fps);
     const bool class_ok = which == V4L2_CTRL_WHICH_CUR_VAL || which == V4L2_CTRL_WHICH_DEF_VAL ||
                           V4L2_CTRL_ID2WHICH(x.id) == which;
+    // Class controls are write-only for G and read-only for S/TRY (EACCES); unknown ids EINVAL.
+    // error_idx: count for G and S (nothing was touched), the control's index for TRY.
     if (index < 0 || !class_ok || c.type == V4L2_CTRL_TYPE_CTRL_CLASS) {
       ec->error_idx = get || set ? ec->count : i;
-      if (get && index >= 0 && class_ok) ec->error_idx = i;
       return fail(index >= 0 && class_ok ? EACCES : EINVAL);
     }
     if (!get) {
@@ -533,7 +538,7 @@ void fill_buffer(const Camera& cam, uint32_t index, v4l2_buffer& out) {
     out.length = cam.mode.sizeimage;
   } else {
     out.m.userptr = b.userptr;
-    out.length = b.user_length;
+    out.length = b.user_length != 0 ? b.user_length : cam.mode.sizeimage;
   }
   if (b.state == BufferState::kDone || b.state == BufferState::kDequeued) {
     out.bytesused = b.bytesused;
@@ -583,6 +588,17 @@ int reqbufs(File& file, v4l2_requestbuffers* rb) {
   return 0;
 }
 
+// True when [address, address + length) is mapped memory of this process (mincore fails with
+// ENOMEM on any unmapped page), as get_user_pages checks a USERPTR buffer.
+bool user_memory_mapped(unsigned long address, uint32_t length) {
+  const long page = sysconf(_SC_PAGESIZE);
+  const unsigned long first = address / static_cast<unsigned long>(page) * static_cast<unsigned long>(page);
+  const size_t span = address + length - first;
+  unsigned char pages[8192];
+  if (span / static_cast<size_t>(page) + 1 > sizeof(pages)) return false;
+  return ::mincore(reinterpret_cast<void*>(first), span, pages) == 0;
+}
+
 int qbuf(File& file, v4l2_buffer* b) {
   Camera& cam = *file.camera;
   std::unique_lock lock(cam.mutex);
@@ -594,6 +610,7 @@ int qbuf(File& file, v4l2_buffer* b) {
   if (buf.state != BufferState::kDequeued) return fail(EINVAL);
   if (cam.memory == V4L2_MEMORY_USERPTR) {
     if (b->m.userptr == 0 || b->length < cam.mode.sizeimage) return fail(EINVAL);
+    if (!user_memory_mapped(b->m.userptr, b->length)) return fail(EFAULT);
     buf.userptr = b->m.userptr;
     buf.user_length = b->length;
   }
@@ -630,7 +647,8 @@ int streamon(File& file, const int* type, bool on) {
   if (type == nullptr) return fail(EFAULT);
   if (!capture_type(static_cast<uint32_t>(*type))) return fail(EINVAL);
   std::unique_lock lock(cam.mutex);
-  if (cam.owner != &file || cam.reading) return fail(cam.owner == nullptr ? EINVAL : EBUSY);
+  if (cam.owner == nullptr) return on ? fail(EINVAL) : 0;  // vb2: no buffers to start; stopping is fine
+  if (cam.owner != &file || cam.reading) return fail(EBUSY);
   if (!on) {
     stream_off(cam, lock);
     return 0;
@@ -728,8 +746,23 @@ int query_ext_ctrl(File& file, v4l2_query_ext_ctrl* q) {
   return 0;
 }
 
+bool served(unsigned long request) {
+  switch (request) {
+    case VIDIOC_QUERYCAP: case VIDIOC_ENUM_FMT: case VIDIOC_G_FMT: case VIDIOC_S_FMT: case VIDIOC_TRY_FMT:
+    case VIDIOC_ENUM_FRAMESIZES: case VIDIOC_ENUM_FRAMEINTERVALS: case VIDIOC_G_PARM: case VIDIOC_S_PARM:
+    case VIDIOC_ENUMINPUT: case VIDIOC_G_INPUT: case VIDIOC_S_INPUT: case VIDIOC_G_PRIORITY: case VIDIOC_S_PRIORITY:
+    case VIDIOC_REQBUFS: case VIDIOC_QUERYBUF: case VIDIOC_QBUF: case VIDIOC_DQBUF: case VIDIOC_STREAMON:
+    case VIDIOC_STREAMOFF: case VIDIOC_QUERYCTRL: case VIDIOC_QUERY_EXT_CTRL: case VIDIOC_QUERYMENU: case VIDIOC_G_CTRL:
+    case VIDIOC_S_CTRL: case VIDIOC_G_EXT_CTRLS: case VIDIOC_S_EXT_CTRLS: case VIDIOC_TRY_EXT_CTRLS: case VIDIOC_LOG_STATUS:
+      return true;
+    default:
+      return false;
+  }
+}
+
 int do_ioctl(File& file, unsigned long request, void* arg) {
   Camera& cam = *file.camera;
+  if (!served(request)) return fail(ENOTTY);  // before the argument: the V4L2 core's order
   if (arg == nullptr && request != VIDIOC_LOG_STATUS) return fail(EFAULT);
   switch (request) {
     case VIDIOC_QUERYCAP:

@@ -139,7 +139,7 @@ ControlInfo control_at(int index, double fps) noexcept {
       {V4L2_CID_WHITE_BALANCE_TEMPERATURE, V4L2_CTRL_TYPE_INTEGER, "White Balance Temperature", 2800, 6500, 1, 6500},
       {V4L2_CID_CAMERA_CLASS, V4L2_CTRL_TYPE_CTRL_CLASS, "Camera Controls", 0, 0, 0, 0},
       {V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU, "Auto Exposure", V4L2_EXPOSURE_MANUAL,
-       V4L2_EXPOSURE_APERTURE_PRIORITY, 0, V4L2_EXPOSURE_APERTURE_PRIORITY},
+       V4L2_EXPOSURE_APERTURE_PRIORITY, 1, V4L2_EXPOSURE_APERTURE_PRIORITY},
       {V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_CTRL_TYPE_INTEGER, "Exposure Time, Absolute", 1, max_exposure(fps), 1,
        default_exposure(fps)},
   };
