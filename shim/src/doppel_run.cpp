@@ -139,6 +139,13 @@ int main(int argc, char** argv) {
     command.push_back(extra);
   }
 
+  std::string camera_error;
+  const std::string camera_map = camera_spec(cameras, camera_error);
+  if (!camera_error.empty()) {
+    std::cerr << "doppel-run: " << camera_error << "\n";
+    return 2;
+  }
+
   std::vector<PortOption> mappings;
   for (const std::string& port : ports) {
     const std::size_t equals = port.find('=');
@@ -173,12 +180,6 @@ int main(int argc, char** argv) {
   doppel::shim::PortMap check;
   if (!check.parse(spec)) {
     std::cerr << "doppel-run: --port: " << check.error() << "\n";
-    return 2;
-  }
-  std::string camera_error;
-  const std::string camera_map = camera_spec(cameras, camera_error);
-  if (!camera_error.empty()) {
-    std::cerr << "doppel-run: " << camera_error << "\n";
     return 2;
   }
   const std::string shim = library_path("libdoppel_shim.so");

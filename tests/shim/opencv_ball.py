@@ -25,8 +25,8 @@ def main():
             return 1
     print("size %d %d" % (image.shape[1], image.shape[0]))
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
-    # Orange: hue 5..25 of OpenCV's 0..180, saturated and bright (the tennis ball's colour).
-    mask = cv2.inRange(hsv, np.array([5, 150, 120]), np.array([25, 255, 255]))
+    # Orange: hue 8..20 of OpenCV's 0..180 (the ball, RGB 255 120 0, is 14; the yellow goal, 240 210 20, is 26).
+    mask = cv2.inRange(hsv, np.array([8, 150, 120]), np.array([20, 255, 255]))
     ys, xs = np.nonzero(mask)
     if len(xs) == 0:
         print("ball none 0")
