@@ -61,16 +61,42 @@ std::vector<int> bus_numbers(const std::string& dir) {
   return numbers;
 }
 
-// The shim beside this executable (build tree) or in ../lib (installed).
-std::string shim_library() {
+// A library beside this executable (build tree) or in ../lib (installed).
+std::string library_path(const std::string& file) {
   char self[PATH_MAX] = {};
   const ssize_t n = ::readlink("/proc/self/exe", self, sizeof(self) - 1);
   std::string dir = n > 0 ? std::string(self, static_cast<std::size_t>(n)) : std::string(".");
   dir = dir.substr(0, dir.rfind('/'));
-  for (const std::string& candidate : {dir + "/libdoppel_shim.so", dir + "/../lib/libdoppel_shim.so"}) {
+  for (const std::string& candidate : {dir + "/" + file, dir + "/../lib/" + file}) {
     if (::access(candidate.c_str(), R_OK) == 0) return candidate;
   }
   return {};
+}
+
+// The camera map for the shim, "DEVICE=CAMERA[:...]"; "" with a message when an option is wrong.
+// Default: /dev/video<n> -> "#<n>", the n-th camera of robot 0 (resolved when the program opens it).
+std::string camera_spec(const std::vector<std::string>& options, std::string& error) {
+  constexpr int kDefaultDevices = 8;
+  std::string spec;
+  if (options.empty()) {
+    for (int n = 0; n < kDefaultDevices; ++n) {
+      spec += (n == 0 ? "" : ":") + std::string("/dev/video") + std::to_string(n) + "=#" + std::to_string(n);
+    }
+    return spec;
+  }
+  for (const std::string& option : options) {
+    const std::size_t equals = option.find('=');
+    const std::string device = option.substr(0, equals);
+    const std::string camera = equals == std::string::npos ? "" : option.substr(equals + 1);
+    if (equals == std::string::npos || device.rfind("/dev/video", 0) != 0 || device.size() == 10 || camera.empty() ||
+        camera.find(':') != std::string::npos || device.find(':') != std::string::npos || device.size() >= 128 ||
+        camera.size() >= 128) {
+      error = "--camera " + option + ": expected /dev/video<N>=CAMERA (a camera name of doppel-camera list, no ':')";
+      return {};
+    }
+    spec += (spec.empty() ? "" : ":") + device + "=" + camera;
+  }
+  return spec;
 }
 
 }  // namespace
@@ -86,6 +112,10 @@ int main(int argc, char** argv) {
   app.add_option("--port", ports,
                  "DEVICE=LINK: opening DEVICE opens Doppel's port LINK (repeatable). Default: /dev/ttyUSB<n>\n"
                  "and /dev/ttyACM<n> -> LINK-DIR/ttyDXL<n> for every ttyDXL<n> there, /dev/U2D2 -> ttyDXL0");
+  std::vector<std::string> cameras;
+  app.add_option("--camera", cameras,
+                 "/dev/videoN=CAMERA: opening /dev/videoN opens a V4L2 capture device fed by Doppel's camera CAMERA\n"
+                 "(repeatable; doppel-camera list names them). Default: /dev/video<n> -> the n-th camera of robot 0");
   app.add_option("--link-dir", link_dir, "Doppel's link directory (doppel --link-dir). Default: " + link_dir);
   bool lockstep = false;
   app.add_flag("--lockstep", lockstep,
@@ -107,6 +137,13 @@ int main(int argc, char** argv) {
       continue;
     }
     command.push_back(extra);
+  }
+
+  std::string camera_error;
+  const std::string camera_map = camera_spec(cameras, camera_error);
+  if (!camera_error.empty()) {
+    std::cerr << "doppel-run: " << camera_error << "\n";
+    return 2;
   }
 
   std::vector<PortOption> mappings;
@@ -145,7 +182,7 @@ int main(int argc, char** argv) {
     std::cerr << "doppel-run: --port: " << check.error() << "\n";
     return 2;
   }
-  const std::string shim = shim_library();
+  const std::string shim = library_path("libdoppel_shim.so");
   if (shim.empty()) {
     std::cerr << "doppel-run: libdoppel_shim.so is neither beside doppel-run nor in ../lib: reinstall Doppel\n";
     return 1;
@@ -166,6 +203,8 @@ int main(int argc, char** argv) {
   const std::string preloads = preload != nullptr && *preload != '\0' ? shim + ":" + preload : shim;
   ::setenv("LD_PRELOAD", preloads.c_str(), 1);
   ::setenv(kPortsVariable, spec.c_str(), 1);
+  ::setenv("DOPPEL_SHIM_CAMERAS", camera_map.c_str(), 1);
+  if (const std::string v4l2 = library_path("libdoppel_v4l2.so"); !v4l2.empty()) ::setenv("DOPPEL_SHIM_V4L2", v4l2.c_str(), 1);
 
   std::vector<char*> exec_args;
   for (std::string& arg : command) exec_args.push_back(arg.data());

@@ -34,6 +34,7 @@
 #include "lockstep/clock_file.h"
 #include "lockstep/futex.h"
 #include "lockstep_shim.h"
+#include "v4l2_shim.h"
 
 #define SHIM_EXPORT extern "C" __attribute__((visibility("default")))
 
@@ -879,6 +880,7 @@ static void wait_readable(int fd, bool dontwait) noexcept {
 }
 
 SHIM_EXPORT ssize_t read(int fd, void* buffer, size_t n) {
+  if (v4l2_fd(fd)) return v4l2_read(fd, buffer, n);
   NEED_REAL();
   if (!on()) return g_real.read(fd, buffer, n);
   if (VirtualTimer* timer = timer_of(fd)) return timer_read(*timer, buffer, n);

@@ -17,6 +17,7 @@
 #include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <termios.h>
+#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -29,6 +30,7 @@
 #include "lockstep_shim.h"
 #include "shim/ftdi_serial.h"
 #include "shim/port_map.h"
+#include "v4l2_shim.h"
 
 #define SHIM_EXPORT extern "C" __attribute__((visibility("default")))
 
@@ -415,13 +417,21 @@ int serial_ioctl(int fd, Port& port, unsigned long request, void* arg) noexcept 
   }
 }
 
+// A camera's sysfs uevent file (v4l2_shim.cpp) or `path` itself.
+const char* sys_path(const char* path) noexcept {
+  const char* redirect = v4l2_sys_redirect(path);
+  return redirect != nullptr ? redirect : path;
+}
+
 int open_at(int (*fn)(int, const char*, int, ...), int dirfd, const char* path, int flags, mode_t mode) noexcept {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(fn(dirfd, t.path, flags, mode), t);
 }
 
 int open_path(int (*fn)(const char*, int, ...), const char* path, int flags, mode_t mode) noexcept {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(fn(t.path, flags, mode), t);
 }
 
@@ -466,30 +476,34 @@ SHIM_EXPORT int openat64(int dirfd, const char* path, int flags, ...) {
   return open_at(real(&Real::openat64, "openat64"), dirfd, path, flags, mode);
 }
 SHIM_EXPORT int __open_2(const char* path, int flags) {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(real(&Real::open_2, "__open_2")(t.path, flags), t);
 }
 SHIM_EXPORT int __open64_2(const char* path, int flags) {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(real(&Real::open64_2, "__open64_2")(t.path, flags), t);
 }
 SHIM_EXPORT int __openat_2(int dirfd, const char* path, int flags) {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(real(&Real::openat_2, "__openat_2")(dirfd, t.path, flags), t);
 }
 SHIM_EXPORT int __openat64_2(int dirfd, const char* path, int flags) {
-  const Target t = target_of(path);
+  if (const int fd = v4l2_open(path, flags); fd != kNotCamera) return fd;
+  const Target t = target_of(sys_path(path));
   return opened(real(&Real::openat64_2, "__openat64_2")(dirfd, t.path, flags), t);
 }
 
 SHIM_EXPORT FILE* fopen(const char* path, const char* mode) {
-  const Target t = target_of(path);
+  const Target t = target_of(sys_path(path));
   FILE* file = real(&Real::fopen, "fopen")(t.path, mode);
   if (file != nullptr) opened(fileno(file), t);
   return file;
 }
 SHIM_EXPORT FILE* fopen64(const char* path, const char* mode) {
-  const Target t = target_of(path);
+  const Target t = target_of(sys_path(path));
   FILE* file = real(&Real::fopen64, "fopen64")(t.path, mode);
   if (file != nullptr) opened(fileno(file), t);
   return file;
@@ -500,6 +514,7 @@ SHIM_EXPORT int fclose(FILE* file) {
 }
 
 SHIM_EXPORT int close(int fd) {
+  if (v4l2_fd(fd)) return v4l2_close(fd);
   lockstep_closing(fd);
   untrack(fd);
   return real(&Real::close, "close")(fd);
@@ -555,6 +570,7 @@ SHIM_EXPORT int ioctl(int fd, unsigned long request, ...) noexcept {
   va_start(args, request);
   void* arg = va_arg(args, void*);
   va_end(args);
+  if (v4l2_fd(fd)) return v4l2_ioctl(fd, request, arg);
   if (Port* port = port_of_fd(fd)) {
     if (request != TCFLSH) return serial_ioctl(fd, *port, request, arg);
     const int queue = static_cast<int>(reinterpret_cast<intptr_t>(arg));
@@ -585,54 +601,80 @@ SHIM_EXPORT int tcsetattr(int fd, int when, const struct termios* termios) noexc
 }
 
 SHIM_EXPORT int stat(const char* path, struct stat* buf) noexcept {
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
   return real(&Real::stat, "stat")(target_of(path).path, buf);
 }
 SHIM_EXPORT int stat64(const char* path, struct stat64* buf) noexcept {
+  if (v4l2_device_path(path)) return v4l2_stat(path, reinterpret_cast<struct stat*>(buf));
   return real(&Real::stat, "stat")(target_of(path).path, reinterpret_cast<struct stat*>(buf));
 }
 // A mapped device is a character device, as /dev/ttyUSB0 is: follow the link for it.
 SHIM_EXPORT int lstat(const char* path, struct stat* buf) noexcept {
-  const Target t = target_of(path);
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
+  const Target t = target_of(sys_path(path));
   return t.device ? real(&Real::stat, "stat")(t.path, buf) : real(&Real::lstat, "lstat")(path, buf);
 }
 SHIM_EXPORT int lstat64(const char* path, struct stat64* buf) noexcept {
   return lstat(path, reinterpret_cast<struct stat*>(buf));
 }
 SHIM_EXPORT int fstatat(int dirfd, const char* path, struct stat* buf, int flags) noexcept {
-  const Target t = target_of(path);
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
+  if (path[0] == '\0' && (flags & AT_EMPTY_PATH) != 0 && v4l2_fd(dirfd)) return v4l2_stat_fd(dirfd, buf);
+  const Target t = target_of(sys_path(path));
   return real(&Real::fstatat, "fstatat")(dirfd, t.path, buf, t.device ? flags & ~AT_SYMLINK_NOFOLLOW : flags);
 }
 SHIM_EXPORT int fstatat64(int dirfd, const char* path, struct stat64* buf, int flags) noexcept {
   return fstatat(dirfd, path, reinterpret_cast<struct stat*>(buf), flags);
 }
 SHIM_EXPORT int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* buf) noexcept {
-  const Target t = target_of(path);
+  if (v4l2_device_path(path)) return v4l2_statx(path, buf);
+  const Target t = target_of(sys_path(path));
   return real(&Real::statx, "statx")(dirfd, t.path, t.device ? flags & ~AT_SYMLINK_NOFOLLOW : flags, mask, buf);
 }
 // The stat entry points of programs built against glibc before 2.33.
 SHIM_EXPORT int __xstat(int version, const char* path, struct stat* buf) noexcept {
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
   return real(&Real::xstat, "__xstat")(version, target_of(path).path, buf);
 }
 SHIM_EXPORT int __xstat64(int version, const char* path, struct stat64* buf) noexcept {
   return __xstat(version, path, reinterpret_cast<struct stat*>(buf));
 }
 SHIM_EXPORT int __lxstat(int version, const char* path, struct stat* buf) noexcept {
-  const Target t = target_of(path);
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
+  const Target t = target_of(sys_path(path));
   return t.device ? real(&Real::xstat, "__xstat")(version, t.path, buf) : real(&Real::lxstat, "__lxstat")(version, path, buf);
 }
 SHIM_EXPORT int __lxstat64(int version, const char* path, struct stat64* buf) noexcept {
   return __lxstat(version, path, reinterpret_cast<struct stat*>(buf));
 }
 SHIM_EXPORT int __fxstatat(int version, int dirfd, const char* path, struct stat* buf, int flags) noexcept {
-  const Target t = target_of(path);
+  if (v4l2_device_path(path)) return v4l2_stat(path, buf);
+  const Target t = target_of(sys_path(path));
   return real(&Real::fxstatat, "__fxstatat")(version, dirfd, t.path, buf, t.device ? flags & ~AT_SYMLINK_NOFOLLOW : flags);
 }
 SHIM_EXPORT int __fxstatat64(int version, int dirfd, const char* path, struct stat64* buf, int flags) noexcept {
   return __fxstatat(version, dirfd, path, reinterpret_cast<struct stat*>(buf), flags);
 }
 SHIM_EXPORT int access(const char* path, int mode) noexcept {
+  if (v4l2_device_path(path)) return 0;
   return real(&Real::access, "access")(target_of(path).path, mode);
 }
 SHIM_EXPORT int faccessat(int dirfd, const char* path, int mode, int flags) noexcept {
+  if (v4l2_device_path(path)) return 0;
   return real(&Real::faccessat, "faccessat")(dirfd, target_of(path).path, mode, flags);
+}
+
+// A camera descriptor stats as its V4L2 device node does.
+SHIM_EXPORT int fstat(int fd, struct stat* buf) noexcept {
+  if (v4l2_fd(fd)) return v4l2_stat_fd(fd, buf);
+  return static_cast<int>(syscall(SYS_fstat, fd, buf));
+}
+SHIM_EXPORT int fstat64(int fd, struct stat64* buf) noexcept { return fstat(fd, reinterpret_cast<struct stat*>(buf)); }
+SHIM_EXPORT int __fxstat(int version, int fd, struct stat* buf) noexcept {
+  (void)version;
+  return fstat(fd, buf);
+}
+SHIM_EXPORT int __fxstat64(int version, int fd, struct stat64* buf) noexcept {
+  (void)version;
+  return fstat(fd, reinterpret_cast<struct stat*>(buf));
 }
