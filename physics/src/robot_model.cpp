@@ -475,10 +475,18 @@ class Compiler {
           fail(m, "model", -1, "model '" + m.model() + "' does not match the bus device ID " + std::to_string(m.id()) +
                                    " ('" + device.model() + "')");
         }
-        std::optional<DcMotorParams> params = motors_ ? motors_(device.model()) : std::nullopt;
+        std::optional<DcMotorParams> params = motors_ ? motors_(device.model(), 0) : std::nullopt;
         if (!params) {
           fail(m, "id", -1, "bus device ID " + std::to_string(m.id()) + " is a '" + device.model() +
                                 "', not a servo with known motor constants");
+        }
+        const proto::MotorFriction friction = m.has_friction() ? m.friction() : figure_.motor_friction();
+        if (friction != proto::FRICTION_DEFAULT) {
+          params = motors_(device.model(), static_cast<int>(friction));
+          if (!params) {
+            const std::string name = proto::MotorFriction_Name(friction);
+            fail(m, "friction", -1, "'" + (name.empty() ? std::to_string(static_cast<int>(friction)) : name) + "' needs BAM's identification of the servo, which covers MX-64 and MX-106 only; bus device ID " + std::to_string(m.id()) + " is a '" + device.model() + "'");
+          }
         }
         if (m.has_back_emf_v_s_rad()) params->back_emf_v_s_rad = m.back_emf_v_s_rad();
         if (m.has_resistance_ohm()) params->resistance_ohm = m.resistance_ohm();

@@ -27,6 +27,30 @@ std::optional<Handle> find_slot(const std::vector<Slot>& slots, size_t robot, ui
   return std::nullopt;
 }
 
+// What a joint carries, for a load-dependent friction law (M3..M6): the backend bodies beyond it
+// (its child and everything further out) whose weight about the joint is the external torque
+// tau_e, and the joint's anchor and axis in the child's inertial frame. Empty for the other laws.
+struct CarriedLoad {
+  std::vector<int> bodies;
+  std::vector<double> masses_kg;
+  int child_body = 0;
+  Eigen::Vector3d anchor_C = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_C = Eigen::Vector3d::UnitZ();
+};
+
+// The weight of `load` as a torque about its joint, joint coordinates. rt-safe.
+double carried_torque_nm(const Backend& backend, const CarriedLoad& load, double gravity_m_s2) noexcept {
+  const BodyReading child = backend.body(load.child_body);
+  const Eigen::Vector3d anchor_W = child.X_WB * load.anchor_C;
+  const Eigen::Vector3d axis_W = child.X_WB.linear() * load.axis_C;
+  Eigen::Vector3d torque_W = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < load.bodies.size(); ++i) {
+    const Eigen::Vector3d com_W = backend.body(load.bodies[i]).X_WB.translation();
+    torque_W += (com_W - anchor_W).cross(Eigen::Vector3d(0.0, 0.0, -load.masses_kg[i] * gravity_m_s2));
+  }
+  return axis_W.dot(torque_W);
+}
+
 // Lowest z of a shape placed at X_WS.
 double lowest_point(const ShapeSpec& s, const Eigen::Isometry3d& X_WS) {
   switch (s.type) {
@@ -101,6 +125,7 @@ struct World::MotorSlot {
   DriveLaw law;
   ThermalModel thermal;
   MotorState state;
+  CarriedLoad load;  // for a load-dependent friction law only
 };
 
 struct World::ImuSlot {
@@ -306,10 +331,29 @@ void World::build_robot(size_t index, const RobotPlacement& placement) {
                    MotorCommand{},
                    DriveLaw{},
                    ThermalModel(m.params, options_.ambient_c, options_.step_s),
-                   MotorState{}};
+                   MotorState{},
+                   CarriedLoad{}};
     slot.state.temperature_c = options_.ambient_c;
     slot.state.voltage_v = slot.supply_v;
     slot.state.position_rad = m.direction * q[static_cast<size_t>(m.link)] + m.offset_rad;
+    if (load_dependent(m.params.friction.law)) {
+      const LinkModel& link = model.links[static_cast<size_t>(m.link)];
+      const Eigen::Isometry3d& X_RC = model.bodies[static_cast<size_t>(link.child)].X_RB;
+      slot.load.child_body = robot.first_body + link.child;
+      slot.load.anchor_C = X_RC.inverse() * link.anchor_R;
+      slot.load.axis_C = X_RC.linear().transpose() * link.axis_R;
+      // Links come parent before child, so one pass collects the subtree under the joint.
+      std::vector<bool> carried(model.bodies.size(), false);
+      carried[static_cast<size_t>(link.child)] = true;
+      for (const LinkModel& other : model.links) {
+        if (carried[static_cast<size_t>(other.parent)]) carried[static_cast<size_t>(other.child)] = true;
+      }
+      for (size_t b = 0; b < model.bodies.size(); ++b) {
+        if (!carried[b]) continue;
+        slot.load.bodies.push_back(robot.first_body + static_cast<int>(b));
+        slot.load.masses_kg.push_back(model.bodies[b].mass_kg);
+      }
+    }
     robot.link_motor[static_cast<size_t>(m.link)] = static_cast<int>(motors_.size());
     motors_.push_back(slot);
   }
@@ -607,10 +651,15 @@ void World::step() noexcept {
       m.law = DriveLaw{};
       continue;
     }
-    // The law in servo coordinates, turned into the joint's.
-    const DriveLaw servo = motor_drive(m.params, m.command, m.supply_v, m.state.velocity_rad_s);
+    // The law in servo coordinates, turned into the joint's. A load-dependent friction law takes
+    // the motor's torque of the last step and the weight of what the joint carries.
+    const double external_nm =
+        m.load.bodies.empty() ? 0.0 : m.direction * carried_torque_nm(*backend_, m.load, options_.gravity_m_s2);
+    const DriveLaw servo =
+        motor_drive(m.params, m.command, m.supply_v, m.state.velocity_rad_s, m.state.torque_nm, external_nm);
+    const bool friction_on = !m.command.enabled || options_.powered_gear_friction || m.params.powered_friction;
     m.law = DriveLaw{m.direction * servo.target_velocity, servo.damping, servo.max_torque,
-                     m.command.enabled && !options_.powered_gear_friction ? 0.0 : servo.friction_torque};
+                     friction_on ? servo.friction_torque : 0.0};
     backend_->set_drive(m.joint, m.law);
   }
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 
 #include "rigs.h"
@@ -121,6 +122,38 @@ TEST_P(AllocationTest, StepWithConvexHullsDoesNotAllocateAfterWarmUp) {
   for (int i = 0; i < 1000; ++i) {
     driven.step();
     if (i % 40 == 0) world->fill_scene(view);
+  }
+  g_counting = false;
+
+  EXPECT_EQ(g_allocations.load(), 0);
+}
+
+// BAM's load-dependent friction (M6): the weight each joint carries is summed every step from the
+// bodies beyond it, in lists made at setup.
+TEST_P(AllocationTest, StepWithBamFrictionDoesNotAllocateAfterWarmUp) {
+  if (!kCountingMalloc) GTEST_SKIP() << "the sanitizer owns malloc";
+  auto world = test::make_world(GetParam(), {test::robot_from_text(R"(name: "bam-arm"
+bus { name: "b" baud_bps: 1000000 protocol: PROTOCOL_1 supply_voltage_v: 15
+      device { id: 1 model: "MX-64" name: "A" } device { id: 2 model: "MX-106" name: "B" } }
+figure {
+  motor_friction: FRICTION_BAM_M6
+  body { name: "base" pose { position_m { z: 0.05 } } shape { box { size_m { x: 0.6 y: 0.6 z: 0.1 } } } mass_kg: 80 }
+  body { name: "upper" pose { position_m { x: 0.1 z: 0.5 } } shape { box { size_m { x: 0.2 y: 0.03 z: 0.03 } } } mass_kg: 0.3 }
+  body { name: "lower" pose { position_m { x: 0.3 z: 0.5 } } shape { box { size_m { x: 0.2 y: 0.03 z: 0.03 } } } mass_kg: 0.2 }
+  link { name: "A" type: LINK_REVOLUTE parent: "base" child: "upper" anchor_m { z: 0.5 } axis { y: 1 } motor { bus: 0 id: 1 } }
+  link { name: "B" type: LINK_REVOLUTE parent: "upper" child: "lower" anchor_m { x: 0.2 z: 0.5 } axis { y: 1 }
+         motor { bus: 0 id: 2 } }
+})")});
+  test::DrivenRobot driven(*world, 0);
+  driven.enable_all();
+  driven.run(0.5);
+
+  g_allocations = 0;
+  g_counting = true;
+  for (int i = 0; i < 1000; ++i) {
+    driven.command(0).goal_position_rad = 0.3 * std::sin(0.01 * i);
+    driven.command(1).goal_position_rad = -0.3 * std::sin(0.01 * i);
+    driven.step();
   }
   g_counting = false;
 

@@ -11,16 +11,63 @@
 
 namespace doppel::physics {
 
+// The gear friction laws M1..M6 of Duclusaud, Passault, Padois and Ly, "Extended Friction Models
+// for the Physics Simulation of Servo Actuators" (ICRA 2025; Rhoban/bam, docs/theory/models.rst
+// and bam/model.py). Each gives the largest torque friction can oppose, the budget tau_fm, from
+// the joint speed w, the motor's torque tau_m and the external torque tau_e on the joint (same sign
+// convention: both accelerate the joint when positive); the joint sticks while the other torques
+// stay within the budget (the backend's zero-speed row bounded by it, as BAM clips its stopping
+// torque). s = exp(-|w / w_s|^alpha) is the Stribeck factor (1 at rest, 0 when sliding fast).
+//   M1 Coulomb-viscous:           Kv|w| + Kc
+//   M2 Stribeck:                  M1 + s Kcs
+//   M3 load-dependent:            M1 + Kl |tau_m - tau_e|
+//   M4 Stribeck load-dependent:   M3 + s (Kcs + Kls |tau_m - tau_e|)
+//   M5 directional:               M1 + |Km tau_m - Ke tau_e| + s (Kcs + |Kms tau_m - Kes tau_e|)
+//   M6 quadratic directional:     M5 + s Q, Q = Keq tau_e^2 if |tau_m| > |tau_e|, Kmq tau_m^2 if
+//                                 |tau_e| > |tau_m|, only while tau_m and tau_e have opposite signs
+//                                 (bam/model.py; the paper's text omits that condition), else 0.
+enum class FrictionLaw : uint8_t { kM1 = 1, kM2, kM3, kM4, kM5, kM6 };
+
+struct GearFriction {
+  FrictionLaw law = FrictionLaw::kM1;
+  double viscous_nm_s_rad = 0.0;          // Kv, N·m per rad/s
+  double coulomb_nm = 0.0;                // Kc, N·m
+  double stribeck_nm = 0.0;               // Kcs, N·m (M2, M4-M6)
+  double stribeck_velocity_rad_s = 1.0;   // w_s, > 0 (M2, M4-M6)
+  double stribeck_alpha = 1.0;            // alpha (M2, M4-M6)
+  double load = 0.0;                      // Kl (M3, M4)
+  double load_stribeck = 0.0;             // Kls (M4)
+  double load_motor = 0.0;                // Km (M5, M6)
+  double load_external = 0.0;             // Ke (M5, M6)
+  double load_motor_stribeck = 0.0;       // Kms (M5, M6)
+  double load_external_stribeck = 0.0;    // Kes (M5, M6)
+  double quadratic_motor_per_nm = 0.0;    // Kmq, 1/N·m (M6)
+  double quadratic_external_per_nm = 0.0; // Keq, 1/N·m (M6)
+};
+
+// The friction budget tau_fm >= 0 of `friction` (the equations above). rt-safe.
+double friction_budget(const GearFriction& friction, double motor_torque_nm, double external_torque_nm,
+                       double velocity_rad_s) noexcept;
+
+// Whether the law has a term in tau_m or tau_e (M3..M6): the caller then needs the external torque.
+constexpr bool load_dependent(FrictionLaw law) noexcept { return law >= FrictionLaw::kM3; }
+
 struct DcMotorParams {
   double back_emf_v_s_rad = 0.0;        // ke, V per rad/s at the output shaft
   double resistance_ohm = 0.0;          // R, armature resistance
   double torque_constant_nm_a = 0.0;    // kt, N·m per A at the output shaft
   double stall_torque_nm = 0.0;         // datasheet stall torque at rated_voltage_v: Torque Limit 100 %
   double rated_voltage_v = 0.0;         // voltage of the datasheet figures
-  double friction_nm = 0.0;             // Coulomb gear friction at the output, N·m, powered or not
   double thermal_resistance_k_w = 0.0;  // winding to ambient, K/W
   double thermal_time_constant_s = 0.0; // of the winding + case, s
-  double viscous_friction_nm_s_rad = 0.0;  // viscous gear friction at the output, N·m per rad/s
+  GearFriction friction;                // gear friction at the output, powered or not
+  // Whether the gear friction also acts while the servo is powered whatever
+  // WorldOptions::powered_gear_friction says: true for BAM's identified models, which were fitted
+  // on a powered servo.
+  bool powered_friction = false;
+  // Reflected rotor inertia at the output (BAM's identified armature), kg·m². The engines do not
+  // simulate it (docs/physics.md); the one-joint check (body/servo_check.h) adds it to its load.
+  double armature_kg_m2 = 0.0;
 };
 
 // What the firmware applies to the motor during one step.
@@ -48,13 +95,14 @@ struct DriveLaw {
 double max_torque_nm(const DcMotorParams& params, double supply_v) noexcept;
 
 // The drive law for `command` at `supply_v`: powered (DC-motor line capped by the Torque Limit) or
-// not (no drive), with the gear friction at the output speed `velocity_rad_s` of the last step
-// (Coulomb + viscous, the viscous part thus one step late). rt-safe.
+// not (no drive), with the gear friction budget at the output speed `velocity_rad_s`, motor torque
+// and external torque of the last step (so one step late). rt-safe.
 DriveLaw motor_drive(const DcMotorParams& params, const MotorCommand& command, double supply_v,
-                     double velocity_rad_s) noexcept;
+                     double velocity_rad_s, double motor_torque_nm = 0.0, double external_torque_nm = 0.0) noexcept;
 
 // The speed an unloaded output shaft settles at with `volts` applied: the motor's torque equals
-// the gear friction, kt (V - ke w) / R = friction + viscous w (or 0 when friction holds it). rt-safe.
+// the gear friction budget with no external torque, kt (V - ke w) / R = tau_fm(tau_m, 0, w) (or 0
+// when friction holds it). rt-safe (a bounded bisection).
 double no_load_speed_rad_s(const DcMotorParams& params, double volts) noexcept;
 
 // The motor's torque under the law at joint speed `velocity` (the speed after the step), without

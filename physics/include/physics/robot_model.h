@@ -117,9 +117,10 @@ struct RobotModel {
 };
 
 // The motor constants of a servo model, nullopt when `model` is no servo with known constants.
-// The caller supplies it (body/motor_params.h reads the device model registry): physics receives
-// numbers, never knows model names.
-using MotorCatalog = std::function<std::optional<DcMotorParams>(std::string_view model)>;
+// `bam_model` 0 asks for the model's defaults, 1..6 for its BAM identification M1..M6 (nullopt
+// when it has none). The caller supplies it (body/motor_params.h reads the device model
+// registry): physics receives numbers, never knows model names.
+using MotorCatalog = std::function<std::optional<DcMotorParams>(std::string_view model, int bam_model)>;
 
 // Compiles and checks the figure of `file`; each motor's constants come from `motors` (by the
 // model of its bus device), then the file's overrides. Throws std::invalid_argument naming file,
