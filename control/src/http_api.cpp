@@ -428,7 +428,7 @@ faults::FaultSpec fault_spec(const json& request, const SimState& state) {
   if (!info.value_field.empty()) allowed.insert(std::string(info.value_field));
   for (const auto& [key, value] : request.items()) {
     if (allowed.count(key) == 0) {
-      throw Refused{400, "field '" + key + "' does not belong to a " + std::string(info.name) + " fault"};
+      throw Refused{400, "field '" + key + "' does not belong to kind " + std::string(info.name)};
     }
   }
   faults::FaultSpec spec;

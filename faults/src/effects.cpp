@@ -29,6 +29,10 @@ std::size_t first_flippable(const dynamixel::StatusPacket& packet) noexcept {
   return p2 ? 8 : 4;
 }
 
+// The random stream of a fault: its seed and its kind, so that two faults of different kinds with
+// the same seed draw independently (a drop and a collision would otherwise strike together).
+uint64_t stream(const Fault& f) noexcept { return mix(f.spec.seed, 0x100 + static_cast<uint64_t>(f.spec.kind)); }
+
 }  // namespace
 
 void apply_servo(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, dynamixel::ServoFeedback& feedback,
@@ -68,7 +72,7 @@ void apply_servo(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns
   for (const Fault& f : table.faults) {
     if (live(f, t_ns) && f.spec.kind == K::kPositionNoise && on_servo(f, bus, id)) {
       // One draw per simulation millisecond: the noise is a function of the seed and the time.
-      feedback.position_rad += f.spec.value * gaussian(f.spec.seed, static_cast<uint64_t>(t_ns / 1'000'000));
+      feedback.position_rad += f.spec.value * gaussian(stream(f), static_cast<uint64_t>(t_ns / 1'000'000));
     }
   }
 }
@@ -126,7 +130,7 @@ double WireFaults::draw(const Fault& fault, std::size_t slot) noexcept {
     slot_number_[slot] = fault.number;
     draws_[slot] = 0;
   }
-  return uniform(fault.spec.seed, draws_[slot]++);
+  return uniform(stream(fault), draws_[slot]++);
 }
 
 std::span<const dynamixel::OutgoingStatus> WireFaults::apply(const FaultTable& table, uint32_t bus, int64_t t_ns,
@@ -172,7 +176,7 @@ std::span<const dynamixel::OutgoingStatus> WireFaults::apply(const FaultTable& t
           dynamixel::StatusPacket& p = packets_[n];
           const std::size_t first = first_flippable(p);
           if (p.size <= first) break;
-          const uint64_t pick = mix(f.spec.seed ^ 0x5A5A5A5A5A5A5A5Aull, draws_[slot]);
+          const uint64_t pick = mix(stream(f) ^ 0x5A5A5A5A5A5A5A5Aull, draws_[slot]);
           const std::size_t at = first + static_cast<std::size_t>(pick % (p.size - first));
           p.bytes[at] = static_cast<uint8_t>(p.bytes[at] ^ (1u << ((pick >> 32) % 8)));
           ++counters_.corrupted;

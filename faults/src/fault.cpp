@@ -38,6 +38,12 @@ constexpr std::array<FaultKindInfo, kFaultKinds> kKinds{{
     {K::kFootBias, "foot_bias", S::kSensor, "bias", -500.0, 500.0, false, "`bias` N added to each load cell"},
 }};
 
+// "an overheat fault", "a silent fault".
+std::string a_fault(FaultKind kind) {
+  const std::string name(kKinds[static_cast<std::size_t>(kind)].name);
+  return (name.find_first_of("aeiou") == 0 ? "an " : "a ") + name + " fault";
+}
+
 std::string number_text(double x) {
   std::string s = std::to_string(x);
   while (!s.empty() && s.back() == '0') s.pop_back();
@@ -66,20 +72,19 @@ std::string fault_kind_names() {
 
 std::string check(const FaultSpec& spec) {
   const FaultKindInfo& k = info(spec.kind);
-  const std::string kind(k.name);
   switch (k.scope) {
     case S::kServo:
-      if (spec.bus < 0) return "missing field 'bus' (a " + kind + " fault names a servo: robot, bus, id)";
-      if (spec.id < 0) return "missing field 'id' (a " + kind + " fault names a servo: robot, bus, id)";
+      if (spec.bus < 0) return "missing field 'bus' (" + a_fault(spec.kind) + " names a servo: robot, bus, id)";
+      if (spec.id < 0) return "missing field 'id' (" + a_fault(spec.kind) + " names a servo: robot, bus, id)";
       break;
     case S::kBus:
-      if (spec.bus < 0) return "missing field 'bus' (a " + kind + " fault names a bus: robot, bus)";
+      if (spec.bus < 0) return "missing field 'bus' (" + a_fault(spec.kind) + " names a bus: robot, bus)";
       if (spec.kind == K::kCollision && spec.id < 0) return "missing field 'id' (the device that answers although it should not)";
-      if (spec.kind != K::kCollision && spec.id >= 0) return "field 'id' does not belong to a " + kind + " fault (it acts on the whole bus)";
+      if (spec.kind != K::kCollision && spec.id >= 0) return "field 'id' does not belong to " + a_fault(spec.kind) + " (it acts on the whole bus)";
       break;
     case S::kRobot:
-      if (spec.bus >= 0) return "field 'bus' does not belong to a " + kind + " fault (it acts on the whole robot)";
-      if (spec.id >= 0) return "field 'id' does not belong to a " + kind + " fault (it acts on the whole robot)";
+      if (spec.bus >= 0) return "field 'bus' does not belong to " + a_fault(spec.kind) + " (it acts on the whole robot)";
+      if (spec.id >= 0) return "field 'id' does not belong to " + a_fault(spec.kind) + " (it acts on the whole robot)";
       break;
     case S::kSensor:
       if ((spec.bus < 0) != (spec.id < 0)) return "fields 'bus' and 'id' go together (one board), or neither (every such board of the robot)";
@@ -96,11 +101,11 @@ std::string check(const FaultSpec& spec) {
   if (!k.value_field.empty()) {
     if (!std::isfinite(spec.value) || spec.value < k.value_min || spec.value > k.value_max) {
       return "field '" + std::string(k.value_field) + "' must be within " + number_text(k.value_min) + ".." +
-             number_text(k.value_max) + " for a " + kind + " fault, got " + number_text(spec.value);
+             number_text(k.value_max) + " for " + a_fault(spec.kind) + ", got " + number_text(spec.value);
     }
   }
   if (k.needs_rate && (!std::isfinite(spec.rate) || spec.rate <= 0.0 || spec.rate > 1.0)) {
-    return "field 'rate' must be within (0, 1] for a " + kind + " fault, got " + number_text(spec.rate);
+    return "field 'rate' must be within (0, 1] for " + a_fault(spec.kind) + ", got " + number_text(spec.rate);
   }
   return "";
 }

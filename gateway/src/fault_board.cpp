@@ -20,7 +20,6 @@ std::string FaultBoard::target_problem(const faults::FaultSpec& spec, int& statu
            std::to_string(robot.bus_count()) + ")";
   }
   const faults::FaultKindInfo& info = faults::info(spec.kind);
-  const std::string kind(info.name);
   if (spec.bus >= 0 && spec.id >= 0 && info.scope != faults::FaultScope::kBus) {
     const std::string_view role = robot.bus(static_cast<std::size_t>(spec.bus)).device_role(spec.id);
     const std::string where = who + " bus " + std::to_string(spec.bus);
@@ -28,13 +27,13 @@ std::string FaultBoard::target_problem(const faults::FaultSpec& spec, int& statu
     status = 400;
     const bool any_device = spec.kind == faults::FaultKind::kDead || spec.kind == faults::FaultKind::kLate;
     if (info.scope == faults::FaultScope::kServo && !any_device && role != "servo") {
-      return "field 'id': ID " + std::to_string(spec.id) + " on " + where + " is not a servo (a " + kind + " fault needs one)";
+      return "field 'id': ID " + std::to_string(spec.id) + " on " + where + " is not a servo (kind " + std::string(info.name) + " needs one)";
     }
     if (info.scope == faults::FaultScope::kSensor) {
       const bool imu = spec.kind == faults::FaultKind::kImuDropout || spec.kind == faults::FaultKind::kImuBias;
       if (role != (imu ? "imu" : "foot")) {
         return "field 'id': ID " + std::to_string(spec.id) + " on " + where + " is not " +
-               (imu ? "an IMU" : "a foot board") + " (a " + kind + " fault needs one)";
+               (imu ? "an IMU" : "a foot board") + " (kind " + std::string(info.name) + " needs one)";
       }
     }
   }

@@ -165,10 +165,10 @@ Scenario check(const proto::ScenarioFile& file, const std::string& robots_dir) {
     event.seed_from_run = fault.seed() == 0;
     const faults::FaultKindInfo& info = faults::info(*kind);
     if (info.value_field.empty() && fault.value() != 0.0) {
-      file.fail(fault, "value", -1, "a " + std::string(info.name) + " fault takes no value");
+      file.fail(fault, "value", -1, "kind " + std::string(info.name) + " takes no value");
     }
     if (!info.needs_rate && fault.rate() != 0.0) {
-      file.fail(fault, "rate", -1, "a " + std::string(info.name) + " fault takes no rate");
+      file.fail(fault, "rate", -1, "kind " + std::string(info.name) + " takes no rate");
     }
     if (std::string problem = faults::check(event.spec); !problem.empty()) {
       // faults::check names the control API's fields; the file has `value` and `time_s`.

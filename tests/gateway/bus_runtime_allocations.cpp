@@ -114,7 +114,8 @@ TEST(BusRuntimeAllocations, ApplyingEveryFaultAllocatesNothing) {
     f.number = ++number;
     f.spec.kind = kind.kind;
     f.spec.bus = kind.scope == faults::FaultScope::kRobot ? -1 : 0;
-    f.spec.id = kind.scope == faults::FaultScope::kBus ? (kind.kind == faults::FaultKind::kCollision ? 30 : -1)
+    f.spec.id = kind.scope == faults::FaultScope::kRobot ? -1
+                : kind.scope == faults::FaultScope::kBus ? (kind.kind == faults::FaultKind::kCollision ? 30 : -1)
                 : kind.scope == faults::FaultScope::kSensor ? (kind.name.substr(0, 3) == "imu" ? 100 : 101)
                 : kind.kind == faults::FaultKind::kDead ? 2
                                                         : 1;

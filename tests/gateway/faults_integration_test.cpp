@@ -197,9 +197,9 @@ TEST(Faults, ServoFaultsShowAsTheFirmwareShowsThem) {
   // given the same move, gets there.
   for (uint8_t id : {1, 3}) write(client, id, {kTorqueEnable, 1});
   wait_sim(doppel, 0.3);
+  doppel.ok("fault add stuck 0 --bus 0 --id 1");
   const int stuck_at = read_u16(client, 1, kPresentPosition);
   const int free_from = read_u16(client, 3, kPresentPosition);
-  doppel.ok("fault add stuck 0 --bus 0 --id 1");
   for (auto [id, from] : {std::pair<uint8_t, int>{1, stuck_at}, {3, free_from}}) {
     const int goal = from + 100;
     write(client, id, {kGoalPosition, static_cast<uint8_t>(goal & 0xFF), static_cast<uint8_t>(goal >> 8)});
@@ -325,7 +325,7 @@ TEST(Faults, ALateAnswerMissesTheSdkTimeoutAndArrivesAfterwards) {
 // switches the torque off, every status carries Alert (0x80), and only a REBOOT clears it.
 TEST(Faults, Protocol2OverheatingLatchesTheHardwareErrorAndTheAlert) {
   ControlledDoppel doppel({"--robot", "fumanoid-x430"});
-  SerialClient client(doppel.doppel.link(), kBaud);
+  SerialClient client(doppel.doppel.link(), 4'000'000);  // its head bus
   constexpr uint16_t kTorqueEnable2 = 64, kHardwareErrorStatus = 70, kPresentTemperature2 = 146;
   auto read2 = [&](uint8_t id, uint16_t address, uint16_t length) {
     Bytes params = le16(address);

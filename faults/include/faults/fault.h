@@ -97,7 +97,7 @@ struct FaultTable {
   std::size_t count = 0;
 };
 
-// A counter-based random number generator: the n-th draw of a fault depends only on its seed and
+// A counter-based random number generator: the n-th draw of a stream depends only on its seed and
 // n, so a fault replays the same way for the same traffic. rt-safe.
 uint64_t mix(uint64_t seed, uint64_t n) noexcept;
 double uniform(uint64_t seed, uint64_t n) noexcept;    // [0, 1)
