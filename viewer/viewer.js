@@ -189,13 +189,15 @@
   }
   function clearError() { $('error').hidden = true; }
 
-  // A request to doppel; throws Error with the API's message (or why it did not answer).
+  // A request to doppel; throws Error with the API's message (or why it did not answer). Every
+  // request that changes something is JSON, a DELETE without a body too: doppel refuses any other
+  // (docs/security.md). The token travels in the page's cookie.
   async function api(method, path, body) {
     let response;
     try {
       response = await fetch(path, {
         method,
-        headers: body !== undefined ? { 'Content-Type': 'application/json' } : {},
+        headers: method !== 'GET' ? { 'Content-Type': 'application/json' } : {},
         body: body !== undefined ? JSON.stringify(body) : undefined,
         cache: 'no-store',
       });

@@ -134,8 +134,12 @@ struct WalkingDoppel {
     }
     url = "http://127.0.0.1:" + match[1].str();
   }
+  // doppel-ctl with `arguments`, finding the run's token in the test's link directory.
+  std::pair<int, std::string> ctl(const std::string& arguments) const {
+    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " " + arguments);
+  }
   json state() const {
-    const auto [code, output] = run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " state");
+    const auto [code, output] = ctl("state");
     EXPECT_EQ(code, 0) << output;
     return json::parse(output);
   }
@@ -183,7 +187,7 @@ Walked walk(const WalkingDoppel& doppel, const std::string& arguments, const std
     while (doppel.state()["sim_time_s"].get<double>() < t0 + push_at_s) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));  // polling pace; judged on sim time
     }
-    const auto [push_code, push_output] = run_command(std::string(DOPPEL_CTL) + " --url " + doppel.url + " push 0 " + push);
+    const auto [push_code, push_output] = doppel.ctl("push 0 " + push);
     walker.join();
     EXPECT_EQ(push_code, 0) << push_output;
   }

@@ -131,7 +131,9 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         check(difference > 30, f"the pixel at the scrubbed trunk {at_trunk} looks as it does without the robot {at_start}")
         check(at_start[1] > at_start[0] + 20 and at_start[1] > at_start[2] + 20,
               f"without the robot the pixel {at_start} is not carpet green")
-        browser.evaluate(f"fetch('/api/replay', {{method: 'POST', body: JSON.stringify({{position_s: {position}}})}})")
+        status = browser.evaluate(f"fetch('/api/replay', {{method: 'POST', headers: {{'Content-Type': 'application/json'}}, "
+                                  f"body: JSON.stringify({{position_s: {position}}})}}).then((r) => r.status)")
+        check(status == 200, f"the page's seek back to {position:.3f} s got {status}")
 
         # Play runs on, Pause stops.
         browser.click_element("#replay-play")
