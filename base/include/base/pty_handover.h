@@ -24,7 +24,7 @@ namespace doppel {
 inline constexpr const char* kHandoverSuffix = ".received";  // <link>.received
 inline constexpr std::size_t kHandoverFileBytes = sizeof(uint64_t);
 // A write waits at most this long for doppel (stopped or stalled: the program then goes on).
-inline constexpr int64_t kHandoverLimitNs = 20'000'000;
+inline constexpr int64_t kHandoverLimitNs = 100'000'000;
 // One sleep while it waits: short against a packet's wire time, long enough to leave the CPU.
 inline constexpr long kHandoverPauseNs = 20'000;
 
