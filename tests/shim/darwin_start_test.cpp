@@ -33,7 +33,7 @@ DoppelProcess darwin_op() {
 }
 
 // Load-dependent, so it runs only when asked (DOPPEL_LOAD_DEPENDENT_TESTS=1): on this 2-core machine
-// under load average 15-30 it passed 4 of 5 runs with the hand-over fix, and main answered the three
+// under load average 13-19 it passed 7 of 11 runs with the hand-over fix, and main answered the three
 // PINGs in 0 of 8 (docs/drivers.md). What keeps it from passing every time is doppel's own bus
 // thread writing answers milliseconds late (not diagnosed yet); it is no CI gate until that is fixed.
 TEST(DarwinStart, FirstCyclePingsAreAnsweredAndTheBulkReadHoldsTheCm730AndBothFootBoards) {
