@@ -4,7 +4,7 @@
 // MotionManager's timer sends them. Below the bus and without wall clock, so every run is the same:
 // this keeps the corrections of issue 22 (docs/devices.md, DARwIn-OP "Corrections for the
 // framework's walk") from regressing. The same walk through the real framework over the wire is
-// scripts/check-darwin-framework (docs/fidelity.md).
+// scripts/darwin-framework/walk.cpp (docs/drivers.md, docs/fidelity.md).
 
 #include <gtest/gtest.h>
 
