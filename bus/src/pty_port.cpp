@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <sys/inotify.h>
 #include <sys/ioctl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
@@ -16,8 +17,10 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <new>
 #include <stdexcept>
 
+#include "base/pty_handover.h"
 #include "line_speed.h"
 #include "posix_call.h"
 
@@ -96,10 +99,52 @@ PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
       inotify_fd_ = -1;
     }
     install_symlink(link_path_, slave_path_);
+    create_received_file();
   } catch (...) {
+    release_link();
     close_all();
     throw;
   }
+}
+
+std::string PtyPort::received_path_for_link(const std::string& link_path) { return link_path + kHandoverSuffix; }
+
+void PtyPort::create_received_file() {
+  // Never through a symlink, and never over something that is not a regular file; a stale one
+  // (an earlier doppel that was killed) is started afresh.
+  const std::string path = received_path_for_link(link_path_);
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    throw std::runtime_error("PtyPort: '" + path + "' exists and is not a regular file; refusing to replace it");
+  }
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) fail("cannot create the hand-over counter '" + path + "'", errno);
+  if (::ftruncate(fd, static_cast<off_t>(kHandoverFileBytes)) != 0 || ::fstat(fd, &st) != 0) {
+    const int error = errno;
+    ::close(fd);
+    fail("cannot size the hand-over counter '" + path + "'", error);
+  }
+  void* p = ::mmap(nullptr, kHandoverFileBytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  if (p == MAP_FAILED) {
+    const int error = errno;
+    ::close(fd);
+    fail("cannot map the hand-over counter '" + path + "'", error);
+  }
+  received_ = new (p) std::atomic<uint64_t>(0);
+  received_fd_ = fd;
+  received_dev_ = st.st_dev;
+  received_ino_ = st.st_ino;
+}
+
+void PtyPort::remove_received_file() noexcept {
+  if (received_ != nullptr) ::munmap(received_, kHandoverFileBytes);
+  received_ = nullptr;
+  if (received_fd_ < 0) return;
+  const std::string path = received_path_for_link(link_path_);
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && st.st_dev == received_dev_ && st.st_ino == received_ino_) ::unlink(path.c_str());
+  ::close(received_fd_);
+  received_fd_ = -1;
 }
 
 PtyPort::~PtyPort() {
@@ -127,6 +172,7 @@ PtyPort::LinkRelease PtyPort::release_link() noexcept {
 }
 
 void PtyPort::close_all() noexcept {
+  remove_received_file();
   if (inotify_fd_ >= 0) ::close(inotify_fd_);
   if (master_fd_ >= 0) ::close(master_fd_);
   inotify_fd_ = -1;
@@ -136,7 +182,11 @@ void PtyPort::close_all() noexcept {
 std::size_t PtyPort::read(uint8_t* dst, std::size_t capacity) noexcept {
   if (capacity == 0) return 0;
   const SysResult r = posix_call([&] { return ::read(master_fd_, dst, capacity); });
-  if (r.ok()) return static_cast<std::size_t>(r.value);
+  if (r.ok()) {
+    received_total_ += static_cast<uint64_t>(r.value);
+    if (received_ != nullptr) received_->store(received_total_, std::memory_order_release);
+    return static_cast<std::size_t>(r.value);
+  }
   if (!r.would_block()) hung_up_ = true;  // EIO: the last client closed the slave
   return 0;
 }

@@ -915,7 +915,15 @@ static void peer_io() noexcept {
 SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
   NEED_REAL();
   const int bus = g_clock != nullptr ? bus_of_fd(fd) : -1;
+  // Wall-clock mode: wait until doppel has the bytes (shim.cpp, await_handover). Lockstep has its own.
+  const int port = g_clock == nullptr ? port_index_of_fd(fd) : -1;
+  const uint64_t mark = port >= 0 ? handover_mark(port) : 0;
   const ssize_t r = g_real.write(fd, buffer, n);
+  if (port >= 0 && r > 0) {
+    const int saved = errno;
+    await_handover(port, mark, static_cast<std::size_t>(r));
+    errno = saved;
+  }
   if (bus >= 0 && r > 0) {
     g_clock->buses[bus].client_written.fetch_add(static_cast<uint64_t>(r), std::memory_order_acq_rel);
     if (ThreadSlot* slot = self()) touch(slot, Call::kBusWrite);

@@ -15,8 +15,11 @@
 #include <string.h>
 #include <linux/close_range.h>
 #include <sys/ioctl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
 #include <termios.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -25,6 +28,7 @@
 #include <string_view>
 
 #include "base/latency_timer.h"
+#include "base/pty_handover.h"
 #include "line_rate.h"
 #include "lockstep_shim.h"
 #include "shim/ftdi_serial.h"
@@ -51,6 +55,10 @@ struct Port {
   std::atomic<int> closing_wait{kClosingWait};
   std::atomic<unsigned> dtr_rts{TIOCM_DTR | TIOCM_RTS};
   std::atomic<int> latency_before_low_ms{0};  // the file's value when ASYNC_LOW_LATENCY was set
+  // <link>.received (base/pty_handover.h), mapped read-only: bytes doppel has read from the pty.
+  // nullptr when doppel publishes none (then writes are not waited for).
+  const std::atomic<uint64_t>* received = nullptr;
+  std::atomic<uint64_t> expected{0};  // doppel's count once it has read everything written so far
 };
 
 struct Real {
@@ -170,6 +178,35 @@ bool check_link(const Mapping& mapping, Port& port) noexcept {
   return true;
 }
 
+// Maps <link>.received if doppel keeps one; without it (an older doppel) writes pass as before.
+void map_received(Port& port) noexcept {
+  char path[kMaxPathBytes + 16];
+  snprintf(path, sizeof(path), "%s%s", port.link, kHandoverSuffix);
+  const int fd = g_real.open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  if (fd < 0) {
+    say(path, " is missing: writes to ", port.link, " return before doppel has the bytes (an older doppel?)");
+    return;
+  }
+  struct stat st {};
+  void* p = MAP_FAILED;
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_size >= static_cast<off_t>(sizeof(uint64_t))) {
+    p = ::mmap(nullptr, sizeof(uint64_t), PROT_READ, MAP_SHARED, fd, 0);
+  }
+  g_real.close(fd);
+  if (p == MAP_FAILED) {
+    say(path, " is not doppel's hand-over counter: writes are not waited for");
+    return;
+  }
+  port.received = static_cast<const std::atomic<uint64_t>*>(p);
+  port.expected.store(port.received->load(std::memory_order_acquire), std::memory_order_relaxed);
+}
+
+int64_t monotonic_ns() noexcept {
+  timespec t{};
+  ::syscall(SYS_clock_gettime, CLOCK_MONOTONIC, &t);  // not through this library's clock_gettime (lockstep)
+  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+}
+
 void set_up() noexcept {
   resolve_all();
   const char* spec = ::getenv(kPortsVariable);
@@ -192,6 +229,7 @@ void set_up() noexcept {
       if (!check_link(mapping, port)) continue;
       port.link = mapping.link.data();
       snprintf(port.latency_file, sizeof(port.latency_file), "%s.latency_timer", port.link);
+      map_received(port);
       g_mapping_port[m] = static_cast<int>(g_port_count++);
     }
     // The first ttyUSB<n> mapped to a port names its sysfs latency timer and its line.
@@ -435,6 +473,34 @@ int port_index_of_fd(int fd) noexcept {
 }
 
 const char* port_pts(int port) noexcept { return port >= 0 && static_cast<std::size_t>(port) < g_port_count ? g_ports[port].pts : ""; }
+
+uint64_t handover_mark(int port) noexcept {
+  if (port < 0 || static_cast<std::size_t>(port) >= g_port_count || g_ports[port].received == nullptr) return 0;
+  return g_ports[port].received->load(std::memory_order_acquire);
+}
+
+void await_handover(int port, uint64_t mark, std::size_t written) noexcept {
+  if (port < 0 || static_cast<std::size_t>(port) >= g_port_count || written == 0) return;
+  Port& p = g_ports[port];
+  if (p.received == nullptr) return;
+  // Doppel's count once it has these bytes: after everything this process wrote before (expected)
+  // or, if that is behind, after what doppel had read before this write (mark).
+  uint64_t before = p.expected.load(std::memory_order_relaxed);
+  uint64_t target = 0;
+  do {
+    target = (before > mark ? before : mark) + written;
+  } while (!p.expected.compare_exchange_weak(before, target, std::memory_order_relaxed));
+  const int64_t give_up = monotonic_ns() + kHandoverLimitNs;
+  const timespec pause{0, kHandoverPauseNs};
+  while (p.received->load(std::memory_order_acquire) < target) {
+    if (monotonic_ns() > give_up) {
+      // Doppel is not reading (stopped, or stalled): count from what it has, not from a backlog.
+      p.expected.store(p.received->load(std::memory_order_acquire), std::memory_order_relaxed);
+      return;
+    }
+    ::syscall(SYS_clock_nanosleep, CLOCK_MONOTONIC, 0, &pause, nullptr);  // a sleep: this CPU is free meanwhile
+  }
+}
 
 }  // namespace doppel::shim
 

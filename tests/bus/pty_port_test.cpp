@@ -1,12 +1,15 @@
 #include "bus/pty_port.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <termios.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <limits>
@@ -205,6 +208,86 @@ TEST(PtyPort, BytesPassUnchangedBothWays) {
 
   EXPECT_EQ(at_doppel, awkward);
   EXPECT_EQ(at_client, awkward);
+}
+
+// What doppel-run's preload library reads (base/pty_handover.h): the file mapped as another process maps it.
+uint64_t received_in_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return std::numeric_limits<uint64_t>::max();
+  void* p = ::mmap(nullptr, sizeof(uint64_t), PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  if (p == MAP_FAILED) return std::numeric_limits<uint64_t>::max();
+  const uint64_t value = static_cast<const std::atomic<uint64_t>*>(p)->load(std::memory_order_acquire);
+  ::munmap(p, sizeof(uint64_t));
+  return value;
+}
+
+TEST(PtyPort, CountsTheBytesItReadInTheHandOverFileBesideTheLink) {
+  TempDir dir;
+  PtyPort sut(dir.file("ttyDXL0"));
+  const std::string counter = dir.file("ttyDXL0.received");
+  EXPECT_EQ(PtyPort::received_path_for_link(sut.link_path()), counter);
+  EXPECT_EQ(std::filesystem::file_size(counter), 8u);
+  EXPECT_EQ(received_in_file(counter), 0u);
+  {
+    ClientFd client(open_client(sut.link_path()));
+    ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+    ASSERT_TRUE(write_all(client, {0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB}));
+    ASSERT_EQ(port_read(sut, 6).size(), 6u);
+    EXPECT_EQ(received_in_file(counter), 6u);
+  }
+  port_read_until_hang_up(sut);
+  sut.disconnect();
+  // A later client's bytes add to it: it never goes back, across sessions.
+  ClientFd client(open_client(sut.link_path()));
+  ASSERT_TRUE(sut.wait_for_client(kSecondNs));
+  ASSERT_TRUE(write_all(client, {0xFF, 0xFF, 0x01, 0x02}));
+  ASSERT_EQ(port_read(sut, 4).size(), 4u);
+  EXPECT_EQ(received_in_file(counter), 10u);
+  EXPECT_EQ(sut.received(), 10u);
+}
+
+TEST(PtyPort, StartsAStaleHandOverFileAfreshAndRemovesItOnDestruction) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string counter = dir.file("ttyDXL0.received");
+  std::ofstream(counter) << "left by a doppel that was killed";
+  {
+    PtyPort sut(dir.file("ttyDXL0"));
+    EXPECT_EQ(std::filesystem::file_size(counter), 8u);
+    EXPECT_EQ(received_in_file(counter), 0u);
+  }
+  EXPECT_FALSE(std::filesystem::exists(counter));
+}
+
+TEST(PtyPort, RefusesAHandOverPathThatIsNotARegularFileAndLeavesNoLink) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string counter = dir.file("ttyDXL0.received");
+  std::filesystem::create_directories(counter);  // a directory where the counter goes
+  try {
+    PtyPort sut(dir.file("ttyDXL0"));
+    FAIL() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find(counter), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not a regular file"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::is_symlink(dir.file("ttyDXL0")));
+  EXPECT_TRUE(std::filesystem::is_directory(counter));
+}
+
+TEST(PtyPort, LeavesAReplacedHandOverFileAlone) {
+  TempDir dir;
+  const std::string counter = dir.file("ttyDXL0.received");
+  {
+    PtyPort sut(dir.file("ttyDXL0"));
+    std::filesystem::remove(counter);
+    std::ofstream(counter) << "someone else's";
+  }
+  std::ifstream in(counter);
+  std::string first;
+  in >> first;
+  EXPECT_EQ(first, "someone");
 }
 
 TEST(PtyPort, ReadsBackStandardBaudRateSetByClient) {

@@ -21,10 +21,17 @@
 //   use poll on the master. wait_for_client() blocks on an inotify IN_OPEN watch on the slave
 //   device instead: no CPU while idle and no added latency for the first packet. If inotify is
 //   unavailable it falls back to sleeping ~1 ms between checks.
+// - Hand-over counter: beside the link, `<link>.received` (base/pty_handover.h) counts the bytes
+//   read from clients, so that doppel-run's preload library can let a write() return once Doppel
+//   has the bytes, as a USB adapter's does (a pty leaves that to a kernel work item that a
+//   real-time client can keep off its CPU). Created with the link, removed with it.
 // - Known limit: a new client that opens the port within microseconds of the previous client's
 //   last close, before the server thread has handled the hang-up, may receive bytes meant for its
 //   predecessor (DynamixelSDK flushes its input before every transmission, which removes them).
 
+#include <sys/types.h>
+
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -52,7 +59,8 @@ class PtyPort final {
   PtyPort& operator=(const PtyPort&) = delete;
 
   // Moves bytes only. read() copies up to `capacity` received bytes into `dst` and returns 0 when
-  // nothing is waiting; on EIO (the client went away) it returns 0 and sets hung_up(). write()
+  // nothing is waiting; on EIO (the client went away) it returns 0 and sets hung_up(); what it read
+  // is added to the hand-over counter (`<link>.received`). write()
   // returns the bytes accepted: 0 when the client's queue is full or no client is connected. Never
   // block. rt-safe.
   std::size_t read(uint8_t* dst, std::size_t capacity) noexcept;
@@ -94,6 +102,10 @@ class PtyPort final {
   int master_fd() const noexcept { return master_fd_; }
   const std::string& link_path() const noexcept { return link_path_; }    // the stable name
   const std::string& slave_path() const noexcept { return slave_path_; }  // /dev/pts/N
+  // `<link>.received`: the hand-over counter of the port whose link is `link_path`.
+  static std::string received_path_for_link(const std::string& link_path);
+  // Bytes read from clients so far (what the hand-over file holds). rt-safe.
+  uint64_t received() const noexcept { return received_total_; }
 
  private:
   // Opens the slave, sets raw mode if the last client left the line in a mode that changes bytes,
@@ -101,6 +113,8 @@ class PtyPort final {
   void make_slave_raw_and_flush() noexcept;
   void drain_inotify() noexcept;
   void close_all() noexcept;
+  void create_received_file();
+  void remove_received_file() noexcept;
 
   std::string link_path_;
   std::string slave_path_;
@@ -109,6 +123,11 @@ class PtyPort final {
   bool connected_ = false;
   bool hung_up_ = false;
   bool link_released_ = false;
+  std::atomic<uint64_t>* received_ = nullptr;  // the mapped `<link>.received`
+  uint64_t received_total_ = 0;
+  int received_fd_ = -1;  // held open so the file created here can be told from a replacement
+  dev_t received_dev_ = 0;
+  ino_t received_ino_ = 0;
 };
 
 }  // namespace doppel::bus
