@@ -186,11 +186,11 @@ void decode_servo(const LevelsDevice& device, const DeviceTable& table, levels::
 void decode_imu(const LevelsDevice& device, const DeviceTable& t, levels::ImuDecoded& out) {
   switch (device.codec) {
     case LevelsCodec::kCm730: {
-      // e-Manual CM-730 (platform/op/references): gyro and accelerometer are 10-bit, 512 at zero,
-      // spanning -500..500 deg/s and -4..4 g. The gyro's axes are the accelerometer's turned 90 deg
+      // The CM-730's scales (dynamixel::Cm730): gyro and accelerometer are 10-bit, 512 at zero,
+      // spanning -1600..1600 deg/s and -4..4 g. The gyro's axes are the accelerometer's turned 90 deg
       // about z (docs/devices.md, CM-730 axes): in the accelerometer's frame S, w = (Y, -X, Z).
       namespace c = dynamixel::cm730;
-      const double deg_s = 500.0 / 512.0, g = 4.0 / 512.0;
+      const double deg_s = dynamixel::Cm730::kGyroDegSPerCount, g = dynamixel::Cm730::kAccelGPerCount;
       const double gx = (u16(t, c::kGyroX) - 512.0) * deg_s * kDegToRad;
       const double gy = (u16(t, c::kGyroY) - 512.0) * deg_s * kDegToRad;
       const double gz = (u16(t, c::kGyroZ) - 512.0) * deg_s * kDegToRad;

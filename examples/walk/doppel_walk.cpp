@@ -185,7 +185,7 @@ void read_feet(walk::Protocol1Client& bus, walk::ImuReading& out) {
 }
 
 // DARwIn-OP: the CM-730 (ID 200). Gyro Z/Y/X at 38/40/42, ACC X/Y/Z at 44/46/48, 10 bit with 512
-// at zero; gyro 500 deg/s and ACC 4 g over 512 counts (docs/devices.md, CM-730). Its ACC axes: X
+// at zero; gyro 1600 deg/s and ACC 4 g over 512 counts (docs/devices.md, CM-730). Its ACC axes: X
 // right, Y forward, Z up; gyro X back, Y right, Z up. So the trunk's roll rate (+ right side down,
 // about forward) is -Gyro X, its pitch rate (+ nose down, about left) -Gyro Y and its yaw rate
 // (+ left) Gyro Z; the tilts come from the accelerometer (nose down: ACC Y < 512; right side down: ACC X < 512).
@@ -195,7 +195,7 @@ walk::ImuReading read_cm730(walk::Protocol1Client& bus) {
   for (int attempt = 0; attempt < kReadAttempts; ++attempt) {
     if (bus.read(kCm730Id, 38, raw)) {
       const auto counts = [&](int i) { return static_cast<double>(le16(&raw[2 * i])) - 512; };
-      constexpr double kGyro = 500.0 / 512 * kDeg;  // rad/s per count
+      constexpr double kGyro = 1600.0 / 512 * kDeg;  // rad/s per count
       walk::ImuReading r;
       r.gyro_x = -counts(2) * kGyro;
       r.gyro_y = -counts(1) * kGyro;

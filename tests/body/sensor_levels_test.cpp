@@ -136,12 +136,12 @@ TEST(SensorLevels, Cm730DecodesTenBitGyroAndAccelerometerInTheSensorFrame) {
   levels::ImuDecoded d;
   decode_imu(b.levels, table_of(*b.device.device), d);
   EXPECT_FALSE(d.has_orientation());
-  // Raw in register order Gyro X, Y, Z, Acc X, Y, Z. Gyro X = -w.y = 11.46 deg/s / (500/512) = 11.7 -> 524;
+  // Raw in register order Gyro X, Y, Z, Acc X, Y, Z. Gyro X = -w.y = 11.46 deg/s / (1600/512) = 3.7 -> 516;
   // Acc Z = 1 g / (4/512 g) = 128 -> 640.
   ASSERT_EQ(d.raw_size(), 6);
-  EXPECT_EQ(d.raw(0), 524);
+  EXPECT_EQ(d.raw(0), 516);
   EXPECT_EQ(d.raw(5), 640);
-  expect_vector(d.gyro_rad_s(), f.w_WS_S_rad_s, 500.0 / 512 * kPi / 180);
+  expect_vector(d.gyro_rad_s(), f.w_WS_S_rad_s, 1600.0 / 512 * kPi / 180);
   expect_vector(d.accel_m_s2(), f.a_WS_S_m_s2, 4.0 / 512 * kG);
   EXPECT_DOUBLE_EQ(d.accel_m_s2().z(), kG);
 }

@@ -95,10 +95,10 @@ TEST(Cm730, GyroAccelerometerAndVoltageScales) {
   const double deg = std::numbers::pi / 180.0;
   // S = the accelerometer's axes (x right, y forward, z up); the gyro's X points back, Y right
   // (Webots' DARwIn-OP model, docs/devices.md): Gyro X = -w.y, Gyro Y = w.x.
-  f.w_WS_S_rad_s = {-250.0 * deg, -100.0 * deg, 500.0 * deg};  // 512 + rate x 512 / 500
+  f.w_WS_S_rad_s = {-800.0 * deg, -320.0 * deg, 1600.0 * deg};  // 512 + rate x 512 / 1600
   f.a_WS_S_m_s2 = {0.0, -2.0 * 9.80665, 9.80665};              // 512 + a x 128 per g
   sut.apply(f);
-  EXPECT_EQ(sut.register_raw(cm730::kGyroX), 614);   // 512 + 100 x 512 / 500 = 512 + 102.4
+  EXPECT_EQ(sut.register_raw(cm730::kGyroX), 614);   // 512 + 320 x 512 / 1600 = 512 + 102.4
   EXPECT_EQ(sut.register_raw(cm730::kGyroY), 256);   // 512 - 256
   EXPECT_EQ(sut.register_raw(cm730::kGyroZ), 1023);  // 1024 saturates
   EXPECT_EQ(sut.register_raw(cm730::kAccelX), 512);

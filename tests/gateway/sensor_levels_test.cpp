@@ -155,7 +155,7 @@ void expect_decoded_is_truth(const levels::SensorLevels& message, const RobotCon
   ASSERT_EQ(message.imus_size(), 1);
   const levels::ImuLevels& imu = message.imus(0);
   EXPECT_EQ(imu.model(), "CM-730");
-  const double accel_count = 4.0 / 512 * kG, gyro_count = 500.0 / 512 * kPi / 180;  // e-Manual CM-730
+  const double accel_count = 4.0 / 512 * kG, gyro_count = 1600.0 / 512 * kPi / 180;  // CM-730: e-Manual accelerometer, Webots gyro
   const levels::Vector3& a = imu.truth().specific_force_m_s2();
   EXPECT_NEAR(imu.decoded().accel_m_s2().x(), a.x(), accel_count);
   EXPECT_NEAR(imu.decoded().accel_m_s2().y(), a.y(), accel_count);

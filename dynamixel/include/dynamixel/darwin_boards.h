@@ -17,9 +17,13 @@ namespace doppel::dynamixel {
 // and START buttons, LEDs, and the switch of the servos' supply (Dynamixel Power).
 class Cm730 final : public Protocol1Device, public SimulatedController {
  public:
-  // e-Manual (platform/op/references, CM-730): the gyro spans -500..500 deg/s and the accelerometer
-  // -4..4 g over the 10-bit range, 512 at zero.
-  static constexpr double kGyroDegSPerCount = 500.0 / 512.0;
+  // 10 bit, 512 at zero. Accelerometer: -4..4 g (e-Manual, platform/op/references; Webots' model
+  // alike). Gyro: -1600..1600 deg/s, as Webots' DARwIn-OP model maps it (Darwin-op.proto, Gyro
+  // lookupTable +-27.925 rad/s over 0..1024); the e-Manual's text says -500..500 deg/s. Webots'
+  // figure is taken because the framework's own gyro balance, tuned on the robot, is unstable on
+  // this body at any scale above 0.45 of the e-Manual's (docs/devices.md, DARwIn-OP "Corrections
+  // for the framework's walk"; open: a measurement of a CM-730).
+  static constexpr double kGyroDegSPerCount = 1600.0 / 512.0;
   static constexpr double kAccelGPerCount = 4.0 / 512.0;
   static constexpr double kStandardGravityMS2 = 9.80665;
   static constexpr double kVoltageUnitV = 0.1;
