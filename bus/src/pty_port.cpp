@@ -41,10 +41,10 @@ timespec to_timespec(int64_t ns) noexcept {
   return timespec{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
 }
 
-// Points `link_path` at `target`: refuses to touch anything that is not a symlink, and swaps an
-// existing link atomically (symlink to a temporary name + rename). The directory must exist:
-// LinkDirectory makes it safely, so nothing here creates a directory or follows a symlink to one.
-void install_symlink(const std::string& link_path, const std::string& target) {
+// Checks the place of `link_path`: its directory must exist (LinkDirectory makes it safely, so
+// nothing here creates a directory or follows a symlink to one) and anything already there must be
+// a symlink (a stale link from an earlier run), never a file someone else put there.
+void check_link_place(const std::string& link_path) {
   const std::string parent = std::filesystem::path(link_path).parent_path().string();
   struct stat parent_st {};
   if (!parent.empty() && (::stat(parent.c_str(), &parent_st) != 0 || !S_ISDIR(parent_st.st_mode))) {
@@ -60,6 +60,12 @@ void install_symlink(const std::string& link_path, const std::string& target) {
   } else if (errno != ENOENT) {
     fail("cannot inspect '" + link_path + "'", errno);
   }
+}
+
+// Points `link_path` at `target`, swapping an existing link atomically (symlink to a temporary
+// name + rename), after check_link_place.
+void install_symlink(const std::string& link_path, const std::string& target) {
+  check_link_place(link_path);
   const std::string temporary = link_path + ".tmp." + std::to_string(::getpid());
   ::unlink(temporary.c_str());
   if (::symlink(target.c_str(), temporary.c_str()) != 0) {
@@ -74,7 +80,7 @@ void install_symlink(const std::string& link_path, const std::string& target) {
 
 }  // namespace
 
-PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
+PtyPort::PtyPort(std::string link_path, LinkTiming timing) : link_path_(std::move(link_path)) {
   if (link_path_.empty()) throw std::invalid_argument("PtyPort: empty link path");
   master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   if (master_fd_ < 0) fail("posix_openpt", errno);
@@ -98,8 +104,14 @@ PtyPort::PtyPort(std::string link_path) : link_path_(std::move(link_path)) {
       ::close(inotify_fd_);
       inotify_fd_ = -1;
     }
-    install_symlink(link_path_, slave_path_);
     create_received_file();
+    if (timing == LinkTiming::kNow) {
+      publish_link();
+    } else {
+      check_link_place(link_path_);
+      // A stale link from an earlier run goes at once: nothing opens it while this port is set up.
+      if (::unlink(link_path_.c_str()) != 0 && errno != ENOENT) fail("cannot remove the stale link '" + link_path_ + "'", errno);
+    }
   } catch (...) {
     release_link();
     close_all();
@@ -157,8 +169,17 @@ PtyPort::~PtyPort() {
   close_all();
 }
 
+void PtyPort::publish_link() {
+  if (link_published_) return;
+  install_symlink(link_path_, slave_path_);
+  link_published_ = true;
+}
+
 PtyPort::LinkRelease PtyPort::release_link() noexcept {
-  if (link_released_) return LinkRelease::kGone;
+  if (link_released_ || !link_published_) {
+    link_released_ = true;
+    return LinkRelease::kGone;
+  }
   link_released_ = true;
   struct stat st {};
   if (::lstat(link_path_.c_str(), &st) != 0) return LinkRelease::kGone;

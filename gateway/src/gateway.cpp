@@ -286,9 +286,7 @@ void Gateway::set_up_lockstep() {
     for (std::size_t b = 0; b < robot->bus_count(); ++b) {
       lockstep::LockstepBus bus;
       bus.link = robot->bus(b).link();
-      char target[lockstep::kPathBytes] = {};
-      const ssize_t n = ::readlink(bus.link.c_str(), target, sizeof(target) - 1);
-      bus.slave = n > 0 ? std::string(target, static_cast<std::size_t>(n)) : std::string();
+      bus.slave = robot->bus(b).slave_path();  // the link appears once the simulation thread serves the bus
       buses.push_back(bus);
     }
   }
@@ -388,24 +386,21 @@ void Gateway::start() {
     return;
   }
   stop_ = false;
-  if (lockstep_ == nullptr) {  // under lockstep the simulation thread serves the buses itself
-    for (auto& robot : robots_) {
-      robot->start(stop_, options_.rt_priority);
-    }
-  }
+  // Everything else first: a port's link appears only once its bus is served (BusRuntime::start),
+  // and no start-up work of the cameras, the viewer or the recorder comes after it.
   latency_files_->start();
   if (cameras_ != nullptr) {
     cameras_->start();
   }
   live_->simulation_started();
   simulation_thread_ = std::thread([this] {
-    pthread_setname_np(pthread_self(), "doppel-sim");
     if (lockstep_ != nullptr) {
       simulate_lockstep();
     } else {
       simulate();
     }
   });
+  pthread_setname_np(simulation_thread_.native_handle(), "doppel-sim");  // named before any link appears
   field_->start();
   if (control_api_ != nullptr) {
     control_api_->start();
@@ -421,6 +416,13 @@ void Gateway::start() {
       pthread_setname_np(pthread_self(), "doppel-state");
       keep_state();
     });
+  }
+  for (auto& robot : robots_) {
+    if (lockstep_ == nullptr) {
+      robot->start(stop_, options_.rt_priority);
+    } else {
+      robot->publish_links();  // under lockstep the simulation thread serves the buses itself
+    }
   }
 }
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <future>
 #include <numbers>
 #include <algorithm>
 #include <sstream>
@@ -32,6 +33,48 @@ double no_load_speed_rad_s(const dynamixel::ServoSpec& servo, double supply_volt
          servo.motor->rated_voltage_v;
 }
 
+// The EEPROM items of `saved` (restored from a state file) whose value differs from `from_file`
+// (the same device as the robot file alone makes it), by e-Manual name, e.g. "ID 1 -> 5, Baud Rate
+// 3 (1000000 bps) -> 1 (57600 bps)"; "" when none does. A device without a register list (Bit-Bots
+// boards) is compared byte by byte.
+std::string eeprom_differences(const dynamixel::Device& saved, const dynamixel::Device& from_file) {
+  const std::span<const uint8_t> now = saved.eeprom();
+  const std::span<const uint8_t> file = from_file.eeprom();
+  std::ostringstream out;
+  const auto value = [](std::span<const uint8_t> bytes, uint32_t address, uint8_t size, bool is_signed) {
+    uint32_t raw = 0;
+    for (uint8_t i = 0; i < size; ++i) raw |= static_cast<uint32_t>(bytes[address + i]) << (8 * i);
+    if (is_signed && size < 4 && (raw & (1u << (8 * size - 1))) != 0) raw |= ~0u << (8 * size);
+    return is_signed ? static_cast<int64_t>(static_cast<int32_t>(raw)) : static_cast<int64_t>(raw);
+  };
+  const auto item = [&](std::string_view name, uint32_t address, uint8_t size, bool is_signed) {
+    if (address + size > now.size() || address + size > file.size()) return;
+    const int64_t was = value(file, address, size, is_signed);
+    const int64_t is = value(now, address, size, is_signed);
+    if (was == is) return;
+    out << (out.tellp() > 0 ? ", " : "") << name << " " << was;
+    if (name == "Baud Rate") out << " (" << from_file.baud_bps() << " bps)";
+    out << " -> " << is;
+    if (name == "Baud Rate") out << " (" << saved.baud_bps() << " bps)";
+  };
+  const auto* p1 = dynamic_cast<const dynamixel::Protocol1Device*>(&saved);
+  const auto* p2 = dynamic_cast<const dynamixel::Protocol2Device*>(&saved);
+  if (p1 != nullptr) {
+    for (const dynamixel::RegisterSpec& r : p1->spec().registers) {
+      if (r.area == dynamixel::Area::kEeprom) item(r.name, r.address, r.size, r.is_signed);
+    }
+  } else if (p2 != nullptr && !p2->spec().registers.empty()) {
+    for (const dynamixel::P2RegisterSpec& r : p2->spec().registers) {
+      if (r.area == dynamixel::Area::kEeprom) item(r.name, r.address, r.size, r.is_signed);
+    }
+  } else {
+    for (std::size_t a = 0; a < std::min(now.size(), file.size()); ++a) {
+      item("EEPROM byte " + std::to_string(a), static_cast<uint32_t>(a), 1, false);
+    }
+  }
+  return out.str();
+}
+
 const char* protocol_name(dynamixel::Protocol protocol) {
   return protocol == dynamixel::Protocol::kV1 ? "Protocol 1.0" : "Protocol 2.0";
 }
@@ -44,22 +87,29 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     : config_(config), bus_index_(bus_index), body_(body) {
   for (std::size_t d = 0; d < config.devices.size(); ++d) {
     const DeviceConfig& device = config.devices[d];
-    dynamixel::BuiltDevice built;
-    if (device.firmware == dynamixel::Protocol::kV2) {
-      built = dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
-                                               device.return_delay_raw.value_or(250));
-    } else {
+    const auto build = [&] {
+      if (device.firmware == dynamixel::Protocol::kV2) {
+        return dynamixel::make_protocol2_device(device.model, device.id, config.baud_bps,
+                                                device.return_delay_raw.value_or(250));
+      }
       const dynamixel::ModelSpec& spec = dynamixel::model_spec(device.model);
-      built = dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
-                                               device.return_delay_raw.value_or(default_return_delay_raw(spec)));
-    }
+      return dynamixel::make_protocol1_device(device.model, device.id, config.baud_bps,
+                                              device.return_delay_raw.value_or(default_return_delay_raw(spec)));
+    };
+    dynamixel::BuiltDevice built = build();
     const std::string who = "bus " + std::to_string(bus_index) + " device " + std::to_string(d) + " (" +
                             device.model + " " + device.name + ")";
+    std::string changes;  // with saved EEPROM: how it differs from what the robot file alone gives
     if (saved != nullptr) {
+      dynamixel::BuiltDevice from_file = build();
+      for (const InitialValue& initial : device.initial) {
+        if (initial.eeprom) (void)from_file.device->write_item(initial.address, initial.value);
+      }
       if (const std::string error = built.device->restore_eeprom(saved->at(d)); !error.empty()) {
         throw std::runtime_error("state file " + state_path + ": " + who + ": " + error +
                                  " (--fresh starts from the robot file and overwrites it)");
       }
+      changes = eeprom_differences(*built.device, *from_file.device);
     }
     for (const InitialValue& initial : device.initial) {
       if (!initial.eeprom) {
@@ -75,6 +125,7 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     if (built.device->eeprom().size() > kMaxEepromBytes) {
       throw std::invalid_argument(who + " has a larger EEPROM than Doppel keeps");
     }
+    eeprom_changes_.push_back(std::move(changes));
     every_device_.push_back(Gated{d, dynamic_cast<dynamixel::Protocol1Device*>(built.device.get()),
                                   dynamic_cast<dynamixel::Protocol2Device*>(built.device.get())});
     link_to_body(built.role, device, d);
@@ -139,7 +190,7 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
     tap_ = std::make_unique<bus::TrafficTap>();
     server_options.tap = tap_.get();
   }
-  port_ = std::make_unique<bus::PtyPort>(link);
+  port_ = std::make_unique<bus::PtyPort>(link, bus::LinkTiming::kOnPublish);  // start() publishes it
   server_ = std::make_unique<bus::BusServer>(*port_, bus_devices_, server_options, this);
   for (std::size_t d = 0; d < devices_.size(); ++d) {
     const std::span<const uint8_t> bytes = devices_[d]->eeprom();
@@ -261,7 +312,9 @@ void BusRuntime::follow_supply_switch() noexcept {
 BusRuntime::~BusRuntime() { join(); }
 
 void BusRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
-  thread_ = std::thread([this, &stop, rt_priority] {
+  std::promise<void> serving;  // its shared state outlives whichever side lets go first
+  std::future<void> served = serving.get_future();
+  thread_ = std::thread([this, &stop, serving = std::move(serving), rt_priority]() mutable {
     pthread_setname_np(pthread_self(), "doppel-bus");
     if (rt_priority > 0) {
       sched_param param{};
@@ -271,9 +324,16 @@ void BusRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
                      port_->link_path().c_str(), rt_priority, std::strerror(error));
       }
     }
+    serving.set_value();
     server_->run(stop);
   });
+  // The link appears only once this thread serves the port: a driver that opens it the moment it
+  // exists is answered at once (bytes it writes before the thread's first poll wait in the pty).
+  served.wait();
+  publish_link();
 }
+
+void BusRuntime::publish_link() { port_->publish_link(); }
 
 void BusRuntime::join() {
   if (thread_.joinable()) {
@@ -517,6 +577,13 @@ std::string BusRuntime::describe() const {
     std::snprintf(line, sizeof(line), "     ID %3u %-14s %s%s\n", devices_[i]->id(), device.model.c_str(),
                   device.name.c_str(), other_protocol ? "  (speaks the other protocol)" : "");
     out << line;
+    if (!eeprom_changes_[i].empty()) {
+      out << "            EEPROM from the state file, not the robot file: " << eeprom_changes_[i] << "\n";
+    }
+    if (!dynamixel::baud_rates_match(devices_[i]->baud_bps(), config_.baud_bps)) {
+      out << "            ! listens at " << devices_[i]->baud_bps() << " bps, the bus runs at " << config_.baud_bps
+          << " bps: it hears nothing sent at the bus' rate (as a real servo would not)\n";
+    }
   }
   return out.str();
 }
@@ -548,7 +615,7 @@ std::string BusRuntime::summary() const {
 RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index,
                            std::unique_ptr<body::SimulatedBody> body, const Options& options,
                            const RobotEeprom* saved, const std::string& state_path)
-    : config_(config), index_(robot_index), body_(std::move(body)) {
+    : config_(config), index_(robot_index), body_(std::move(body)), state_path_(state_path), state_loaded_(saved != nullptr) {
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
     buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], b, *body_,
                                                   link_path(options.link_dir, robot_index, b), options,
@@ -571,6 +638,12 @@ void RobotRuntime::add_latency_timer_files(bus::LatencyTimerFiles& files) {
 void RobotRuntime::start(const std::atomic<bool>& stop, int rt_priority) {
   for (auto& bus : buses_) {
     bus->start(stop, rt_priority);
+  }
+}
+
+void RobotRuntime::publish_links() {
+  for (auto& bus : buses_) {
+    bus->publish_link();
   }
 }
 
@@ -658,6 +731,18 @@ std::string RobotRuntime::describe() const {
   std::ostringstream out;
   out << "doppel: robot " << index_ << " '" << config_.name << "' (" << config_.source << "), " << body_->description()
       << "\n";
+  if (state_loaded_) {
+    std::size_t differing = 0;
+    for (const auto& bus : buses_) differing += bus->devices_differing_from_file();
+    out << "  EEPROM state loaded from " << state_path_ << " (what drivers wrote to EEPROM in earlier runs; --fresh "
+        << "starts from the robot file): "
+        << (differing == 0 ? std::string("every device as in the robot file")
+                           : std::to_string(differing) + (differing == 1 ? " device differs" : " devices differ") +
+                                 " from the robot file")
+        << "\n";
+  } else if (!state_path_.empty()) {
+    out << "  EEPROM state from the robot file; what drivers write to EEPROM is kept in " << state_path_ << "\n";
+  }
   for (const auto& bus : buses_) {
     out << bus->describe();
   }

@@ -5,6 +5,7 @@
 // commands and reads the devices' measurements from. The two threads share only two snapshots per
 // bus: commands (bus -> simulation) and feedback (simulation -> bus), so neither waits for the other.
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <memory>
@@ -74,14 +75,21 @@ class BusRuntime final : public bus::DeviceSync {
   // Builds the devices of `config` (bus `bus_index` of its robot): factory defaults, then the
   // saved EEPROM areas `saved` (by device; null = none, use the file's initial EEPROM values), then
   // the initial RAM values; links servos and sensors to `body` (which outlives the bus), opens the
-  // port at `link` and the server. Setup; throws (naming `state_path` for a bad saved EEPROM).
+  // port and the server; the port's `link` appears once the bus is served (start(), or
+  // publish_link() when another thread serves it). Setup; throws (naming `state_path` for a bad
+  // saved EEPROM).
   BusRuntime(const BusConfig& config, std::size_t bus_index, body::SimulatedBody& body, const std::string& link,
              const Options& options, const std::vector<std::vector<uint8_t>>* saved = nullptr,
              const std::string& state_path = "");
   ~BusRuntime() override;
 
-  void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
+  // Starts the bus thread, which serves until stop is true, and publishes the link once it runs.
+  // Setup; throws when the link cannot be published (the thread then runs until stop).
+  void start(const std::atomic<bool>& stop, int rt_priority);
   void join();
+  // Publishes the link without a bus thread (lockstep: the simulation thread serves the bus). Setup; throws.
+  void publish_link();
+  const std::string& slave_path() const noexcept { return port_->slave_path(); }  // /dev/pts/N
 
   // bus::DeviceSync, called on the bus thread around every dispatched packet. rt-safe.
   void before_dispatch() noexcept override;
@@ -111,6 +119,8 @@ class BusRuntime final : public bus::DeviceSync {
   // hands no command to the body. Any thread, lock-free.
   void request_power_on() noexcept { power_on_requested_.fetch_add(1, std::memory_order_acq_rel); }
 
+  // The listing at start: the link, and every device with the EEPROM items the state file changed
+  // from the robot file and a flag when its baud rate is not the bus'.
   std::string describe() const;
   std::string summary() const;
   // What the device with ID `id` in the robot file is on this bus: "servo", "imu", "foot",
@@ -118,6 +128,11 @@ class BusRuntime final : public bus::DeviceSync {
   std::string_view device_role(int32_t id) const noexcept;
   std::size_t imu_count() const noexcept { return imus_.size(); }
   std::size_t foot_count() const noexcept { return feet_.size(); }
+  // How many devices' EEPROM (restored from a state file) differs from the robot file's.
+  std::size_t devices_differing_from_file() const noexcept {
+    return static_cast<std::size_t>(std::count_if(eeprom_changes_.begin(), eeprom_changes_.end(),
+                                                  [](const std::string& c) { return !c.empty(); }));
+  }
 
   bus::BusServer& server() noexcept { return *server_; }
   // Return Delay Time of device `index` (file order), µs; only while the bus thread is not running.
@@ -191,6 +206,7 @@ class BusRuntime final : public bus::DeviceSync {
   const dynamixel::Cm730* supply_switch_ = nullptr;  // the bus' CM-730, if any
   bool supply_on_ = true;                            // bus thread: its Dynamixel Power as last followed
   std::vector<Gated> gated_;                         // the devices it switches
+  std::vector<std::string> eeprom_changes_;  // by device: EEPROM items restored from the state file that the robot file sets otherwise ("" none)
   std::unique_ptr<bus::PtyPort> port_;
   std::unique_ptr<bus::TrafficTap> tap_;  // before server_, which writes it
   std::unique_ptr<bus::BusServer> server_;
@@ -250,8 +266,11 @@ class RobotRuntime {
   RobotRuntime(const RobotConfig& config, std::size_t robot_index, std::unique_ptr<body::SimulatedBody> body,
                const Options& options, const RobotEeprom* saved = nullptr, const std::string& state_path = "");
 
-  void start(const std::atomic<bool>& stop, int rt_priority);  // serves until stop is true
+  // Starts every bus thread and publishes each link once its thread runs (see BusRuntime::start).
+  void start(const std::atomic<bool>& stop, int rt_priority);
   void join();
+  // Publishes every bus' link (lockstep: the simulation thread serves the buses). Setup; throws.
+  void publish_links();
   // Simulation thread, around one world step (see BusRuntime). rt-safe.
   void drive(double dt_s) noexcept;
   void sense(int64_t sim_time_ns) noexcept;
@@ -259,6 +278,7 @@ class RobotRuntime {
   // robot powers on again (body controllers, device RAM). rt-safe.
   void power_on() noexcept;
 
+  // The listing at start: the robot, where its EEPROM state comes from and goes, every bus.
   std::string describe() const;
   std::string summary() const;
 
@@ -284,6 +304,8 @@ class RobotRuntime {
   RobotConfig config_;
   std::size_t index_;
   std::unique_ptr<body::SimulatedBody> body_;  // before the buses, which refer to it
+  std::string state_path_;  // its EEPROM state file, "" without a state directory
+  bool state_loaded_;       // the devices' EEPROM came from state_path_
   std::vector<std::unique_ptr<BusRuntime>> buses_;
   uint64_t levels_sequence_ = 0;     // levels thread
   std::vector<bool> levels_fresh_;  // levels thread: bus b has a sample not yet sent

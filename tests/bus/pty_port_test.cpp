@@ -112,6 +112,42 @@ TEST(PtyPort, RefusesToReplaceARegularFile) {
   EXPECT_EQ(content, "precious");
 }
 
+// kOnPublish: the server publishes the link once its thread serves the port (gateway's
+// BusRuntime::start); until then nothing at the link's name leads to this pty or to a stale one.
+TEST(PtyPort, OnPublishTheLinkAppearsOnlyWhenPublishedAndAStaleOneGoesAtOnce) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string link = dir.file("ttyDXL0");
+  std::filesystem::create_symlink("/dev/pts/does-not-exist", link);
+  {
+    PtyPort sut(link, LinkTiming::kOnPublish);
+    EXPECT_FALSE(std::filesystem::is_symlink(link)) << "the stale link is removed, no new one yet";
+    EXPECT_FALSE(sut.link_published());
+
+    sut.publish_link();
+    EXPECT_TRUE(sut.link_published());
+    EXPECT_EQ(link_target(link), sut.slave_path());
+    sut.publish_link();  // a second call changes nothing
+    EXPECT_EQ(link_target(link), sut.slave_path());
+  }
+  EXPECT_FALSE(std::filesystem::is_symlink(link)) << "removed on destruction like a kNow port's";
+}
+
+TEST(PtyPort, OnPublishRefusesARegularFileAtOnceAndAnUnpublishedPortLeavesOthersLinksAlone) {
+  TempDir dir;
+  std::filesystem::create_directories(dir.path());
+  const std::string path = dir.file("ttyDXL0");
+  std::ofstream(path) << "precious";
+  EXPECT_THROW({ PtyPort refused(path, LinkTiming::kOnPublish); }, std::runtime_error);
+  std::filesystem::remove(path);
+  {
+    PtyPort sut(path, LinkTiming::kOnPublish);
+    std::filesystem::create_symlink("/dev/null", path);  // someone else's link appears meanwhile
+    EXPECT_EQ(sut.release_link(), PtyPort::LinkRelease::kGone);
+  }
+  EXPECT_EQ(link_target(path), "/dev/null");
+}
+
 TEST(PtyPort, RemovesItsLinkOnDestruction) {
   TempDir dir;
   const std::string link = dir.file("ttyDXL0");

@@ -141,7 +141,7 @@ TEST_F(MxBus, BulkReadAnswersInListOrder) {
 TEST_F(MxBus, BulkReadChainStopsAtADeviceThatCannotAnswer) {
   // The AX-12A (ID 4) does not know BULK READ; the MX-64 listed after it waits for a status that
   // never comes (docs/devices.md).
-  Bytes reply = client_.transact(p1_instruction(kBroadcast, kBulkRead, {0x00, 2, 1, 0, 2, 4, 0, 2, 2, 0}), 24, 200);
+  Bytes reply = client_.transact(p1_instruction(kBroadcast, kBulkRead, {0x00, 2, 1, 0, 2, 4, 0, 2, 2, 0}), 24);
   EXPECT_EQ(reply, status(1, 0, {29, 0}));
 }
 
@@ -402,7 +402,7 @@ TEST(Doppel, UsbLatencyTimerDelaysReplies) {
   std::vector<double> ms;
   for (int i = 0; i < 20; ++i) {
     auto start = std::chrono::steady_clock::now();
-    ASSERT_EQ(client.transact(p1_instruction(1, kPing), 6, 200).size(), 6u);
+    ASSERT_EQ(client.transact(p1_instruction(1, kPing), 6).size(), 6u);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
   }
   // A 16 ms timer holds a short status until it expires: 8 ms on average (reference §4.3).

@@ -212,6 +212,46 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
   expect_ping_answered(second, "the robot added again");
 }
 
+// The threads of this process named `name` now (/proc/self/task/*/comm).
+int threads_named(const std::string& name) {
+  int n = 0;
+  for (const auto& task : fs::directory_iterator("/proc/self/task")) {
+    std::ifstream comm(task.path() / "comm");
+    std::string each;
+    std::getline(comm, each);
+    n += each == name ? 1 : 0;
+  }
+  return n;
+}
+
+// An added robot's link appears only once its bus thread runs, as the links of the robots doppel
+// started with: a script watching the link directory may write the moment it sees it.
+TEST_F(LiveRobots, AnAddedRobotsLinkAppearsOnlyOnceItsBusIsServed) {
+  ASSERT_EQ(threads_named("doppel-bus"), 1);
+  const std::string link = options_.link_dir + "/robot1/ttyDXL0";
+  std::atomic<int> bus_threads_when_seen{-1};
+  std::atomic<bool> stop{false};
+  std::thread watcher([&] {
+    while (!stop.load()) {
+      if (fs::exists(fs::symlink_status(link))) {
+        bus_threads_when_seen = threads_named("doppel-bus");
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+  });
+  const control::AddResult result = host().add_robot(named("fumanoid-2011"));
+  ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
+  for (int i = 0; i < 100'000 && bus_threads_when_seen.load() < 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::microseconds(100));
+  }
+  stop = true;
+  watcher.join();
+  EXPECT_EQ(bus_threads_when_seen.load(), 2) << "the added robot's bus thread ran when its link appeared";
+  SerialClient second(link, 1000000);
+  expect_ping_answered(second, "the added robot");
+}
+
 TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
   std::ifstream file(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto");
   RobotRequest request;

@@ -114,7 +114,7 @@ TEST_F(X430Robot, BitbotsBoardsAnswerTheirDriversPackets) {
 }
 
 TEST_F(X430Robot, BroadcastPingFindsTheServosInIdOrderButNotTheBoards) {
-  Bytes reply = bus(2).transact({0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x03, 0x00, 0x01, 0x31, 0x42}, 14 * 7, 300);
+  Bytes reply = bus(2).transact({0xFF, 0xFF, 0xFD, 0x00, 0xFE, 0x03, 0x00, 0x01, 0x31, 0x42}, 14 * 7);
   const auto statuses = parse_p2_statuses(reply);
   ASSERT_TRUE(statuses);
   ASSERT_EQ(statuses->size(), 6u);  // BitFoot 102 ignores broadcast (§8.1)
@@ -185,7 +185,7 @@ TEST_F(X430Robot, RegWriteActionRebootAndFactoryReset) {
 TEST_F(X430Robot, ClearMultiTurnAndBackupRestore) {
   ASSERT_EQ(write(1, 4, kOperatingMode, {4}), p2_status(4, 0));  // extended position
   // Reference §2.4 CLEAR layout for ID 4: P1 = 0x01, "DXL\"".
-  EXPECT_EQ(bus(1).transact(p2_instruction(4, kClear, {0x01, 0x44, 0x58, 0x4C, 0x22}), 11, 500), p2_status(4, 0));
+  EXPECT_EQ(bus(1).transact(p2_instruction(4, kClear, {0x01, 0x44, 0x58, 0x4C, 0x22}), 11), p2_status(4, 0));
   // BACKUP store, change an EEPROM item, restore (§2.4 corrected CRC for ID 1 shown in the unit tests).
   ASSERT_EQ(bus(1).transact(p2_instruction(4, kBackup, {0x01, 0x43, 0x54, 0x52, 0x4C}), 11), p2_status(4, 0));
   ASSERT_EQ(write(1, 4, kOperatingMode, {1}), p2_status(4, 0));
@@ -307,7 +307,7 @@ TEST_F(X430RobotWire, SyncReadChainArrivesWhole) {
   // Return Delay Time 250 (500 us) per device in the chain: 6 x (50 + 500 us + 15 B x 2.5 us).
   const auto start = std::chrono::steady_clock::now();
   const Bytes reply =
-      bus(1).transact(p2_instruction(kBroadcast, kSyncRead, cat(read_params(kPresentPosition, 4), {3, 4, 5, 6, 7, 8})), 6 * 15, 500);
+      bus(1).transact(p2_instruction(kBroadcast, kSyncRead, cat(read_params(kPresentPosition, 4), {3, 4, 5, 6, 7, 8})), 6 * 15);
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   const auto statuses = parse_p2_statuses(reply);
   ASSERT_TRUE(statuses);

@@ -72,13 +72,15 @@ void p2_write(SerialClient& client, uint8_t id, uint16_t address, uint8_t value)
   EXPECT_EQ((*statuses)[0].error, 0);
 }
 
-bool p2_pings(SerialClient& client, uint8_t id) {
-  const auto statuses = parse_p2_statuses(client.transact(p2_instruction(id, kPing), 14, 100));
+// A PING answered; `timeout_ms` guards against a hang, and is short only where silence is expected
+// (an answer late on a loaded machine then passes unnoticed; it never fails a test that should pass).
+bool p2_pings(SerialClient& client, uint8_t id, int timeout_ms = 5000) {
+  const auto statuses = parse_p2_statuses(client.transact(p2_instruction(id, kPing), 14, timeout_ms));
   return statuses && statuses->size() == 1 && (*statuses)[0].id == id;
 }
 
-bool p1_pings(SerialClient& client, uint8_t id) {
-  const auto statuses = parse_p1_statuses(client.transact(p1_instruction(id, kPing), 6, 100));
+bool p1_pings(SerialClient& client, uint8_t id, int timeout_ms = 5000) {
+  const auto statuses = parse_p1_statuses(client.transact(p1_instruction(id, kPing), 6, timeout_ms));
   return statuses && statuses->size() == 1 && (*statuses)[0].id == id && (*statuses)[0].error == 0;
 }
 
@@ -90,17 +92,21 @@ TEST(PersistentEeprom, IdAndProtocolTypeSurviveARestartAndAKill) {
     SerialClient client(doppel.link(), 1000000);
     ASSERT_TRUE(p2_pings(client, 1));
     // ID (7) = 5 (XM430-W350, reference §3.7), then doppel is killed without warning once the
-    // state thread had time to save it.
+    // state thread saved it (the file appears with the first change; 60 s only against a hang).
     p2_write(client, 1, 7, 5);
     ASSERT_TRUE(p2_pings(client, 5));
-    std::this_thread::sleep_for(std::chrono::seconds(1));
+    const std::string file = dir.state() + "/state-test.json";
+    for (int i = 0; i < 6000 && !std::filesystem::exists(file); ++i) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ASSERT_TRUE(std::filesystem::exists(file));
     doppel.stop(SIGKILL);
   }
   {
     DoppelProcess doppel(args(dir));
     doppel.wait_for_output("running until");
     SerialClient client(doppel.link(), 1000000);
-    EXPECT_FALSE(p2_pings(client, 1));
+    EXPECT_FALSE(p2_pings(client, 1, 200));
     ASSERT_TRUE(p2_pings(client, 5));
     // Protocol Type (13) = 1: the servo speaks Protocol 1.0 from the next packet on.
     p2_write(client, 5, 13, 1);
@@ -114,7 +120,7 @@ TEST(PersistentEeprom, IdAndProtocolTypeSurviveARestartAndAKill) {
     doppel.wait_for_output("running until");
     SerialClient client(doppel.link(), 1000000);
     EXPECT_TRUE(p1_pings(client, 5));
-    EXPECT_FALSE(p2_pings(client, 5));
+    EXPECT_FALSE(p2_pings(client, 5, 200));
     EXPECT_TRUE(p1_pings(client, 2));  // the Protocol 1.0 RX-64 beside it
     doppel.stop(SIGTERM);
   }
@@ -134,9 +140,15 @@ TEST(PersistentEeprom, IdAndProtocolTypeSurviveARestartAndAKill) {
   EXPECT_TRUE(p2_pings(client, 1));
 }
 
+// Runs doppel until it serves (its "running until" line) or exits by itself, then stops it with
+// SIGTERM; its exit code and output.
 std::pair<int, std::string> run_doppel(const StateDir& dir, const std::string& state_dir) {
-  return run_command(doppel_executable() + " --robot " + dir.robot_file() + " --physics none --no-camera --link-dir " +
-                     dir.dir() + "/links --state-dir " + state_dir + " 2>&1 & pid=$!; sleep 1.5; kill $pid 2>/dev/null; wait $pid");
+  const std::string out = dir.dir() + "/run_doppel.txt";
+  return run_command(doppel_executable() + " --robot " + dir.robot_file() + " --physics none --no-camera --no-viewer " +
+                     "--no-handshake-tcp --link-dir " + dir.dir() + "/links --state-dir " + state_dir + " >" + out +
+                     " 2>&1 & pid=$!; for i in $(seq 600); do grep -q 'running until' " + out +
+                     " && break; kill -0 $pid 2>/dev/null || break; sleep 0.1; done; kill $pid 2>/dev/null; wait $pid; "
+                     "code=$?; cat " + out + "; exit $code");
 }
 
 TEST(PersistentEeprom, CorruptMismatchedAndUnwritableStateIsRefusedWithTheReason) {
@@ -167,6 +179,55 @@ bus { baud_bps: 1000000 protocol: PROTOCOL_2 device { id: 1 model: "XL430-W250" 
   std::tie(code, said) = run_doppel(dir, blocked);
   EXPECT_EQ(code, 1) << said;
   EXPECT_NE(said.find("state directory " + blocked), std::string::npos) << said;
+}
+
+// The start listing says where the EEPROM comes from: a state file (and what it changed from the
+// robot file, by e-Manual item name), or the robot file (and where a driver's writes will be kept);
+// a device whose baud rate is not its bus' is flagged. --fresh is the way back.
+TEST(PersistentEeprom, TheStartListingSaysWhatTheStateFileChanged) {
+  StateDir dir(kOneXm430);
+  const std::string file = dir.state() + "/state-test.json";
+  {
+    DoppelProcess doppel(args(dir));
+    const std::string listing = doppel.wait_for_output("running until");
+    EXPECT_NE(listing.find("EEPROM state from the robot file; what drivers write to EEPROM is kept in " + file),
+              std::string::npos) << listing;
+    EXPECT_EQ(listing.find("EEPROM from the state file"), std::string::npos) << listing;
+    SerialClient client(doppel.link(), 1000000);
+    p2_write(client, 1, 7, 5);  // XM430-W350 ID (7) := 5
+    // Baud Rate (8) := 1 (57600 bps, reference §3.2): the status still goes out at 1 Mbps.
+    client.transact(p2_instruction(5, kWrite, cat(le16(8), {1})), 11);
+    // RX-64 CW Angle Limit (6, 2 bytes) := 100 (Protocol 1.0 WRITE, reference §1).
+    EXPECT_EQ(client.transact(p1_instruction(2, kWrite, {6, 100, 0}), 6), (Bytes{0xFF, 0xFF, 0x02, 0x02, 0x00, 0xFB}));
+    doppel.stop(SIGTERM);  // saves the EEPROM as it is now
+  }
+  {
+    DoppelProcess doppel(args(dir));
+    const std::string listing = doppel.wait_for_output("running until");
+    EXPECT_NE(listing.find("EEPROM state loaded from " + file), std::string::npos) << listing;
+    EXPECT_NE(listing.find("2 devices differ from the robot file"), std::string::npos) << listing;
+    EXPECT_NE(listing.find("ID   5 XM430-W350"), std::string::npos) << listing;
+    EXPECT_NE(listing.find("EEPROM from the state file, not the robot file: ID 1 -> 5, Baud Rate 3 (1000000 bps) -> 1 "
+                           "(57600 bps)"),
+              std::string::npos)
+        << listing;
+    EXPECT_NE(listing.find("! listens at 57600 bps, the bus runs at 1000000 bps"), std::string::npos) << listing;
+    EXPECT_NE(listing.find("EEPROM from the state file, not the robot file: CW Angle Limit 0 -> 100"), std::string::npos)
+        << listing;
+    // The flag is the truth: at the bus' rate the XM430 is silent, at its own it answers.
+    SerialClient bus_rate(doppel.link(), 1000000);
+    EXPECT_FALSE(p2_pings(bus_rate, 5, 200));
+    doppel.stop(SIGTERM);
+  }
+  std::vector<std::string> fresh = args(dir);
+  fresh.push_back("--fresh");
+  DoppelProcess doppel(fresh);
+  const std::string listing = doppel.wait_for_output("running until");
+  EXPECT_NE(listing.find("EEPROM state from the robot file; what drivers write to EEPROM is kept in " + file),
+            std::string::npos) << listing;
+  EXPECT_EQ(listing.find("EEPROM from the state file"), std::string::npos) << listing;
+  EXPECT_EQ(listing.find("! listens at"), std::string::npos) << listing;
+  EXPECT_NE(listing.find("ID   1 XM430-W350"), std::string::npos) << listing;
 }
 
 // DynamixelSDK's protocol_combined example: an MX-28 with Protocol 1.0 firmware (ID 1) and a
@@ -200,8 +261,8 @@ bus {
   const auto read = parse_p2_statuses(client.transact(p2_instruction(2, kRead, cat(le16(132), le16(4))), 15));
   ASSERT_TRUE(read && read->size() == 1 && (*read)[0].params.size() == 4);
   // Neither answers the other's protocol.
-  EXPECT_FALSE(p2_pings(client, 1));
-  EXPECT_FALSE(p1_pings(client, 2));
+  EXPECT_FALSE(p2_pings(client, 1, 200));
+  EXPECT_FALSE(p1_pings(client, 2, 200));
 }
 
 }  // namespace

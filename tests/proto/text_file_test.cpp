@@ -6,7 +6,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -47,10 +46,10 @@ TEST_F(TextFileRead, ADirectoryIsNamedAsSuch) {
 }
 
 TEST_F(TextFileRead, ADeviceIsRefusedAtOnce) {
-  const auto start = std::chrono::steady_clock::now();
+  // Refused before any read: reading /dev/zero would never end (the test's timeout would catch
+  // that hang), and the message names the kind of file, which only a stat before reading knows.
   EXPECT_EQ(load_error("/dev/zero"),
             "/dev/zero: cannot read robot description file: it is a character device, not a regular file");
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
 }
 
 TEST_F(TextFileRead, AFifoIsRefusedWithoutWaitingForAWriter) {

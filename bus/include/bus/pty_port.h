@@ -44,14 +44,21 @@ struct PortWait {
   bool hung_up = false;   // the last client closed the slave
 };
 
+// When the stable name appears. A driver (or a script watching the link directory) opens the port
+// the moment the link exists and expects answers at once, as from a bus that is plugged in: a
+// server publishes the link only once its thread serves the port (kOnPublish, then publish_link()).
+enum class LinkTiming { kNow, kOnPublish };
+
 class PtyPort final {
  public:
-  // Opens a pty master (non-blocking, close-on-exec), puts the slave in raw mode and points
-  // `link_path` at the slave, replacing an existing symlink (a stale link from an earlier run).
-  // The link's directory must exist (LinkDirectory creates and checks it). Setup only. Throws
-  // std::runtime_error with the failing step and path when a system call fails, the directory is
-  // missing, or `link_path` exists and is not a symbolic link (it is never replaced then).
-  explicit PtyPort(std::string link_path);
+  // Opens a pty master (non-blocking, close-on-exec), puts the slave in raw mode and, with kNow,
+  // points `link_path` at the slave, replacing an existing symlink (a stale link from an earlier
+  // run). With kOnPublish it checks the link's place the same way and removes a stale link at
+  // once; the link appears with publish_link(). The link's directory must exist (LinkDirectory
+  // creates and checks it). Setup only. Throws std::runtime_error with the failing step and path
+  // when a system call fails, the directory is missing, or `link_path` exists and is not a
+  // symbolic link (it is never replaced then).
+  explicit PtyPort(std::string link_path, LinkTiming timing = LinkTiming::kNow);
   // release_link(), saying on stderr when the link was replaced; closes the master.
   ~PtyPort();
 
@@ -93,9 +100,14 @@ class PtyPort final {
   // read with TCGETS2; 0 on error or B0. rt-safe.
   uint32_t line_baud_bps() const noexcept;
 
+  // Points the link at the slave (atomically replacing a symlink that appeared meanwhile); the first
+  // call acts, later ones and kNow ports do nothing. Setup only; throws as the constructor does.
+  void publish_link();
+  bool link_published() const noexcept { return link_published_; }
+
   enum class LinkRelease { kRemoved, kGone, kReplaced };
   // Removes the link if it is still this port's: a symlink owned by the user that points at
-  // slave_path(). A link someone replaced is left alone (kReplaced), so its owner's device stays
+  // slave_path() (an unpublished link is not this port's: kGone). A link someone replaced is left alone (kReplaced), so its owner's device stays
   // reachable and the caller can report it. Only the first call acts; later ones return kGone.
   LinkRelease release_link() noexcept;
 
@@ -122,6 +134,7 @@ class PtyPort final {
   int inotify_fd_ = -1;  // IN_OPEN watch on slave_path_, -1 when inotify is unavailable
   bool connected_ = false;
   bool hung_up_ = false;
+  bool link_published_ = false;
   bool link_released_ = false;
   std::atomic<uint64_t>* received_ = nullptr;  // the mapped `<link>.received`
   uint64_t received_total_ = 0;

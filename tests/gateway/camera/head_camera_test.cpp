@@ -12,7 +12,8 @@ namespace {
 
 TEST(HeadCamera, StreamsFromTheDefaultRobotAndFramesCanBeSaved) {
   DoppelProcess doppel({"--timing", "fast"}, "ttyDXL0", /*camera=*/true);
-  // Its first port's link appears before its cameras are published; "running until" comes after.
+  // Its first port's link appears once everything is set up and its bus is served; the listing
+  // ("running until") comes after.
   const std::string output = doppel.wait_for_output("running until");
   EXPECT_NE(output.find("camera 'HEAD_CAMERA'"), std::string::npos) << output;
   // iceoryx's own lines only with --verbose (issue 16).
