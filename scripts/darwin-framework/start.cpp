@@ -14,6 +14,7 @@
 #include <time.h>
 
 #include "LinuxDARwIn.h"
+#include "walking_pose.h"
 
 using namespace Robot;
 
@@ -60,22 +61,7 @@ int main(int argc, char** argv) {
   LinuxMotionTimer* motion_timer = new LinuxMotionTimer(MotionManager::GetInstance());
   motion_timer->Start();
 
-  // ball_following: goal = Walking's pose, moving speed = a quarter of the distance (at least 8).
-  int n = 0;
-  int param[JointData::NUMBER_OF_JOINTS * 5];
-  for (int id = JointData::ID_R_SHOULDER_PITCH; id < JointData::NUMBER_OF_JOINTS; id++) {
-    const int start = MotionStatus::m_CurrentJoints.GetValue(id);
-    const int goal = Walking::GetInstance()->m_Joint.GetValue(id);
-    int distance = start > goal ? start - goal : goal - start;
-    distance >>= 2;
-    if (distance < 8) distance = 8;
-    param[n++] = id;
-    param[n++] = CM730::GetLowByte(goal);
-    param[n++] = CM730::GetHighByte(goal);
-    param[n++] = CM730::GetLowByte(distance);
-    param[n++] = CM730::GetHighByte(distance);
-  }
-  cm730.SyncWrite(MX28::P_GOAL_POSITION_L, 5, JointData::NUMBER_OF_JOINTS - 1, param);
+  sync_write_walking_pose(cm730);
 
   Walking::GetInstance()->m_Joint.SetEnableBodyWithoutHead(true, true);
   MotionManager::GetInstance()->SetEnable(true);
