@@ -104,11 +104,12 @@ PtyPort::PtyPort(std::string link_path, LinkTiming timing) : link_path_(std::mov
       ::close(inotify_fd_);
       inotify_fd_ = -1;
     }
+    // The link's place is checked before anything is made beside it (the hand-over counter).
+    check_link_place(link_path_);
     create_received_file();
     if (timing == LinkTiming::kNow) {
       publish_link();
     } else {
-      check_link_place(link_path_);
       // A stale link from an earlier run goes at once: nothing opens it while this port is set up.
       if (::unlink(link_path_.c_str()) != 0 && errno != ENOENT) fail("cannot remove the stale link '" + link_path_ + "'", errno);
     }
