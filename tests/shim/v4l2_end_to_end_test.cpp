@@ -38,7 +38,7 @@ class V4l2Device : public ::testing::Test {
     return run_command(std::string(DOPPEL_RUN) + " --link-dir " + doppel_.link_dir() + " " + options + " -- " + program);
   }
   std::pair<int, std::string> ctl(const std::string& arguments) {
-    return run_command(std::string(DOPPEL_CTL) + " --url " + url_ + " " + arguments);
+    return run_command(std::string(DOPPEL_CTL) + " --url " + url_ + " --link-dir " + doppel_.link_dir() + " " + arguments);
   }
   std::string file(const std::string& name) const { return doppel_.link_dir() + "/" + name; }
 
