@@ -146,6 +146,25 @@ TEST_F(V4l2Device, OpenCvSeesTheBallWhereDoppelPutsIt) {
   }
 }
 
+// The DARwIn-OP's head camera is mounted upside down: ROBOTIS' own driver (LinuxCamera::CaptureFrame)
+// flips every frame horizontally and vertically before its vision looks. So in the frames the
+// device gives, a ball that moves to the robot's left moves right. The robot stands at (-1.0, -0.8)
+// facing +x (its start pose); the ball 60 cm ahead on its centre line, then 15 cm to its left.
+TEST_F(V4l2Device, TheDarwinOpHeadCameraIsMountedUpsideDownAsOnTheRobot) {
+  std::vector<double> u;
+  for (const double y : {-0.8, -0.65}) {
+    const auto [ctl_code, ctl_output] = ctl("ball -0.4 " + std::to_string(y));
+    ASSERT_EQ(ctl_code, 0) << ctl_output;
+    const auto [code, output] = run("", std::string("/usr/bin/python3 ") + OPENCV_BALL + " 0 320 240 10");
+    ASSERT_EQ(code, 0) << output;
+    std::smatch match;
+    ASSERT_TRUE(std::regex_search(output, match, std::regex(R"(ball ([0-9.]+) ([0-9.]+) (\d+))"))) << output;
+    u.push_back(std::stod(match[1].str()));
+  }
+  EXPECT_NEAR(u[0], 159.5, 8.0) << "the camera sits on the head's centre line";
+  EXPECT_GT(u[1], u[0] + 20.0) << "ahead at u = " << u[0] << ", 15 cm to the left at u = " << u[1];
+}
+
 TEST_F(V4l2Device, AMissingCameraIsAMissingDevice) {
   const auto [code, output] = run("", "/usr/bin/python3 -c \"import os\ntry:\n  os.open('/dev/video3', os.O_RDWR)\nexcept OSError as e:\n  print('errno', e.errno)\"");
   EXPECT_EQ(code, 0) << output;
