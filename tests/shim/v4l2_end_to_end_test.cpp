@@ -185,6 +185,29 @@ TEST(V4l2Lockstep, CameraDevicesDoNotOpenUnderLockstep) {
   EXPECT_NE(output.find("cameras are not in lockstep yet"), std::string::npos) << output;
 }
 
+// /dev/video<n> is the n-th camera of the robot file, not of the alphabet: the darwin-op with a
+// second camera written after HEAD_CAMERA whose name sorts first.
+TEST(V4l2DoppelRun, DevicesFollowTheRobotFilesCameraOrder) {
+  std::ifstream shipped(std::string(DOPPEL_ROBOTS_DIR) + "/darwin-op.textproto");
+  std::string robot((std::istreambuf_iterator<char>(shipped)), {});
+  const std::string head = "hfov_deg: 58 }";
+  const std::size_t at = robot.find(head);
+  ASSERT_NE(at, std::string::npos);
+  robot.insert(at + head.size(), "\n  camera { name: \"A_CHEST\" body: \"trunk\" width_px: 320 height_px: 240 fps: 30 "
+                                 "format: \"yuyv\" lens: \"pinhole\" hfov_deg: 58 }");
+  const std::string path = std::filesystem::temp_directory_path() / ("two-cameras-" + std::to_string(::getpid()) + ".textproto");
+  std::ofstream(path) << robot;
+  DoppelProcess doppel({"--robot", path, "--timing", "fast", "--no-viewer"}, "ttyDXL0", /*camera=*/true);
+  doppel.wait_for_output("running until");
+  for (const auto& [device, card] : {std::pair{"/dev/video0", "HEAD_CAMERA"}, std::pair{"/dev/video1", "A_CHEST"}}) {
+    const auto [code, output] = run_command(std::string(DOPPEL_RUN) + " --link-dir " + doppel.link_dir() +
+                                            " -- v4l2-ctl -d " + device + " --info");
+    EXPECT_EQ(code, 0) << output;
+    EXPECT_NE(output.find(std::string("Card type        : ") + card), std::string::npos) << device << "\n" << output;
+  }
+  std::filesystem::remove(path);
+}
+
 TEST(V4l2DoppelRun, ABadCameraOptionIsNamed) {
   const auto [code, output] = run_command(std::string(DOPPEL_RUN) + " --camera video0 -- true");
   EXPECT_EQ(code, 2) << output;
