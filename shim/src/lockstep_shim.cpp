@@ -233,10 +233,18 @@ void park(ThreadSlot* slot, uint32_t flags, int64_t wake_ns, Call call) noexcept
   }
 }
 
-// False when the thread has no slot (more threads than slots): the caller waits in wall time.
+// False when the thread has no slot (more threads than slots): the caller waits in wall time. A
+// wake-up time that has already passed returns at once, as the kernel's sleep does, without a
+// hand-over to doppel (which would wake the thread at the same simulation time): a controller that
+// overruns its period (clock_nanosleep(TIMER_ABSTIME) behind) costs no round trip per cycle. A
+// sleep until now itself still parks, so that the program's other threads due now run first, as before.
 bool sleep_until(int64_t wake_ns, Call call) noexcept {
   ThreadSlot* slot = self();
   if (slot == nullptr) return false;
+  if (wake_ns < sim_now()) {
+    touch(slot, call);
+    return true;
+  }
   park(slot, lockstep::kUntilTime, wake_ns, call);
   return true;
 }
@@ -302,27 +310,52 @@ int readable_bytes(int fd) noexcept {
   return ::ioctl(fd, FIONREAD, &n) == 0 ? n : 0;
 }
 
+// Totals of ClockFile::BusSlot::delivered known to have crossed the pty (by bus): those bytes stay
+// there until the program reads them (client_read) or flushes or closes the bus, so settle() need
+// not ask the kernel again.
+std::atomic<uint64_t> g_settled[lockstep::kMaxBuses];
+
 // Waits (wall time, bounded) until the pty holds every byte doppel delivered that the program has
 // not read: the kernel hands pty bytes over asynchronously, and what a read finds must not depend on that.
 void settle(int bus, int fd) noexcept {
-  const lockstep::BusSlot& b = g_clock->buses[bus];
+  lockstep::BusSlot& b = g_clock->buses[bus];
   const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
   const uint64_t read = b.client_read.load(std::memory_order_acquire);
-  if (delivered <= read) return;
+  if (delivered <= read || delivered <= g_settled[bus].load(std::memory_order_acquire)) return;
   const int64_t want = static_cast<int64_t>(delivered - read);
   int64_t give_up = 0;
-  while (readable_bytes(fd) < want) {
+  for (;;) {
+    // A poll of the pty first runs the kernel's pending hand-over (n_tty_poll flushes the port's
+    // work item), so the count after it is usually complete: two system calls per delivery.
+    struct pollfd p {fd, POLLIN, 0};
+    const struct timespec slice = timespec_of(100'000);
+    g_real.ppoll(&p, 1, &slice, nullptr);
+    const int readable = readable_bytes(fd);
+    if (readable >= want) break;
     const int64_t now = wall_now();
     if (give_up == 0) give_up = now + kSettleWallNs;
     if (now > give_up) {
       say("a bus' bytes did not arrive within 1 s; counting them as read");
-      g_clock->buses[bus].client_read.store(delivered - static_cast<uint64_t>(readable_bytes(fd)), std::memory_order_release);
-      return;
+      b.client_read.store(delivered - static_cast<uint64_t>(readable), std::memory_order_release);
+      break;
     }
-    struct pollfd p {fd, POLLIN, 0};
-    const struct timespec slice = timespec_of(100'000);
-    g_real.ppoll(&p, 1, &slice, nullptr);
   }
+  uint64_t settled = g_settled[bus].load(std::memory_order_relaxed);
+  while (settled < delivered && !g_settled[bus].compare_exchange_weak(settled, delivered, std::memory_order_acq_rel)) {
+  }
+}
+
+// Bytes a read of bus `bus` finds now, once settled: what doppel delivered and the program has not
+// read yet (no system call); the kernel's count when that is nothing (bytes from elsewhere).
+int available(int bus, int fd) noexcept {
+  const lockstep::BusSlot& b = g_clock->buses[bus];
+  const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
+  const uint64_t read = b.client_read.load(std::memory_order_acquire);
+  if (delivered > read && delivered <= g_settled[bus].load(std::memory_order_acquire)) {
+    const uint64_t pending = delivered - read;
+    return pending < static_cast<uint64_t>(INT32_MAX) ? static_cast<int>(pending) : INT32_MAX;
+  }
+  return readable_bytes(fd);
 }
 
 void settle_all() noexcept {
@@ -460,7 +493,7 @@ ssize_t counted_read(int bus, int fd, void* buffer, size_t n) noexcept {
 ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
   ThreadSlot* slot = self();
   settle(bus, fd);
-  if (slot == nullptr || n == 0 || readable_bytes(fd) > 0) return counted_read(bus, fd, buffer, n);
+  if (slot == nullptr || n == 0 || available(bus, fd) > 0) return counted_read(bus, fd, buffer, n);
   touch(slot, Call::kBusRead);
   struct termios tio {};
   const bool tty = ::tcgetattr(fd, &tio) == 0;
@@ -477,7 +510,7 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
       settle(bus, fd);
       t_empty_read_event = g_clock->events.load(std::memory_order_acquire);
     }
-    if (readable_bytes(fd) > 0) return counted_read(bus, fd, buffer, n);
+    if (available(bus, fd) > 0) return counted_read(bus, fd, buffer, n);
     if (nonblocking(fd)) {
       errno = EAGAIN;
       return -1;
@@ -490,7 +523,7 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
     park(slot, lockstep::kNextEvent | (deadline != kNever ? lockstep::kUntilTime : 0u), deadline, Call::kBusRead);
     if (!on()) return g_real.read(fd, buffer, n);
     settle(bus, fd);
-    if (readable_bytes(fd) >= want) return counted_read(bus, fd, buffer, n);
+    if (available(bus, fd) >= want) return counted_read(bus, fd, buffer, n);
     if (sim_now() >= deadline) return 0;
   }
 }
