@@ -314,13 +314,18 @@ int readable_bytes(int fd) noexcept {
 // there until the program reads them (client_read) or flushes or closes the bus, so settle() need
 // not ask the kernel again.
 std::atomic<uint64_t> g_settled[lockstep::kMaxBuses];
+// The bus counters (delivered, client_read) when this thread last counted the pty's bytes itself
+// (FIONREAD): while they are unchanged, the pty holds delivered - client_read bytes for it. (A
+// program that also reads the bus past the shim, through stdio, would make that stale.)
+thread_local uint64_t t_checked_delivered[lockstep::kMaxBuses];
+thread_local uint64_t t_checked_read[lockstep::kMaxBuses];
 
 // Waits (wall time, bounded) until the pty holds every byte doppel delivered that the program has
 // not read: the kernel hands pty bytes over asynchronously, and what a read finds must not depend on that.
 void settle(int bus, int fd) noexcept {
   lockstep::BusSlot& b = g_clock->buses[bus];
   const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
-  const uint64_t read = b.client_read.load(std::memory_order_acquire);
+  uint64_t read = b.client_read.load(std::memory_order_acquire);
   if (delivered <= read || delivered <= g_settled[bus].load(std::memory_order_acquire)) return;
   const int64_t want = static_cast<int64_t>(delivered - read);
   int64_t give_up = 0;
@@ -336,26 +341,33 @@ void settle(int bus, int fd) noexcept {
     if (give_up == 0) give_up = now + kSettleWallNs;
     if (now > give_up) {
       say("a bus' bytes did not arrive within 1 s; counting them as read");
-      b.client_read.store(delivered - static_cast<uint64_t>(readable), std::memory_order_release);
+      read = delivered - static_cast<uint64_t>(readable);
+      b.client_read.store(read, std::memory_order_release);
       break;
     }
   }
+  t_checked_delivered[bus] = delivered;
+  t_checked_read[bus] = read;
   uint64_t settled = g_settled[bus].load(std::memory_order_relaxed);
   while (settled < delivered && !g_settled[bus].compare_exchange_weak(settled, delivered, std::memory_order_acq_rel)) {
   }
 }
 
-// Bytes a read of bus `bus` finds now, once settled: what doppel delivered and the program has not
-// read yet (no system call); the kernel's count when that is nothing (bytes from elsewhere).
-int available(int bus, int fd) noexcept {
+// Bytes the pty holds for the program on bus `bus` as this thread last counted them, if the
+// counters have not moved since (no system call); 0 otherwise.
+int checked_pending(int bus) noexcept {
   const lockstep::BusSlot& b = g_clock->buses[bus];
   const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
   const uint64_t read = b.client_read.load(std::memory_order_acquire);
-  if (delivered > read && delivered <= g_settled[bus].load(std::memory_order_acquire)) {
-    const uint64_t pending = delivered - read;
-    return pending < static_cast<uint64_t>(INT32_MAX) ? static_cast<int>(pending) : INT32_MAX;
-  }
-  return readable_bytes(fd);
+  if (delivered <= read || delivered != t_checked_delivered[bus] || read != t_checked_read[bus]) return 0;
+  const uint64_t pending = delivered - read;
+  return pending < static_cast<uint64_t>(INT32_MAX) ? static_cast<int>(pending) : INT32_MAX;
+}
+
+// Bytes a read of bus `bus` finds now, once settled: checked_pending, else the kernel's count.
+int available(int bus, int fd) noexcept {
+  const int pending = checked_pending(bus);
+  return pending > 0 ? pending : readable_bytes(fd);
 }
 
 void settle_all() noexcept {
@@ -396,6 +408,18 @@ uint64_t expire(VirtualTimer& timer) noexcept {
 // answer for themselves, the rest is asked of the kernel without waiting. Lowers *wake_ns to the
 // earliest timer expiry.
 int poll_now(struct pollfd* fds, nfds_t n, int64_t* wake_ns) noexcept {
+  // Only buses asked for input, each holding bytes this thread counted (a reply doppel delivered):
+  // readable, without asking the kernel. Anything else (a bus with nothing, other events, other descriptors) is the kernel's.
+  constexpr short kInput = POLLIN | POLLRDNORM;
+  bool settled_input = n > 0;
+  for (nfds_t i = 0; i < n && settled_input; ++i) {
+    const int bus = (fds[i].events & ~kInput) == 0 && fds[i].events != 0 ? bus_of_fd(fds[i].fd) : -1;
+    settled_input = bus >= 0 && checked_pending(bus) > 0;
+  }
+  if (settled_input) {
+    for (nfds_t i = 0; i < n; ++i) fds[i].revents = fds[i].events;
+    return static_cast<int>(n);
+  }
   bool timers = false;
   for (nfds_t i = 0; i < n; ++i) timers = timers || timer_of(fds[i].fd) != nullptr;
   const struct timespec zero {};
