@@ -13,6 +13,10 @@
 // MODE sem: a thread paced by nanosleep (1 ms) posts a semaphore the main thread waits on.
 // MODE pipe: a thread paced by usleep (1 ms) writes a byte to a pipe the main thread reads (blocking).
 // MODE busy: spins without any call the shim intercepts (the watchdog must name it).
+// MODE overrun: 1000 clock_nanosleep(TIMER_ABSTIME) calls to a time 1 ms before now (the man page:
+//   "less than or equal to the current value of the clock ... returns immediately without
+//   suspending the calling thread"), then SECONDS of relative sleep; prints "late_sleeps=N" (how
+//   many returned 0 with CLOCK_MONOTONIC unchanged) besides the usual line.
 //
 // Prints "cycles=N replies=N timeouts=N end_s=S" when SECONDS of CLOCK_MONOTONIC have passed.
 #include <errno.h>
@@ -167,7 +171,7 @@ static void* pipe_thread(void* argument) {
 
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: %s single|timer|sem|pipe|busy PORT SECONDS\n", argv[0]);
+    fprintf(stderr, "usage: %s single|timer|sem|pipe|overrun|busy PORT SECONDS\n", argv[0]);
     return 2;
   }
   const char* mode = argv[1];
@@ -225,6 +229,25 @@ int main(int argc, char** argv) {
     done = 1;
     if (!use_sem) close(pipe_fds[0]);  // the writer's next write fails (EPIPE ignored below)
     pthread_join(thread, NULL);
+  } else if (strcmp(mode, "overrun") == 0) {
+    struct timespec before, past, after;
+    clock_gettime(CLOCK_MONOTONIC, &before);
+    past = before;
+    past.tv_sec -= 1;
+    past.tv_nsec += 999000000;  // before - 1 ms
+    if (past.tv_nsec >= 1000000000) {
+      past.tv_nsec -= 1000000000;
+      ++past.tv_sec;
+    }
+    long late_sleeps = 0;
+    for (int i = 0; i < 1000; ++i) {
+      const int r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &past, NULL);
+      clock_gettime(CLOCK_MONOTONIC, &after);
+      if (r == 0 && after.tv_sec == before.tv_sec && after.tv_nsec == before.tv_nsec) ++late_sleeps;
+    }
+    printf("late_sleeps=%ld\n", late_sleeps);
+    const struct timespec rest = {(time_t)seconds, (long)((seconds - (double)(time_t)seconds) * 1e9)};
+    nanosleep(&rest, NULL);
   } else if (strcmp(mode, "busy") == 0) {
     volatile uint64_t spin = 0;
     for (;;) ++spin;  // no call at all: invisible to the shim

@@ -4,7 +4,10 @@
 // simulation time (it stops after exactly its simulated seconds, whatever the wall clock did), and
 // a thread that waits in a way the shim cannot see is named by the watchdog instead of hanging
 // the run silently.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -14,6 +17,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "lockstep/clock_file.h"
 
 namespace doppel::testing {
 namespace {
@@ -168,6 +172,29 @@ TEST(Lockstep, WatchdogNamesAThreadThatNeverWaitsAndTheNextControllerRuns) {
   const auto [code, next] = run_command(run + kController + " single /dev/ttyUSB0 0.5");
   EXPECT_EQ(code, 0) << next << doppel.output();
   EXPECT_EQ(value(next, "timeouts"), "0") << next;
+}
+
+TEST(Lockstep, ASleepUntilATimeAlreadyPastReturnsWithoutAHandOverToDoppel) {
+  // clock_nanosleep(2): a TIMER_ABSTIME time "less than or equal to the current value of the clock"
+  // returns immediately without suspending the thread. Under lockstep such a sleep must neither
+  // move simulation time nor wait for doppel: the clock file counts the waits the thread began.
+  DoppelProcess doppel({"--lockstep"});
+  doppel.wait_for_output("running until");
+  const auto [code, output] = run_command(kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() + " -- " +
+                                          kController + " overrun /dev/ttyUSB0 0.5");
+  ASSERT_EQ(code, 0) << output << doppel.output();
+  EXPECT_EQ(value(output, "late_sleeps"), "1000") << output;
+  EXPECT_EQ(value(output, "end_s"), "0.500000") << output;
+  const int fd = ::open((doppel.link_dir() + "/" + lockstep::kClockFileName).c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  void* memory = ::mmap(nullptr, sizeof(lockstep::ClockFile), PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  ASSERT_NE(memory, MAP_FAILED);
+  const auto* clock = static_cast<const lockstep::ClockFile*>(memory);
+  // The controller's only thread had slot 0 (released at its exit, its counters kept): one wait, the final sleep.
+  EXPECT_EQ(clock->threads[0].waits.load(), 1u);
+  EXPECT_EQ(clock->slots_used.load(), 1u);
+  ::munmap(memory, sizeof(lockstep::ClockFile));
 }
 
 TEST(Lockstep, DoppelRunLockstepNeedsALockstepDoppel) {
