@@ -237,12 +237,20 @@ void park(ThreadSlot* slot, uint32_t flags, int64_t wake_ns, Call call) noexcept
 // wake-up time that has already passed returns at once, as the kernel's sleep does, without a
 // hand-over to doppel (which would wake the thread at the same simulation time): a controller that
 // overruns its period (clock_nanosleep(TIMER_ABSTIME) behind) costs no round trip per cycle. A
-// sleep until now itself still parks, so that the program's other threads due now run first, as before.
+// sleep until now (zero length) lets the program's other threads due now run, then waits for the
+// next event (simulation time moves on): on a real machine such a sleep still takes microseconds,
+// and a loop of them until the clock reaches a time (the DARwIn-OP framework's LinuxCM730::Sleep
+// passes milliseconds to usleep, so its last millisecond is usleep(0)) would else never see it move.
 bool sleep_until(int64_t wake_ns, Call call) noexcept {
   ThreadSlot* slot = self();
   if (slot == nullptr) return false;
-  if (wake_ns < sim_now()) {
+  const int64_t now = sim_now();
+  if (wake_ns < now) {
     touch(slot, call);
+    return true;
+  }
+  if (wake_ns == now) {
+    park(slot, lockstep::kNextEvent, kNever, call);
     return true;
   }
   park(slot, lockstep::kUntilTime, wake_ns, call);
@@ -535,7 +543,12 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
       t_empty_read_event = g_clock->events.load(std::memory_order_acquire);
     }
     if (available(bus, fd) > 0) return counted_read(bus, fd, buffer, n);
-    if (nonblocking(fd)) {
+    // As n_tty_read: in raw mode with VMIN = VTIME = 0 an empty read returns 0 even under
+    // O_NONBLOCK (its zero timeout is checked before the flag); otherwise O_NONBLOCK gives EAGAIN.
+    // Drivers that add read()'s result to a count (the DARwIn-OP framework's CM730::TxRxPacket,
+    // DynamixelSDK's rxPacket) open the port so and rely on the 0.
+    const bool raw_no_wait = tty && (tio.c_lflag & ICANON) == 0 && vmin == 0 && vtime == 0;
+    if (nonblocking(fd) && !raw_no_wait) {
       errno = EAGAIN;
       return -1;
     }
