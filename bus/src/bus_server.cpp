@@ -96,16 +96,22 @@ void BusServer::serve_lockstep(uint64_t input_total, int64_t settle_ns, bool che
     write_due();
     return;
   }
-  // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of them.
-  const int64_t give_up = monotonic_now_ns() + settle_ns;
+  // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of
+  // them. A read of the master runs a pending hand-over first (n_tty_read flushes the port's work
+  // item), so no poll precedes it; it stops at `input_total`, sparing the read that would find nothing.
+  int64_t give_up = 0;
   for (;;) {
-    const PortWait woke = port_.wait(0, false);
-    if (woke.readable) read_input();
+    // With all of it read already (check_line), the read takes whatever else the line holds.
+    const bool all_in = counters_.bytes_in.load(std::memory_order_relaxed) >= input_total;
+    read_input(all_in ? UINT64_MAX : input_total);
     if (port_.hung_up()) {
       on_hang_up();
       return;
     }
-    if (counters_.bytes_in.load(std::memory_order_relaxed) >= input_total || monotonic_now_ns() > give_up) break;
+    if (counters_.bytes_in.load(std::memory_order_relaxed) >= input_total) break;
+    const int64_t wall_ns = monotonic_now_ns();
+    if (give_up == 0) give_up = wall_ns + settle_ns;
+    if (wall_ns > give_up) break;
     port_.wait(100'000, false);
   }
   write_blocked_ = false;
@@ -170,9 +176,10 @@ void BusServer::await_due(int64_t due_ns) noexcept {
   if (left_ns > 0) port_.wait(left_ns, false);
 }
 
-void BusServer::read_input() noexcept {
+void BusServer::read_input(uint64_t until_total) noexcept {
   std::array<uint8_t, 4096> buffer;
   for (;;) {
+    if (counters_.bytes_in.load(std::memory_order_relaxed) >= until_total) break;
     const std::size_t n = port_.read(buffer.data(), buffer.size());
     if (n == 0) break;
     const int64_t seen_ns = now();

@@ -13,6 +13,13 @@
 // MODE sem: a thread paced by nanosleep (1 ms) posts a semaphore the main thread waits on.
 // MODE pipe: a thread paced by usleep (1 ms) writes a byte to a pipe the main thread reads (blocking).
 // MODE busy: spins without any call the shim intercepts (the watchdog must name it).
+// MODE overrun: 1000 clock_nanosleep(TIMER_ABSTIME) calls to a time 1 ms before now (the man page:
+//   "less than or equal to the current value of the clock ... returns immediately without
+//   suspending the calling thread"), then usleep(0) until CLOCK_MONOTONIC has moved 1 ms (at most
+//   20000 times), then SECONDS of relative sleep; prints "late_sleeps=N" (how many returned 0 with
+//   CLOCK_MONOTONIC unchanged) and "zero_sleeps=N" (the usleep(0) calls; -1 if time never moved).
+// Every mode counts reads of the port that returned -1 ("read_errors=N"): termios(3), MIN == 0,
+// TIME == 0: "If no data is available, read(2) returns 0".
 //
 // Prints "cycles=N replies=N timeouts=N end_s=S" when SECONDS of CLOCK_MONOTONIC have passed.
 #include <errno.h>
@@ -32,7 +39,7 @@
 #include <unistd.h>
 
 static int port = -1;
-static long replies = 0, timeouts = 0;
+static long replies = 0, timeouts = 0, read_errors = 0;
 
 static double now_s(clockid_t clock) {
   struct timespec ts;
@@ -75,6 +82,7 @@ static int receive(int expected, int sdk_style) {
     }
     const ssize_t n = read(port, buffer + got, (size_t)(expected - got));
     if (n > 0) got += (int)n;
+    if (n < 0) ++read_errors;
     if (sdk_style && got < expected && now_s(CLOCK_REALTIME) > deadline_real) break;
   }
   if (got == expected && buffer[0] == 0xFF && buffer[1] == 0xFF) {
@@ -167,7 +175,7 @@ static void* pipe_thread(void* argument) {
 
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: %s single|timer|sem|pipe|busy PORT SECONDS\n", argv[0]);
+    fprintf(stderr, "usage: %s single|timer|sem|pipe|overrun|busy PORT SECONDS\n", argv[0]);
     return 2;
   }
   const char* mode = argv[1];
@@ -225,6 +233,32 @@ int main(int argc, char** argv) {
     done = 1;
     if (!use_sem) close(pipe_fds[0]);  // the writer's next write fails (EPIPE ignored below)
     pthread_join(thread, NULL);
+  } else if (strcmp(mode, "overrun") == 0) {
+    struct timespec before, past, after;
+    clock_gettime(CLOCK_MONOTONIC, &before);
+    past = before;
+    past.tv_sec -= 1;
+    past.tv_nsec += 999000000;  // before - 1 ms
+    if (past.tv_nsec >= 1000000000) {
+      past.tv_nsec -= 1000000000;
+      ++past.tv_sec;
+    }
+    long late_sleeps = 0;
+    for (int i = 0; i < 1000; ++i) {
+      const int r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &past, NULL);
+      clock_gettime(CLOCK_MONOTONIC, &after);
+      if (r == 0 && after.tv_sec == before.tv_sec && after.tv_nsec == before.tv_nsec) ++late_sleeps;
+    }
+    const double zero_start = now_s(CLOCK_MONOTONIC);
+    long zero_sleeps = 0;
+    while (now_s(CLOCK_MONOTONIC) - zero_start < 0.001 && zero_sleeps < 20000) {
+      usleep(0);
+      ++zero_sleeps;
+    }
+    if (now_s(CLOCK_MONOTONIC) - zero_start < 0.001) zero_sleeps = -1;
+    printf("late_sleeps=%ld zero_sleeps=%ld\n", late_sleeps, zero_sleeps);
+    const struct timespec rest = {(time_t)seconds, (long)((seconds - (double)(time_t)seconds) * 1e9)};
+    nanosleep(&rest, NULL);
   } else if (strcmp(mode, "busy") == 0) {
     volatile uint64_t spin = 0;
     for (;;) ++spin;  // no call at all: invisible to the shim
@@ -232,6 +266,7 @@ int main(int argc, char** argv) {
     fprintf(stderr, "unknown mode %s\n", mode);
     return 2;
   }
-  printf("cycles=%ld replies=%ld timeouts=%ld end_s=%.6f\n", cycles, replies, timeouts, now_s(CLOCK_MONOTONIC) - start);
+  printf("cycles=%ld replies=%ld timeouts=%ld read_errors=%ld end_s=%.6f\n", cycles, replies, timeouts, read_errors,
+         now_s(CLOCK_MONOTONIC) - start);
   return 0;
 }

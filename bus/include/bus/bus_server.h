@@ -168,7 +168,9 @@ class BusServer {
     std::array<std::atomic<uint64_t>, kLatenessBins> lateness_bins{};
   };
 
-  void read_input() noexcept;
+  // Reads and processes what the pty holds, until it holds nothing or `until_total` bytes were read
+  // since construction (lockstep knows how many the controller wrote).
+  void read_input(uint64_t until_total = UINT64_MAX) noexcept;
   int64_t now() const noexcept;  // options_.clock or CLOCK_MONOTONIC
   void hash_bytes(uint8_t direction, int64_t t_ns, const uint8_t* bytes, std::size_t n) noexcept;
   void process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept;
