@@ -241,6 +241,17 @@ bool sleep_until(int64_t wake_ns, Call call) noexcept {
   return true;
 }
 
+// A relative sleep. One of zero length waits for the next event: on the robot even usleep(0)
+// lets time pass, and a loop of usleep(0) and clock reads (the DARwIn-OP framework's
+// LinuxCM730::Sleep near its end) would otherwise hold simulation time still for ever.
+bool sleep_for(int64_t ns, Call call) noexcept {
+  if (ns > 0) return sleep_until(sim_now() + ns, call);
+  ThreadSlot* slot = self();
+  if (slot == nullptr) return false;
+  park(slot, lockstep::kNextEvent, kNever, call);
+  return true;
+}
+
 bool virtual_clock(clockid_t clock) noexcept {
   switch (clock) {
     case CLOCK_REALTIME:
@@ -478,7 +489,10 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
       t_empty_read_event = g_clock->events.load(std::memory_order_acquire);
     }
     if (readable_bytes(fd) > 0) return counted_read(bus, fd, buffer, n);
-    if (nonblocking(fd)) {
+    // As the kernel's n_tty_read: a tty with VMIN = VTIME = 0 returns 0 before it looks at
+    // O_NONBLOCK (the DARwIn-OP framework adds read()'s result to its byte count); only a read
+    // that would wait says EAGAIN.
+    if (nonblocking(fd) && !(tty && vmin == 0 && vtime == 0)) {
       errno = EAGAIN;
       return -1;
     }
@@ -774,7 +788,7 @@ SHIM_EXPORT int nanosleep(const struct timespec* request, struct timespec* remai
     errno = EINVAL;
     return -1;
   }
-  if (!sleep_until(sim_now() + ns_of(*request), Call::kNanosleep)) return g_real.nanosleep(request, remaining);
+  if (!sleep_for(ns_of(*request), Call::kNanosleep)) return g_real.nanosleep(request, remaining);
   if (remaining != nullptr) *remaining = {};
   return 0;
 }
@@ -783,8 +797,9 @@ SHIM_EXPORT int clock_nanosleep(clockid_t clock, int flags, const struct timespe
   NEED_REAL();
   if (!on() || !virtual_clock(clock) || request == nullptr) return g_real.clock_nanosleep(clock, flags, request, remaining);
   if (request->tv_nsec < 0 || request->tv_nsec >= kSecond) return EINVAL;
-  const int64_t wake = (flags & TIMER_ABSTIME) != 0 ? sim_at(clock, ns_of(*request)) : sim_now() + ns_of(*request);
-  if (!sleep_until(wake, Call::kClockNanosleep)) return g_real.clock_nanosleep(clock, flags, request, remaining);
+  const bool slept = (flags & TIMER_ABSTIME) != 0 ? sleep_until(sim_at(clock, ns_of(*request)), Call::kClockNanosleep)
+                                                  : sleep_for(ns_of(*request), Call::kClockNanosleep);
+  if (!slept) return g_real.clock_nanosleep(clock, flags, request, remaining);
   if (remaining != nullptr && (flags & TIMER_ABSTIME) == 0) *remaining = {};
   return 0;
 }
@@ -792,14 +807,14 @@ SHIM_EXPORT int clock_nanosleep(clockid_t clock, int flags, const struct timespe
 SHIM_EXPORT int usleep(useconds_t us) {
   NEED_REAL();
   if (!on()) return g_real.usleep(us);
-  if (!sleep_until(sim_now() + static_cast<int64_t>(us) * 1000, Call::kUsleep)) return g_real.usleep(us);
+  if (!sleep_for(static_cast<int64_t>(us) * 1000, Call::kUsleep)) return g_real.usleep(us);
   return 0;
 }
 
 SHIM_EXPORT unsigned sleep(unsigned seconds) {
   NEED_REAL();
   if (!on()) return g_real.sleep(seconds);
-  if (!sleep_until(sim_now() + static_cast<int64_t>(seconds) * kSecond, Call::kSleep)) return g_real.sleep(seconds);
+  if (!sleep_for(static_cast<int64_t>(seconds) * kSecond, Call::kSleep)) return g_real.sleep(seconds);
   return 0;
 }
 
