@@ -147,9 +147,10 @@ TEST(Lockstep, TheDarwinOpFrameworksUncheckedReadsAndZeroSleepsWork) {
   // loops (lockstep_controller.c, MODE framework). An empty read of its VMIN = VTIME = 0 port
   // must say 0 as the kernel's does, not -1 (EAGAIN); a zero sleep must let simulation time pass,
   // else the loop spins for ever with time standing still (`timeout` ends it: exit 124).
+  // One epoch for both runs: the client's millisecond arithmetic on gettimeofday rounds by it.
   std::string first;
   for (int run = 0; run < 2; ++run) {
-    DoppelProcess doppel({"--lockstep"});
+    DoppelProcess doppel({"--lockstep", "--lockstep-epoch", "1767225600"});
     doppel.wait_for_output("running until");
     const auto [code, output] = run_command("timeout 60 " + kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() +
                                             " -- " + kController + " framework /dev/ttyUSB0 0.5");
