@@ -12,6 +12,13 @@
 //   read() in a loop, timed out on CLOCK_REALTIME).
 // MODE sem: a thread paced by nanosleep (1 ms) posts a semaphore the main thread waits on.
 // MODE pipe: a thread paced by usleep (1 ms) writes a byte to a pipe the main thread reads (blocking).
+// MODE framework: the way the DARwIn-OP framework's Linux port reads and waits (facts from its
+//   published source, github darwinop-ens/darwin-op LinuxCM730/CM730; not its code): the port is
+//   O_NONBLOCK with VMIN = VTIME = 0 and a status is read by adding read()'s return value to the
+//   byte count, unchecked, until the count is reached or gettimeofday says the wait is over; between
+//   cycles it waits 1 ms as LinuxCM730::Sleep does, usleep(milliseconds left, passed as
+//   microseconds) and gettimeofday in a loop, which ends in usleep(0) calls. On the robot an empty
+//   read returns 0 (the kernel's n_tty_read), and even usleep(0) lets time pass.
 // MODE busy: spins without any call the shim intercepts (the watchdog must name it).
 // MODE overrun: 1000 clock_nanosleep(TIMER_ABSTIME) calls to a time 1 ms before now (the man page:
 //   "less than or equal to the current value of the clock ... returns immediately without
@@ -33,6 +40,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/time.h>
 #include <sys/timerfd.h>
 #include <termios.h>
 #include <time.h>
@@ -91,6 +99,43 @@ static int receive(int expected, int sdk_style) {
   }
   ++timeouts;
   return 0;
+}
+
+static double wall_ms(void) {
+  struct timeval tv;
+  gettimeofday(&tv, NULL);
+  return (double)tv.tv_sec * 1000.0 + (double)tv.tv_usec / 1000.0;
+}
+
+// A READ of Present Position (36, 2 bytes) of servo `id`, received the framework's way.
+static void framework_cycle(uint8_t id) {
+  const uint8_t read_params[2] = {36, 2};
+  send_packet(id, 0x02, read_params, 2);
+  uint8_t raw[96];
+  uint8_t* buffer = raw + 32;  // room for a count gone negative (each read that says -1)
+  int got = 0;
+  const int expected = 8;
+  const double start = wall_ms();
+  while (got < expected && got > -32) {
+    const ssize_t n = read(port, buffer + got, (size_t)(expected - got));
+    if (n < 0) ++read_errors;
+    got += (int)n;
+    if (got < expected && wall_ms() - start > 5.0) break;
+  }
+  if (got == expected && buffer[0] == 0xFF && buffer[1] == 0xFF && buffer[2] == id) {
+    ++replies;
+  } else {
+    ++timeouts;
+  }
+}
+
+static void framework_sleep(double msec) {
+  const double start = wall_ms();
+  double now = start;
+  do {
+    usleep((useconds_t)((start + msec) - now));
+    now = wall_ms();
+  } while (now - start < msec);
 }
 
 static void cycle(long n, double t, int sdk_style) {
@@ -175,7 +220,7 @@ static void* pipe_thread(void* argument) {
 
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: %s single|timer|sem|pipe|overrun|busy PORT SECONDS\n", argv[0]);
+    fprintf(stderr, "usage: %s single|timer|sem|pipe|overrun|framework|busy PORT SECONDS\n", argv[0]);
     return 2;
   }
   const char* mode = argv[1];
@@ -259,6 +304,12 @@ int main(int argc, char** argv) {
     printf("late_sleeps=%ld zero_sleeps=%ld\n", late_sleeps, zero_sleeps);
     const struct timespec rest = {(time_t)seconds, (long)((seconds - (double)(time_t)seconds) * 1e9)};
     nanosleep(&rest, NULL);
+  } else if (strcmp(mode, "framework") == 0) {
+    while (now_s(CLOCK_MONOTONIC) - start < seconds) {
+      framework_cycle((uint8_t)(1 + cycles % 21));
+      ++cycles;
+      framework_sleep(1.0);
+    }
   } else if (strcmp(mode, "busy") == 0) {
     volatile uint64_t spin = 0;
     for (;;) ++spin;  // no call at all: invisible to the shim

@@ -149,6 +149,34 @@ TEST(Lockstep, PyserialControllerSeesTheWireTimeInSimulationTime) {
   EXPECT_EQ(first.hashes, second.hashes);
 }
 
+TEST(Lockstep, TheDarwinOpFrameworksUncheckedReadsAndZeroSleepsWork) {
+  // The framework's Linux port adds read()'s result to its byte count and waits with usleep(0)
+  // loops (lockstep_controller.c, MODE framework). An empty read of its VMIN = VTIME = 0 port
+  // must say 0 as the kernel's does, not -1 (EAGAIN); a zero sleep must let simulation time pass,
+  // else the loop spins for ever with time standing still (`timeout` ends it: exit 124).
+  // One epoch for both runs: the client's millisecond arithmetic on gettimeofday rounds by it.
+  std::string first;
+  for (int run = 0; run < 2; ++run) {
+    DoppelProcess doppel({"--lockstep", "--lockstep-epoch", "1767225600"});
+    doppel.wait_for_output("running until");
+    const auto [code, output] = run_command("timeout 60 " + kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() +
+                                            " -- " + kController + " framework /dev/ttyUSB0 0.5");
+    doppel.stop();
+    ASSERT_EQ(code, 0) << output << doppel.output();
+    EXPECT_EQ(value(output, "read_errors"), "0") << output;
+    EXPECT_EQ(value(output, "timeouts"), "0") << output;
+    EXPECT_EQ(value(output, "replies"), value(output, "cycles")) << output;
+    // A cycle is at least the 1 ms wait (plus the READ's 0.7 ms on the wire and in return delay).
+    EXPECT_GT(std::stol(value(output, "cycles")), 100) << output;
+    EXPECT_LE(std::stol(value(output, "cycles")), 500) << output;
+    const double end_s = std::stod(value(output, "end_s"));
+    EXPECT_GE(end_s, 0.5);
+    EXPECT_LT(end_s, 0.505);
+    if (run == 0) first = output;
+    EXPECT_EQ(output, first);  // simulation time only: the same run twice
+  }
+}
+
 TEST(Lockstep, DifferentControllersGiveDifferentHashes) {
   // The hash sees the traffic: a controller with another timing gives other hashes.
   const LockstepRun single = run_lockstep(kController + " single /dev/ttyUSB0 1");
