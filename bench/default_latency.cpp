@@ -19,6 +19,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -27,7 +28,6 @@
 #include <map>
 #include <optional>
 #include <regex>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -114,16 +114,16 @@ class CameraSubscriber {
   CameraSubscriber(const CameraSubscriber&) = delete;
   CameraSubscriber& operator=(const CameraSubscriber&) = delete;
 
-  // Waits for the subscriber's exit; its report's first line, or why there is none.
-  std::string finish() {
+  // Waits for the subscriber's exit; its report, or why there is none (then `failed`).
+  std::string finish(bool& failed) {
     int status = 0;
     waitpid(pid_, &status, 0);
     pid_ = -1;
     std::ifstream in(output_file_);
     std::string line, all;
     while (std::getline(in, line)) all += (all.empty() ? "" : " / ") + line;
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return "subscriber failed: " + all;
-    return all;
+    failed = !WIFEXITED(status) || WEXITSTATUS(status) != 0;
+    return failed ? "subscriber failed: " + all : all;
   }
 
  private:
@@ -207,7 +207,11 @@ void measure_phase(const Config& config, const Executable& executable, double se
   for (double us : round_trips) totals.errors_us.push_back(std::fabs(us - echo_p50 - totals.wire_model_us));
   totals.round_trips_us.insert(totals.round_trips_us.end(), round_trips.begin(), round_trips.end());
   totals.echoes_us.insert(totals.echoes_us.end(), echoes.begin(), echoes.end());
-  if (subscriber) totals.camera.push_back(subscriber->finish());
+  if (subscriber) {
+    bool failed = false;
+    totals.camera.push_back(subscriber->finish(failed));
+    if (failed) ++totals.failures;  // the camera did not stream: not the configuration named
+  }
   if (poller) {
     totals.failures += poller->failures.load();
     poller.reset();
@@ -306,6 +310,6 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("failures (timeouts, corrupt replies, unclean exit, viewer requests): %d\n", failures);
+  std::printf("failures (timeouts, corrupt replies, unclean exit, viewer requests, camera subscriber): %d\n", failures);
   return failures == 0 ? 0 : 1;
 }

@@ -124,7 +124,8 @@ class BusServer {
   BusServer& operator=(const BusServer&) = delete;
 
   // Serves until `stop` becomes true (checked at least every idle_wait_ns). Sets the calling
-  // thread's timer slack to 1 ns and, when it runs SCHED_OTHER, its slice to options.slice_ns while it runs. Call from one thread only. rt-safe after setup.
+  // thread's timer slack to 1 ns and, when it runs SCHED_OTHER, its slice to options.slice_ns
+  // while it runs. Call from one thread only. rt-safe after setup.
   void run(const std::atomic<bool>& stop) noexcept;
 
   // One iteration: waits at most `max_wait_ns` for input, a client or a due delivery, then reads,
