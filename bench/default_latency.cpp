@@ -266,9 +266,10 @@ int main(int argc, char** argv) {
   doppel::bench::PtyEcho echo_server;
   SerialClient echo(echo_server.path(), kBaud);
   std::map<std::pair<std::size_t, std::size_t>, Totals> totals;  // (executable, config)
+  // Executables alternate within each configuration: the phases compared are next to each other.
   for (int round = 0; round < rounds; ++round) {
-    for (std::size_t e = 0; e < executables.size(); ++e) {
-      for (std::size_t c = 0; c < configs.size(); ++c) {
+    for (std::size_t c = 0; c < configs.size(); ++c) {
+      for (std::size_t e = 0; e < executables.size(); ++e) {
         measure_phase(configs[c], executables[e], seconds, echo, totals[{e, c}]);
       }
     }
