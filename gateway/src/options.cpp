@@ -174,6 +174,7 @@ Baud Rate registers, as on real hardware; the robot file sets them (fumanoid-201
 
 Options parse_options(int argc, const char* const* argv) {
   Options options;
+  options.handshake = true;
   CLI::App app("doppel", "doppel");
   app.set_help_flag();  // usage() is the help text; --help only sets Options::help
   app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);

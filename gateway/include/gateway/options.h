@@ -49,8 +49,9 @@ struct Options {
   // The session handshake (handshake/, docs/handshake.md): control software asks for robots over a
   // Unix socket (--handshake-socket PATH; "" = LINK_DIR/handshake.sock) and TCP (--handshake-port
   // PORT, 0 = any free port; unset = handshake::kDefaultPort, used only if free;
-  // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither.
-  bool handshake = true;
+  // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither. On by default on the
+  // command line (parse_options); off for a Gateway built in-process unless told.
+  bool handshake = false;
   // The run's access token (control/access.h, docs/security.md) for the HTTP API and the TCP
   // handshake, in LINK_DIR/token-PORT; --no-token: none (with a warning).
   bool token = true;
