@@ -103,6 +103,9 @@ class GatewayLifecycle : public ::testing::Test {
     return out;
   }
 
+  // Fails each component in its configure, then in its start, and checks what is left.
+  void fail_each_component();
+
   std::string dir_;
   gateway::Options options_;
   std::vector<gateway::RobotConfig> configs_;
@@ -145,7 +148,17 @@ TEST_F(GatewayLifecycle, StartsInListOrderAndStopsInReverse) {
   EXPECT_TRUE(entries(options_.link_dir).empty());
 }
 
-TEST_F(GatewayLifecycle, AFailureInAnyComponentUndoesWhatCameBeforeItAndLeavesNothingBehind) {
+TEST_F(GatewayLifecycle, AFailureInAnyComponentUndoesWhatCameBeforeItAndLeavesNothingBehind) { fail_each_component(); }
+
+// The same on the lockstep clock (docs/lockstep.md): its clock file lives in the link directory,
+// the simulation thread serves the buses.
+TEST_F(GatewayLifecycle, UnderLockstepToo) {
+  options_.lockstep = true;
+  options_.hashes_file = dir_ + "/hashes";
+  fail_each_component();
+}
+
+void GatewayLifecycle::fail_each_component() {
   const Log components = make()->components();
   log_.clear();
   const std::set<std::string> shm_before = entries("/dev/shm");
