@@ -34,6 +34,7 @@
 #include "load_phase.h"
 #include "reference_client.h"
 #include "tool_command_line.h"
+#include "viewer_poller.h"
 
 namespace {
 
@@ -41,12 +42,12 @@ using doppel::bench::add;
 using doppel::bench::measure;
 using doppel::bench::Phase;
 using doppel::bench::print_row;
+using doppel::bench::Poller;
 using doppel::bench::state;
 
 using doppel::testing::Bytes;
 using doppel::testing::DoppelProcess;
 using doppel::testing::SerialClient;
-using Clock = std::chrono::steady_clock;
 
 constexpr uint32_t kBaud = 1000000;
 
@@ -88,37 +89,6 @@ class Browser {
 
  private:
   pid_t pid_ = -1;
-};
-
-// Polls the API at the page's rates until destroyed.
-class Poller {
- public:
-  // `camera`: the robot camera whose still the page shows ("" = none).
-  Poller(int port, std::string camera) : thread_([this, port, camera] {
-    httplib::Client client("127.0.0.1", port);
-    client.set_keep_alive(true);
-    const auto start = Clock::now();
-    for (int tick = 0; !stop_.load(); ++tick) {  // 100 ms ticks of the page's timers
-      for (int k = 0; k < 2; ++k) {
-        if (!client.Get("/api/scene")) ++failures;
-        if (k == 0 && !client.Get("/api/state")) ++failures;
-        if (k == 0 && tick % 5 == 0 && !client.Get("/api/buses")) ++failures;
-        if (k == 1 && tick % 3 == 0 && !camera.empty() && !client.Get("/api/camera/" + camera)) ++failures;
-        std::this_thread::sleep_until(start + std::chrono::milliseconds(100 * tick + 50 * (k + 1)));
-      }
-    }
-  }) {}
-  ~Poller() {
-    stop_ = true;
-    thread_.join();
-  }
-  Poller(const Poller&) = delete;
-  Poller& operator=(const Poller&) = delete;
-  std::atomic<int> failures{0};
-
- private:
-  std::atomic<bool> stop_{false};
-  std::thread thread_;
 };
 
 }  // namespace

@@ -1,10 +1,14 @@
 #include "bus/bus_server.h"
 
+#include <sched.h>
 #include <sys/prctl.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <array>
+#include <optional>
 #include <stdexcept>
 
 #include "base/fnv_hash.h"
@@ -24,9 +28,40 @@ void set_if_changed(std::atomic<uint64_t>& counter, uint64_t value) noexcept {
   if (counter.load(std::memory_order_relaxed) != value) counter.store(value, std::memory_order_relaxed);
 }
 
+// The kernel's struct sched_attr (linux/sched/types.h, which clashes with glibc's <sched.h>); glibc
+// has no sched_setattr wrapper.
+struct SchedAttr {
+  uint32_t size = sizeof(SchedAttr);
+  uint32_t sched_policy = 0;
+  uint64_t sched_flags = 0;
+  int32_t sched_nice = 0;
+  uint32_t sched_priority = 0;
+  uint64_t sched_runtime = 0;  // SCHED_OTHER since Linux 6.12: the thread's slice (EEVDF custom slice)
+  uint64_t sched_deadline = 0;
+  uint64_t sched_period = 0;
+  uint32_t sched_util_min = 0;
+  uint32_t sched_util_max = 0;
+};
+
+// Asks for a slice of `slice_ns` (0 = the kernel's default) for the calling thread if it runs
+// SCHED_OTHER; returns the one it had, nullopt when nothing changed (another policy, or a kernel
+// without sched_setattr).
+std::optional<uint64_t> request_slice(uint64_t slice_ns) noexcept {
+  SchedAttr attr;
+  if (::syscall(SYS_sched_getattr, 0, &attr, sizeof(attr), 0) != 0 || attr.sched_policy != SCHED_OTHER) {
+    return std::nullopt;
+  }
+  const uint64_t old_slice = attr.sched_runtime;
+  attr.size = sizeof(attr);
+  attr.sched_flags = 0;
+  attr.sched_runtime = slice_ns;
+  if (::syscall(SYS_sched_setattr, 0, &attr, 0) != 0) return std::nullopt;
+  return old_slice;
+}
+
 const BusServerOptions& validated(const BusServerOptions& options) {
-  if (options.spin_ns < 0 || options.late_threshold_ns < 0 || options.idle_wait_ns <= 0) {
-    throw std::invalid_argument("BusServer: spin_ns and late_threshold_ns must be >= 0, idle_wait_ns > 0");
+  if (options.spin_ns < 0 || options.late_threshold_ns < 0 || options.idle_wait_ns <= 0 || options.slice_ns < 0) {
+    throw std::invalid_argument("BusServer: spin_ns, late_threshold_ns and slice_ns must be >= 0, idle_wait_ns > 0");
   }
   return options;
 }
@@ -65,7 +100,10 @@ void BusServer::run(const std::atomic<bool>& stop) noexcept {
   // Timer slack (default 50 µs) would otherwise delay every timed wake-up by up to that much.
   const int old_slack = ::prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
   ::prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
+  const std::optional<uint64_t> old_slice =
+      options_.slice_ns > 0 ? request_slice(static_cast<uint64_t>(options_.slice_ns)) : std::nullopt;
   while (!stop.load(std::memory_order_acquire)) run_once(options_.idle_wait_ns);
+  if (old_slice) request_slice(*old_slice);
   if (old_slack > 0) ::prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(old_slack), 0, 0, 0);
 }
 
@@ -96,16 +134,22 @@ void BusServer::serve_lockstep(uint64_t input_total, int64_t settle_ns, bool che
     write_due();
     return;
   }
-  // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of them.
-  const int64_t give_up = monotonic_now_ns() + settle_ns;
+  // The pty hands the controller's bytes over asynchronously (a kernel work item): wait for all of
+  // them. A read of the master runs a pending hand-over first (n_tty_read flushes the port's work
+  // item), so no poll precedes it; it stops at `input_total`, sparing the read that would find nothing.
+  int64_t give_up = 0;
   for (;;) {
-    const PortWait woke = port_.wait(0, false);
-    if (woke.readable) read_input();
+    // With all of it read already (check_line), the read takes whatever else the line holds.
+    const bool all_in = counters_.bytes_in.load(std::memory_order_relaxed) >= input_total;
+    read_input(all_in ? UINT64_MAX : input_total);
     if (port_.hung_up()) {
       on_hang_up();
       return;
     }
-    if (counters_.bytes_in.load(std::memory_order_relaxed) >= input_total || monotonic_now_ns() > give_up) break;
+    if (counters_.bytes_in.load(std::memory_order_relaxed) >= input_total) break;
+    const int64_t wall_ns = monotonic_now_ns();
+    if (give_up == 0) give_up = wall_ns + settle_ns;
+    if (wall_ns > give_up) break;
     port_.wait(100'000, false);
   }
   write_blocked_ = false;
@@ -170,9 +214,10 @@ void BusServer::await_due(int64_t due_ns) noexcept {
   if (left_ns > 0) port_.wait(left_ns, false);
 }
 
-void BusServer::read_input() noexcept {
+void BusServer::read_input(uint64_t until_total) noexcept {
   std::array<uint8_t, 4096> buffer;
   for (;;) {
+    if (counters_.bytes_in.load(std::memory_order_relaxed) >= until_total) break;
     const std::size_t n = port_.read(buffer.data(), buffer.size());
     if (n == 0) break;
     const int64_t seen_ns = now();

@@ -206,9 +206,11 @@ std::size_t PtyPort::read(uint8_t* dst, std::size_t capacity) noexcept {
   const SysResult r = posix_call([&] { return ::read(master_fd_, dst, capacity); });
   if (r.ok()) {
     received_total_ += static_cast<uint64_t>(r.value);
-    if (received_ != nullptr) received_->store(received_total_, std::memory_order_release);
     return static_cast<std::size_t>(r.value);
   }
+  // Nothing left: this empty read waited for the kernel's hand-over work item to finish, so only
+  // now may the client go on (see the header).
+  if (received_ != nullptr) received_->store(received_total_, std::memory_order_release);
   if (!r.would_block()) hung_up_ = true;  // EIO: the last client closed the slave
   return 0;
 }

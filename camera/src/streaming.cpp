@@ -423,6 +423,7 @@ CameraStream::CameraStream(StreamingHost& host, const CameraConfig& config) {
   info.payload_bytes = impl_->payload_bytes;
   info.pid = static_cast<int32_t>(::getpid());
   info.noise = config.noise;
+  info.robot_file_order = config.robot_file_order;
   impl_->publish_info();
 }
 

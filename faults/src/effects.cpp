@@ -38,7 +38,7 @@ uint64_t stream(const Fault& f) noexcept { return mix(f.spec.seed, 0x100 + stati
 void apply_servo(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, dynamixel::ServoFeedback& feedback,
                  StuckHold& stuck) noexcept {
   bool stuck_seen = false;
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns)) continue;
     if (f.spec.kind == K::kBrownout) {
       feedback.voltage_v = std::min(feedback.voltage_v, f.spec.value);
@@ -69,7 +69,7 @@ void apply_servo(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns
     feedback.position_rad = stuck.position_rad;
     feedback.velocity_rad_s = 0.0;
   }
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (live(f, t_ns) && f.spec.kind == K::kPositionNoise && on_servo(f, bus, id)) {
       // One draw per simulation millisecond: the noise is a function of the seed and the time.
       feedback.position_rad += f.spec.value * gaussian(stream(f), static_cast<uint64_t>(t_ns / 1'000'000));
@@ -79,7 +79,7 @@ void apply_servo(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns
 
 double torque_scale(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, double nominal_supply_v) noexcept {
   double scale = 1.0;
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns)) continue;
     if (f.spec.kind == K::kWeak && on_servo(f, bus, id)) scale *= f.spec.value;
     // A DC motor's stall torque is proportional to its voltage.
@@ -89,7 +89,7 @@ double torque_scale(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t
 }
 
 bool unreachable(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns) noexcept {
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns)) continue;
     if (f.spec.kind == K::kSilent && f.spec.bus == static_cast<int32_t>(bus)) return true;
     if (f.spec.kind == K::kDead && on_servo(f, bus, id)) return true;
@@ -98,7 +98,7 @@ bool unreachable(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns
 }
 
 bool apply_imu(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, dynamixel::ImuFeedback& feedback) noexcept {
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns) || !on_sensor(f, bus, id)) continue;
     if (f.spec.kind == K::kImuDropout) return false;
     if (f.spec.kind == K::kImuBias) {
@@ -109,7 +109,7 @@ bool apply_imu(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, 
 }
 
 bool apply_foot(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns, dynamixel::FootFeedback& feedback) noexcept {
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns) || !on_sensor(f, bus, id)) continue;
     if (f.spec.kind == K::kFootDropout) return false;
     if (f.spec.kind == K::kFootBias) {
@@ -120,7 +120,7 @@ bool apply_foot(const FaultTable& table, uint32_t bus, uint8_t id, int64_t t_ns,
 }
 
 void apply_power(const FaultTable& table, int64_t t_ns, dynamixel::PowerFeedback& feedback) noexcept {
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (live(f, t_ns) && f.spec.kind == K::kBrownout) feedback.supply_v = std::min(feedback.supply_v, f.spec.value);
   }
 }
@@ -137,7 +137,7 @@ std::span<const dynamixel::OutgoingStatus> WireFaults::apply(const FaultTable& t
                                                              const dynamixel::InstructionPacket& instruction,
                                                              std::span<const dynamixel::OutgoingStatus> statuses) noexcept {
   bool any = false;
-  for (const Fault& f : table.faults) {
+  for (const Fault& f : in_use(table)) {
     if (!live(f, t_ns) || f.spec.bus != static_cast<int32_t>(bus)) continue;
     const K kind = f.spec.kind;
     if (kind == K::kCorrupt || kind == K::kDrop || kind == K::kCollision || kind == K::kLate) any = true;
@@ -150,7 +150,7 @@ std::span<const dynamixel::OutgoingStatus> WireFaults::apply(const FaultTable& t
     dynamixel::OutgoingStatus o = status;
     bool keep = true;
     bool copied = false;
-    for (std::size_t slot = 0; slot < table.faults.size() && keep; ++slot) {
+    for (std::size_t slot = 0; slot < in_use(table).size() && keep; ++slot) {
       const Fault& f = table.faults[slot];
       if (!live(f, t_ns) || f.spec.bus != static_cast<int32_t>(bus)) continue;
       switch (f.spec.kind) {
@@ -191,7 +191,7 @@ std::span<const dynamixel::OutgoingStatus> WireFaults::apply(const FaultTable& t
 
   // A stray answer: a device that should be silent sends an empty status at the same time as the
   // first answer (the wire carries the AND of both), or alone when nobody answers.
-  for (std::size_t slot = 0; slot < table.faults.size(); ++slot) {
+  for (std::size_t slot = 0; slot < in_use(table).size(); ++slot) {
     const Fault& f = table.faults[slot];
     if (!live(f, t_ns) || f.spec.kind != K::kCollision || f.spec.bus != static_cast<int32_t>(bus)) continue;
     if (draw(f, slot) >= f.spec.rate) continue;

@@ -331,6 +331,7 @@ std::vector<CameraSetup> check_cameras(const proto::RobotFile& file, const physi
     camera::CameraConfig& config = setup.config;
     config = camera::default_head_camera();
     config.name = model.name;
+    config.robot_file_order = c;
     config.mount.body = body.bodies[setup.body].name;
     // The description's mount has x along the optical axis; the camera frame has z along it.
     config.mount.X_BC = model.X_DC * camera::camera_looking_along_x(Eigen::Vector3d::Zero());

@@ -53,6 +53,18 @@ int main(int argc, char** argv) {
     motion_timer->Stop();
     return 3;
   }
+  // A joint Initialize could not read is never commanded (MotionManager::Process skips it): on a
+  // loaded machine its main thread can be preempted past the read's own 5 ms window.
+  int joints = 0;
+  for (int id = JointData::ID_R_SHOULDER_PITCH; id < JointData::NUMBER_OF_JOINTS; id++) {
+    if (MotionStatus::m_CurrentJoints.GetEnable(id)) joints++;
+  }
+  if (joints < JointData::NUMBER_OF_JOINTS - 1) {
+    std::printf("start: Initialize read %d of %d joints; the others would stay uncommanded\n", joints,
+                JointData::NUMBER_OF_JOINTS - 1);
+    motion_timer->Stop();
+    return 3;
+  }
   std::printf("start: calibrated\n");
   sleep(1);  // Walking's standing pose at P 32 settles
 

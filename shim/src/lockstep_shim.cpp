@@ -233,10 +233,26 @@ void park(ThreadSlot* slot, uint32_t flags, int64_t wake_ns, Call call) noexcept
   }
 }
 
-// False when the thread has no slot (more threads than slots): the caller waits in wall time.
+// False when the thread has no slot (more threads than slots): the caller waits in wall time. A
+// wake-up time that has already passed returns at once, as the kernel's sleep does, without a
+// hand-over to doppel (which would wake the thread at the same simulation time): a controller that
+// overruns its period (clock_nanosleep(TIMER_ABSTIME) behind) costs no round trip per cycle. A
+// sleep until now (zero length) lets the program's other threads due now run, then waits for the
+// next event (simulation time moves on): on a real machine such a sleep still takes microseconds,
+// and a loop of them until the clock reaches a time (the DARwIn-OP framework's LinuxCM730::Sleep
+// passes milliseconds to usleep, so its last millisecond is usleep(0)) would else never see it move.
 bool sleep_until(int64_t wake_ns, Call call) noexcept {
   ThreadSlot* slot = self();
   if (slot == nullptr) return false;
+  const int64_t now = sim_now();
+  if (wake_ns < now) {
+    touch(slot, call);
+    return true;
+  }
+  if (wake_ns == now) {
+    park(slot, lockstep::kNextEvent, kNever, call);
+    return true;
+  }
   park(slot, lockstep::kUntilTime, wake_ns, call);
   return true;
 }
@@ -302,27 +318,64 @@ int readable_bytes(int fd) noexcept {
   return ::ioctl(fd, FIONREAD, &n) == 0 ? n : 0;
 }
 
+// Totals of ClockFile::BusSlot::delivered known to have crossed the pty (by bus): those bytes stay
+// there until the program reads them (client_read) or flushes or closes the bus, so settle() need
+// not ask the kernel again.
+std::atomic<uint64_t> g_settled[lockstep::kMaxBuses];
+// The bus counters (delivered, client_read) when this thread last counted the pty's bytes itself
+// (FIONREAD): while they are unchanged, the pty holds delivered - client_read bytes for it. (A
+// program that also reads the bus past the shim, through stdio, would make that stale.)
+thread_local uint64_t t_checked_delivered[lockstep::kMaxBuses];
+thread_local uint64_t t_checked_read[lockstep::kMaxBuses];
+
 // Waits (wall time, bounded) until the pty holds every byte doppel delivered that the program has
 // not read: the kernel hands pty bytes over asynchronously, and what a read finds must not depend on that.
 void settle(int bus, int fd) noexcept {
-  const lockstep::BusSlot& b = g_clock->buses[bus];
+  lockstep::BusSlot& b = g_clock->buses[bus];
   const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
-  const uint64_t read = b.client_read.load(std::memory_order_acquire);
-  if (delivered <= read) return;
+  uint64_t read = b.client_read.load(std::memory_order_acquire);
+  if (delivered <= read || delivered <= g_settled[bus].load(std::memory_order_acquire)) return;
   const int64_t want = static_cast<int64_t>(delivered - read);
   int64_t give_up = 0;
-  while (readable_bytes(fd) < want) {
+  for (;;) {
+    // A poll of the pty first runs the kernel's pending hand-over (n_tty_poll flushes the port's
+    // work item), so the count after it is usually complete: two system calls per delivery.
+    struct pollfd p {fd, POLLIN, 0};
+    const struct timespec slice = timespec_of(100'000);
+    g_real.ppoll(&p, 1, &slice, nullptr);
+    const int readable = readable_bytes(fd);
+    if (readable >= want) break;
     const int64_t now = wall_now();
     if (give_up == 0) give_up = now + kSettleWallNs;
     if (now > give_up) {
       say("a bus' bytes did not arrive within 1 s; counting them as read");
-      g_clock->buses[bus].client_read.store(delivered - static_cast<uint64_t>(readable_bytes(fd)), std::memory_order_release);
-      return;
+      read = delivered - static_cast<uint64_t>(readable);
+      b.client_read.store(read, std::memory_order_release);
+      break;
     }
-    struct pollfd p {fd, POLLIN, 0};
-    const struct timespec slice = timespec_of(100'000);
-    g_real.ppoll(&p, 1, &slice, nullptr);
   }
+  t_checked_delivered[bus] = delivered;
+  t_checked_read[bus] = read;
+  uint64_t settled = g_settled[bus].load(std::memory_order_relaxed);
+  while (settled < delivered && !g_settled[bus].compare_exchange_weak(settled, delivered, std::memory_order_acq_rel)) {
+  }
+}
+
+// Bytes the pty holds for the program on bus `bus` as this thread last counted them, if the
+// counters have not moved since (no system call); 0 otherwise.
+int checked_pending(int bus) noexcept {
+  const lockstep::BusSlot& b = g_clock->buses[bus];
+  const uint64_t delivered = b.delivered.load(std::memory_order_acquire);
+  const uint64_t read = b.client_read.load(std::memory_order_acquire);
+  if (delivered <= read || delivered != t_checked_delivered[bus] || read != t_checked_read[bus]) return 0;
+  const uint64_t pending = delivered - read;
+  return pending < static_cast<uint64_t>(INT32_MAX) ? static_cast<int>(pending) : INT32_MAX;
+}
+
+// Bytes a read of bus `bus` finds now, once settled: checked_pending, else the kernel's count.
+int available(int bus, int fd) noexcept {
+  const int pending = checked_pending(bus);
+  return pending > 0 ? pending : readable_bytes(fd);
 }
 
 void settle_all() noexcept {
@@ -363,6 +416,18 @@ uint64_t expire(VirtualTimer& timer) noexcept {
 // answer for themselves, the rest is asked of the kernel without waiting. Lowers *wake_ns to the
 // earliest timer expiry.
 int poll_now(struct pollfd* fds, nfds_t n, int64_t* wake_ns) noexcept {
+  // Only buses asked for input, each holding bytes this thread counted (a reply doppel delivered):
+  // readable, without asking the kernel. Anything else (a bus with nothing, other events, other descriptors) is the kernel's.
+  constexpr short kInput = POLLIN | POLLRDNORM;
+  bool settled_input = n > 0;
+  for (nfds_t i = 0; i < n && settled_input; ++i) {
+    const int bus = (fds[i].events & ~kInput) == 0 && fds[i].events != 0 ? bus_of_fd(fds[i].fd) : -1;
+    settled_input = bus >= 0 && checked_pending(bus) > 0;
+  }
+  if (settled_input) {
+    for (nfds_t i = 0; i < n; ++i) fds[i].revents = fds[i].events;
+    return static_cast<int>(n);
+  }
   bool timers = false;
   for (nfds_t i = 0; i < n; ++i) timers = timers || timer_of(fds[i].fd) != nullptr;
   const struct timespec zero {};
@@ -460,7 +525,7 @@ ssize_t counted_read(int bus, int fd, void* buffer, size_t n) noexcept {
 ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
   ThreadSlot* slot = self();
   settle(bus, fd);
-  if (slot == nullptr || n == 0 || readable_bytes(fd) > 0) return counted_read(bus, fd, buffer, n);
+  if (slot == nullptr || n == 0 || available(bus, fd) > 0) return counted_read(bus, fd, buffer, n);
   touch(slot, Call::kBusRead);
   struct termios tio {};
   const bool tty = ::tcgetattr(fd, &tio) == 0;
@@ -477,8 +542,13 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
       settle(bus, fd);
       t_empty_read_event = g_clock->events.load(std::memory_order_acquire);
     }
-    if (readable_bytes(fd) > 0) return counted_read(bus, fd, buffer, n);
-    if (nonblocking(fd)) {
+    if (available(bus, fd) > 0) return counted_read(bus, fd, buffer, n);
+    // As n_tty_read: in raw mode with VMIN = VTIME = 0 an empty read returns 0 even under
+    // O_NONBLOCK (its zero timeout is checked before the flag); otherwise O_NONBLOCK gives EAGAIN.
+    // Drivers that add read()'s result to a count (the DARwIn-OP framework's CM730::TxRxPacket,
+    // DynamixelSDK's rxPacket) open the port so and rely on the 0.
+    const bool raw_no_wait = tty && (tio.c_lflag & ICANON) == 0 && vmin == 0 && vtime == 0;
+    if (nonblocking(fd) && !raw_no_wait) {
       errno = EAGAIN;
       return -1;
     }
@@ -490,7 +560,7 @@ ssize_t bus_read(int bus, int fd, void* buffer, size_t n) noexcept {
     park(slot, lockstep::kNextEvent | (deadline != kNever ? lockstep::kUntilTime : 0u), deadline, Call::kBusRead);
     if (!on()) return g_real.read(fd, buffer, n);
     settle(bus, fd);
-    if (readable_bytes(fd) >= want) return counted_read(bus, fd, buffer, n);
+    if (available(bus, fd) >= want) return counted_read(bus, fd, buffer, n);
     if (sim_now() >= deadline) return 0;
   }
 }

@@ -154,18 +154,18 @@ uint32_t max_priority(const Camera& cam) {
 bool outranked(const File& file) { return file.priority < max_priority(*file.camera); }
 
 // The camera name for "#<n>": the n-th camera of robot 0 (a camera on a body, not "robot<r>-..."),
-// in name order.
+// in the robot file's order.
 std::string resolve_camera(const std::string& wanted, const std::vector<camera::CameraInfo>& cameras) {
   if (wanted.empty() || wanted[0] != '#') return wanted;
-  std::vector<std::string> names;
+  std::vector<std::pair<int32_t, std::string>> robot_cameras;
   for (const auto& info : cameras) {
     const std::string name = info.name;
     const bool other_robot = name.rfind("robot", 0) == 0 && name.size() > 5 && name[5] >= '0' && name[5] <= '9';
-    if (info.body[0] != '\0' && !other_robot) names.push_back(name);
+    if (info.body[0] != '\0' && !other_robot) robot_cameras.emplace_back(info.robot_file_order, name);
   }
-  std::sort(names.begin(), names.end());
+  std::sort(robot_cameras.begin(), robot_cameras.end());
   const std::size_t n = static_cast<std::size_t>(std::atoi(wanted.c_str() + 1));
-  return n < names.size() ? names[n] : std::string();
+  return n < robot_cameras.size() ? robot_cameras[n].second : std::string();
 }
 
 void stop_worker(Camera& cam, std::unique_lock<std::mutex>& lock);

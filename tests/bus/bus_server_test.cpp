@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/syscall.h>
+#include <sys/utsname.h>
 #include <sys/wait.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <atomic>
 #include <chrono>
 #include <optional>
@@ -356,6 +359,76 @@ TEST(BusServer, RejectsAdapterLatencyAbove255Ms) {
   options.adapter_latency_ms = 256;
 
   EXPECT_THROW(BusServer(port, devices, options), std::invalid_argument);
+}
+
+TEST(BusServer, RejectsANegativeSlice) {
+  TempDir dir;
+  PtyPort port(dir.file("ttyDXL0"));
+  dynamixel::BusDevices devices;
+  BusServerOptions options;
+  options.slice_ns = -1;
+
+  EXPECT_THROW(BusServer(port, devices, options), std::invalid_argument);
+}
+
+// The kernel's struct sched_attr, as far as sched_runtime (the fields before it have fixed sizes).
+struct SliceAttr {
+  uint32_t size = sizeof(SliceAttr);
+  uint32_t policy = 0;
+  uint64_t flags = 0;
+  int32_t nice = 0;
+  uint32_t priority = 0;
+  uint64_t runtime = 0;
+  uint64_t deadline = 0;
+  uint64_t period = 0;
+};
+
+// Records, on the bus thread, the slice the scheduler gives it (sched_getattr's sched_runtime).
+class SliceProbe final : public DeviceSync {
+ public:
+  void before_dispatch() noexcept override {}
+  void after_dispatch() noexcept override {}
+  void on_tick() noexcept override {
+    SliceAttr attr;
+    if (::syscall(SYS_sched_getattr, 0, &attr, sizeof(attr), 0) == 0) slice_ns.store(attr.runtime);
+    ticks.fetch_add(1);
+  }
+  std::atomic<uint64_t> slice_ns{0};
+  std::atomic<int> ticks{0};
+};
+
+// Linux 6.12 added custom slices for SCHED_OTHER threads (sched_attr::sched_runtime).
+bool kernel_has_custom_slices() {
+  utsname u{};
+  int major = 0, minor = 0;
+  return ::uname(&u) == 0 && std::sscanf(u.release, "%d.%d", &major, &minor) == 2 &&
+         (major > 6 || (major == 6 && minor >= 12));
+}
+
+TEST(BusServer, ItsThreadAsksForTheSliceOfItsOptionsWhileItServes) {
+  if (!kernel_has_custom_slices()) GTEST_SKIP() << "the kernel has no custom slices for SCHED_OTHER (Linux < 6.12)";
+  SliceProbe probe;
+  BusServerOptions options = fast();
+  options.slice_ns = 300'000;  // not a default slice of any kernel
+  {
+    ServedBus sut(options, {}, &probe);
+    ASSERT_TRUE(sut.eventually([&](const BusDiagnostics&) { return probe.ticks.load() > 0; }));
+  }
+  EXPECT_EQ(probe.slice_ns.load(), 300'000u);
+}
+
+TEST(BusServer, SliceZeroLeavesTheKernelsDefault) {
+  if (!kernel_has_custom_slices()) GTEST_SKIP() << "the kernel has no custom slices for SCHED_OTHER (Linux < 6.12)";
+  SliceAttr mine;
+  ASSERT_EQ(::syscall(SYS_sched_getattr, 0, &mine, sizeof(mine), 0), 0);  // a new thread inherits this one's
+  SliceProbe probe;
+  BusServerOptions options = fast();
+  options.slice_ns = 0;
+  {
+    ServedBus sut(options, {}, &probe);
+    ASSERT_TRUE(sut.eventually([&](const BusDiagnostics&) { return probe.ticks.load() > 0; }));
+  }
+  EXPECT_EQ(probe.slice_ns.load(), mine.runtime);
 }
 
 }  // namespace

@@ -196,6 +196,16 @@ TEST(FaultEffects, DeadServosAndASilentBusAreUnreachable) {
   EXPECT_FALSE(unreachable(silent, 0, 5, 0));
 }
 
+TEST(FaultEffects, AFaultActsFromAnySlotBelowTheCount) {
+  // The gateway keeps a fault in its slot while others are cleared around it: slot 2 of 3 in use.
+  FaultTable table;
+  table.faults[2] = fault(3, FaultKind::kSilent, 0, -1);
+  table.count = 3;
+  EXPECT_EQ(in_use(table).size(), 3u);
+  EXPECT_TRUE(unreachable(table, 0, 5, 0));
+  EXPECT_TRUE(in_use(FaultTable{}).empty());
+}
+
 TEST(FaultEffects, SensorDropoutFreezesAndBiasShifts) {
   dynamixel::ImuFeedback imu;
   EXPECT_FALSE(apply_imu(table_of({fault(1, FaultKind::kImuDropout, -1, -1)}), 0, 100, 0, imu));

@@ -12,7 +12,21 @@
 //   read() in a loop, timed out on CLOCK_REALTIME).
 // MODE sem: a thread paced by nanosleep (1 ms) posts a semaphore the main thread waits on.
 // MODE pipe: a thread paced by usleep (1 ms) writes a byte to a pipe the main thread reads (blocking).
+// MODE framework: the way the DARwIn-OP framework's Linux port reads and waits (facts from its
+//   published source, github darwinop-ens/darwin-op LinuxCM730/CM730; not its code): the port is
+//   O_NONBLOCK with VMIN = VTIME = 0 and a status is read by adding read()'s return value to the
+//   byte count, unchecked, until the count is reached or gettimeofday says the wait is over; between
+//   cycles it waits 1 ms as LinuxCM730::Sleep does, usleep(milliseconds left, passed as
+//   microseconds) and gettimeofday in a loop, which ends in usleep(0) calls. On the robot an empty
+//   read returns 0 (the kernel's n_tty_read), and even usleep(0) lets time pass.
 // MODE busy: spins without any call the shim intercepts (the watchdog must name it).
+// MODE overrun: 1000 clock_nanosleep(TIMER_ABSTIME) calls to a time 1 ms before now (the man page:
+//   "less than or equal to the current value of the clock ... returns immediately without
+//   suspending the calling thread"), then usleep(0) until CLOCK_MONOTONIC has moved 1 ms (at most
+//   20000 times), then SECONDS of relative sleep; prints "late_sleeps=N" (how many returned 0 with
+//   CLOCK_MONOTONIC unchanged) and "zero_sleeps=N" (the usleep(0) calls; -1 if time never moved).
+// Every mode counts reads of the port that returned -1 ("read_errors=N"): termios(3), MIN == 0,
+// TIME == 0: "If no data is available, read(2) returns 0".
 //
 // Prints "cycles=N replies=N timeouts=N end_s=S" when SECONDS of CLOCK_MONOTONIC have passed.
 #include <errno.h>
@@ -26,13 +40,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/time.h>
 #include <sys/timerfd.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
 
 static int port = -1;
-static long replies = 0, timeouts = 0;
+static long replies = 0, timeouts = 0, read_errors = 0;
 
 static double now_s(clockid_t clock) {
   struct timespec ts;
@@ -75,6 +90,7 @@ static int receive(int expected, int sdk_style) {
     }
     const ssize_t n = read(port, buffer + got, (size_t)(expected - got));
     if (n > 0) got += (int)n;
+    if (n < 0) ++read_errors;
     if (sdk_style && got < expected && now_s(CLOCK_REALTIME) > deadline_real) break;
   }
   if (got == expected && buffer[0] == 0xFF && buffer[1] == 0xFF) {
@@ -83,6 +99,43 @@ static int receive(int expected, int sdk_style) {
   }
   ++timeouts;
   return 0;
+}
+
+static double wall_ms(void) {
+  struct timeval tv;
+  gettimeofday(&tv, NULL);
+  return (double)tv.tv_sec * 1000.0 + (double)tv.tv_usec / 1000.0;
+}
+
+// A READ of Present Position (36, 2 bytes) of servo `id`, received the framework's way.
+static void framework_cycle(uint8_t id) {
+  const uint8_t read_params[2] = {36, 2};
+  send_packet(id, 0x02, read_params, 2);
+  uint8_t raw[96];
+  uint8_t* buffer = raw + 32;  // room for a count gone negative (each read that says -1)
+  int got = 0;
+  const int expected = 8;
+  const double start = wall_ms();
+  while (got < expected && got > -32) {
+    const ssize_t n = read(port, buffer + got, (size_t)(expected - got));
+    if (n < 0) ++read_errors;
+    got += (int)n;
+    if (got < expected && wall_ms() - start > 5.0) break;
+  }
+  if (got == expected && buffer[0] == 0xFF && buffer[1] == 0xFF && buffer[2] == id) {
+    ++replies;
+  } else {
+    ++timeouts;
+  }
+}
+
+static void framework_sleep(double msec) {
+  const double start = wall_ms();
+  double now = start;
+  do {
+    usleep((useconds_t)((start + msec) - now));
+    now = wall_ms();
+  } while (now - start < msec);
 }
 
 static void cycle(long n, double t, int sdk_style) {
@@ -167,7 +220,7 @@ static void* pipe_thread(void* argument) {
 
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: %s single|timer|sem|pipe|busy PORT SECONDS\n", argv[0]);
+    fprintf(stderr, "usage: %s single|timer|sem|pipe|overrun|framework|busy PORT SECONDS\n", argv[0]);
     return 2;
   }
   const char* mode = argv[1];
@@ -225,6 +278,38 @@ int main(int argc, char** argv) {
     done = 1;
     if (!use_sem) close(pipe_fds[0]);  // the writer's next write fails (EPIPE ignored below)
     pthread_join(thread, NULL);
+  } else if (strcmp(mode, "overrun") == 0) {
+    struct timespec before, past, after;
+    clock_gettime(CLOCK_MONOTONIC, &before);
+    past = before;
+    past.tv_sec -= 1;
+    past.tv_nsec += 999000000;  // before - 1 ms
+    if (past.tv_nsec >= 1000000000) {
+      past.tv_nsec -= 1000000000;
+      ++past.tv_sec;
+    }
+    long late_sleeps = 0;
+    for (int i = 0; i < 1000; ++i) {
+      const int r = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &past, NULL);
+      clock_gettime(CLOCK_MONOTONIC, &after);
+      if (r == 0 && after.tv_sec == before.tv_sec && after.tv_nsec == before.tv_nsec) ++late_sleeps;
+    }
+    const double zero_start = now_s(CLOCK_MONOTONIC);
+    long zero_sleeps = 0;
+    while (now_s(CLOCK_MONOTONIC) - zero_start < 0.001 && zero_sleeps < 20000) {
+      usleep(0);
+      ++zero_sleeps;
+    }
+    if (now_s(CLOCK_MONOTONIC) - zero_start < 0.001) zero_sleeps = -1;
+    printf("late_sleeps=%ld zero_sleeps=%ld\n", late_sleeps, zero_sleeps);
+    const struct timespec rest = {(time_t)seconds, (long)((seconds - (double)(time_t)seconds) * 1e9)};
+    nanosleep(&rest, NULL);
+  } else if (strcmp(mode, "framework") == 0) {
+    while (now_s(CLOCK_MONOTONIC) - start < seconds) {
+      framework_cycle((uint8_t)(1 + cycles % 21));
+      ++cycles;
+      framework_sleep(1.0);
+    }
   } else if (strcmp(mode, "busy") == 0) {
     volatile uint64_t spin = 0;
     for (;;) ++spin;  // no call at all: invisible to the shim
@@ -232,6 +317,7 @@ int main(int argc, char** argv) {
     fprintf(stderr, "unknown mode %s\n", mode);
     return 2;
   }
-  printf("cycles=%ld replies=%ld timeouts=%ld end_s=%.6f\n", cycles, replies, timeouts, now_s(CLOCK_MONOTONIC) - start);
+  printf("cycles=%ld replies=%ld timeouts=%ld read_errors=%ld end_s=%.6f\n", cycles, replies, timeouts, read_errors,
+         now_s(CLOCK_MONOTONIC) - start);
   return 0;
 }

@@ -4,7 +4,10 @@
 // simulation time (it stops after exactly its simulated seconds, whatever the wall clock did), and
 // a thread that waits in a way the shim cannot see is named by the watchdog instead of hanging
 // the run silently.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -14,6 +17,7 @@
 #include <vector>
 
 #include "doppel_process.h"
+#include "lockstep/clock_file.h"
 
 namespace doppel::testing {
 namespace {
@@ -98,6 +102,9 @@ TEST(Lockstep, TimerThreadControllerGivesTheSameHashesTwice) {
   ASSERT_EQ(second.code, 0) << second.output << second.doppel_output;
   EXPECT_EQ(value(first.output, "timeouts"), "0") << first.output;
   EXPECT_GT(std::stol(value(first.output, "cycles")), 1000) << first.output;
+  // termios(3), MIN == 0, TIME == 0: "If no data is available, read(2) returns 0", O_NONBLOCK or
+  // not (drivers add read()'s result to a count: -1 would take a byte off).
+  EXPECT_EQ(value(first.output, "read_errors"), "0") << first.output;
   expect_hash_lines(first, 3);
   EXPECT_EQ(first.hashes, second.hashes);
   EXPECT_EQ(first.output, second.output);
@@ -142,6 +149,34 @@ TEST(Lockstep, PyserialControllerSeesTheWireTimeInSimulationTime) {
   EXPECT_EQ(first.hashes, second.hashes);
 }
 
+TEST(Lockstep, TheDarwinOpFrameworksUncheckedReadsAndZeroSleepsWork) {
+  // The framework's Linux port adds read()'s result to its byte count and waits with usleep(0)
+  // loops (lockstep_controller.c, MODE framework). An empty read of its VMIN = VTIME = 0 port
+  // must say 0 as the kernel's does, not -1 (EAGAIN); a zero sleep must let simulation time pass,
+  // else the loop spins for ever with time standing still (`timeout` ends it: exit 124).
+  // One epoch for both runs: the client's millisecond arithmetic on gettimeofday rounds by it.
+  std::string first;
+  for (int run = 0; run < 2; ++run) {
+    DoppelProcess doppel({"--lockstep", "--lockstep-epoch", "1767225600"});
+    doppel.wait_for_output("running until");
+    const auto [code, output] = run_command("timeout 60 " + kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() +
+                                            " -- " + kController + " framework /dev/ttyUSB0 0.5");
+    doppel.stop();
+    ASSERT_EQ(code, 0) << output << doppel.output();
+    EXPECT_EQ(value(output, "read_errors"), "0") << output;
+    EXPECT_EQ(value(output, "timeouts"), "0") << output;
+    EXPECT_EQ(value(output, "replies"), value(output, "cycles")) << output;
+    // A cycle is at least the 1 ms wait (plus the READ's 0.7 ms on the wire and in return delay).
+    EXPECT_GT(std::stol(value(output, "cycles")), 100) << output;
+    EXPECT_LE(std::stol(value(output, "cycles")), 500) << output;
+    const double end_s = std::stod(value(output, "end_s"));
+    EXPECT_GE(end_s, 0.5);
+    EXPECT_LT(end_s, 0.505);
+    if (run == 0) first = output;
+    EXPECT_EQ(output, first);  // simulation time only: the same run twice
+  }
+}
+
 TEST(Lockstep, DifferentControllersGiveDifferentHashes) {
   // The hash sees the traffic: a controller with another timing gives other hashes.
   const LockstepRun single = run_lockstep(kController + " single /dev/ttyUSB0 1");
@@ -168,6 +203,33 @@ TEST(Lockstep, WatchdogNamesAThreadThatNeverWaitsAndTheNextControllerRuns) {
   const auto [code, next] = run_command(run + kController + " single /dev/ttyUSB0 0.5");
   EXPECT_EQ(code, 0) << next << doppel.output();
   EXPECT_EQ(value(next, "timeouts"), "0") << next;
+}
+
+TEST(Lockstep, ASleepUntilATimeAlreadyPastReturnsWithoutAHandOverAndAZeroSleepLetsTimeMove) {
+  // clock_nanosleep(2): a TIMER_ABSTIME time "less than or equal to the current value of the clock"
+  // returns immediately without suspending the thread. Under lockstep such a sleep must neither
+  // move simulation time nor wait for doppel: the clock file counts the waits the thread began.
+  // A loop of usleep(0) until the clock has moved 1 ms must end (each waits for the next event).
+  DoppelProcess doppel({"--lockstep"});
+  doppel.wait_for_output("running until");
+  const auto [code, output] = run_command("timeout 60 " + kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() +
+                                          " -- " + kController + " overrun /dev/ttyUSB0 0.5");
+  ASSERT_EQ(code, 0) << output << doppel.output();
+  EXPECT_EQ(value(output, "late_sleeps"), "1000") << output;
+  const long zero_sleeps = std::stol(value(output, "zero_sleeps"));
+  EXPECT_GE(zero_sleeps, 1) << output;
+  EXPECT_LE(zero_sleeps, 2) << output;  // the next 1 ms step is at most 1 ms away
+  const int fd = ::open((doppel.link_dir() + "/" + lockstep::kClockFileName).c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  void* memory = ::mmap(nullptr, sizeof(lockstep::ClockFile), PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);
+  ASSERT_NE(memory, MAP_FAILED);
+  const auto* clock = static_cast<const lockstep::ClockFile*>(memory);
+  // The controller's only thread had slot 0 (released at its exit, its counters kept): a wait per
+  // usleep(0) and one for the final sleep, none for the 1000 sleeps to a time past.
+  EXPECT_EQ(clock->threads[0].waits.load(), static_cast<uint64_t>(zero_sleeps) + 1) << output;
+  EXPECT_EQ(clock->slots_used.load(), 1u);
+  ::munmap(memory, sizeof(lockstep::ClockFile));
 }
 
 TEST(Lockstep, DoppelRunLockstepNeedsALockstepDoppel) {

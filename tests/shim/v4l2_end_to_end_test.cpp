@@ -146,6 +146,25 @@ TEST_F(V4l2Device, OpenCvSeesTheBallWhereDoppelPutsIt) {
   }
 }
 
+// The DARwIn-OP's head camera is mounted upside down: ROBOTIS' own driver (LinuxCamera::CaptureFrame)
+// flips every frame horizontally and vertically before its vision looks. So in the frames the
+// device gives, a ball that moves to the robot's left moves right. The robot stands at (-1.0, -0.8)
+// facing +x (its start pose); the ball 60 cm ahead on its centre line, then 15 cm to its left.
+TEST_F(V4l2Device, TheDarwinOpHeadCameraIsMountedUpsideDownAsOnTheRobot) {
+  std::vector<double> u;
+  for (const double y : {-0.8, -0.65}) {
+    const auto [ctl_code, ctl_output] = ctl("ball -0.4 " + std::to_string(y));
+    ASSERT_EQ(ctl_code, 0) << ctl_output;
+    const auto [code, output] = run("", std::string("/usr/bin/python3 ") + OPENCV_BALL + " 0 320 240 10");
+    ASSERT_EQ(code, 0) << output;
+    std::smatch match;
+    ASSERT_TRUE(std::regex_search(output, match, std::regex(R"(ball ([0-9.]+) ([0-9.]+) (\d+))"))) << output;
+    u.push_back(std::stod(match[1].str()));
+  }
+  EXPECT_NEAR(u[0], 159.5, 8.0) << "the camera sits on the head's centre line";
+  EXPECT_GT(u[1], u[0] + 20.0) << "ahead at u = " << u[0] << ", 15 cm to the left at u = " << u[1];
+}
+
 TEST_F(V4l2Device, AMissingCameraIsAMissingDevice) {
   const auto [code, output] = run("", "/usr/bin/python3 -c \"import os\ntry:\n  os.open('/dev/video3', os.O_RDWR)\nexcept OSError as e:\n  print('errno', e.errno)\"");
   EXPECT_EQ(code, 0) << output;
@@ -164,6 +183,29 @@ TEST(V4l2Lockstep, CameraDevicesDoNotOpenUnderLockstep) {
   EXPECT_EQ(code, 0) << output;
   EXPECT_NE(output.find("errno 19"), std::string::npos) << output;  // ENODEV
   EXPECT_NE(output.find("cameras are not in lockstep yet"), std::string::npos) << output;
+}
+
+// /dev/video<n> is the n-th camera of the robot file, not of the alphabet: the darwin-op with a
+// second camera written after HEAD_CAMERA whose name sorts first.
+TEST(V4l2DoppelRun, DevicesFollowTheRobotFilesCameraOrder) {
+  std::ifstream shipped(std::string(DOPPEL_ROBOTS_DIR) + "/darwin-op.textproto");
+  std::string robot((std::istreambuf_iterator<char>(shipped)), {});
+  const std::string head = "hfov_deg: 58 }";
+  const std::size_t at = robot.find(head);
+  ASSERT_NE(at, std::string::npos);
+  robot.insert(at + head.size(), "\n  camera { name: \"A_CHEST\" body: \"trunk\" width_px: 320 height_px: 240 fps: 30 "
+                                 "format: \"yuyv\" lens: \"pinhole\" hfov_deg: 58 }");
+  const std::string path = std::filesystem::temp_directory_path() / ("two-cameras-" + std::to_string(::getpid()) + ".textproto");
+  std::ofstream(path) << robot;
+  DoppelProcess doppel({"--robot", path, "--timing", "fast", "--no-viewer"}, "ttyDXL0", /*camera=*/true);
+  doppel.wait_for_output("running until");
+  for (const auto& [device, card] : {std::pair{"/dev/video0", "HEAD_CAMERA"}, std::pair{"/dev/video1", "A_CHEST"}}) {
+    const auto [code, output] = run_command(std::string(DOPPEL_RUN) + " --link-dir " + doppel.link_dir() +
+                                            " -- v4l2-ctl -d " + device + " --info");
+    EXPECT_EQ(code, 0) << output;
+    EXPECT_NE(output.find(std::string("Card type        : ") + card), std::string::npos) << device << "\n" << output;
+  }
+  std::filesystem::remove(path);
 }
 
 TEST(V4l2DoppelRun, ABadCameraOptionIsNamed) {

@@ -40,6 +40,12 @@ struct BusServerOptions {
   AdapterProfile adapter = AdapterProfile::kFtdi;  // kUsb2ax ignores adapter_latency_ms (it has no such timer)
   int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
   SpinBudget* spin_budget = nullptr; // who may busy-wait at once; nullptr = SpinBudget::process()
+  // While run() serves, a SCHED_OTHER bus thread asks the scheduler (Linux 6.12+, EEVDF custom slice)
+  // for slices of this length (0 = the kernel's default; it allows 0.1..100 ms): a waking thread
+  // whose slice is shorter than the running task's may preempt it at once instead of waiting until
+  // that task has used up its slice (by default 0.75 ms, more with more CPUs), so the wake-up before
+  // a due delivery comes in time while physics, the camera or another program holds the core.
+  int64_t slice_ns = 100'000;
   int64_t late_threshold_ns = 100'000;  // a delivery written later than due + this counts as late
   int64_t idle_wait_ns = 10'000'000;    // longest single wait: bounds how soon run() notices stop
   bool record_traces = false;           // push one ReplyTrace per reply into traces()
@@ -118,7 +124,8 @@ class BusServer {
   BusServer& operator=(const BusServer&) = delete;
 
   // Serves until `stop` becomes true (checked at least every idle_wait_ns). Sets the calling
-  // thread's timer slack to 1 ns while it runs. Call from one thread only. rt-safe after setup.
+  // thread's timer slack to 1 ns and, when it runs SCHED_OTHER, its slice to options.slice_ns
+  // while it runs. Call from one thread only. rt-safe after setup.
   void run(const std::atomic<bool>& stop) noexcept;
 
   // One iteration: waits at most `max_wait_ns` for input, a client or a due delivery, then reads,
@@ -168,7 +175,9 @@ class BusServer {
     std::array<std::atomic<uint64_t>, kLatenessBins> lateness_bins{};
   };
 
-  void read_input() noexcept;
+  // Reads and processes what the pty holds, until it holds nothing or `until_total` bytes were read
+  // since construction (lockstep knows how many the controller wrote).
+  void read_input(uint64_t until_total = UINT64_MAX) noexcept;
   int64_t now() const noexcept;  // options_.clock or CLOCK_MONOTONIC
   void hash_bytes(uint8_t direction, int64_t t_ns, const uint8_t* bytes, std::size_t n) noexcept;
   void process(const uint8_t* bytes, std::size_t n, int64_t seen_ns, uint32_t baud_bps) noexcept;

@@ -24,7 +24,14 @@
 // - Hand-over counter: beside the link, `<link>.received` (base/pty_handover.h) counts the bytes
 //   read from clients, so that doppel-run's preload library can let a write() return once Doppel
 //   has the bytes, as a USB adapter's does (a pty leaves that to a kernel work item that a
-//   real-time client can keep off its CPU). Created with the link, removed with it.
+//   real-time client can keep off its CPU). Created with the link, removed with it. The count
+//   moves only when a read finds nothing left: that empty read waits (tty_buffer_flush_work) for
+//   the work item that handed the bytes over. The work item wakes Doppel from inside itself, so
+//   Doppel's real-time bus thread preempts it before it returns; were the client let go at once,
+//   its busy-poll for the answer (the DARwIn-OP framework's SCHED_RR motion timer) would keep that
+//   CPU, and Doppel's next poll of the master, which waits for the same work item, would answer
+//   only after the client had timed out (seen with ftrace: a priority inversion). Doppel waits for
+//   it while the client still sleeps in its write.
 // - Known limit: a new client that opens the port within microseconds of the previous client's
 //   last close, before the server thread has handled the hang-up, may receive bytes meant for its
 //   predecessor (DynamixelSDK flushes its input before every transmission, which removes them).
@@ -66,8 +73,9 @@ class PtyPort final {
   PtyPort& operator=(const PtyPort&) = delete;
 
   // Moves bytes only. read() copies up to `capacity` received bytes into `dst` and returns 0 when
-  // nothing is waiting; on EIO (the client went away) it returns 0 and sets hung_up(); what it read
-  // is added to the hand-over counter (`<link>.received`). write()
+  // nothing is waiting; on EIO (the client went away) it returns 0 and sets hung_up(); the bytes
+  // read are published in the hand-over counter (`<link>.received`) by the read that returns 0, so
+  // read until then. write()
   // returns the bytes accepted: 0 when the client's queue is full or no client is connected. Never
   // block. rt-safe.
   std::size_t read(uint8_t* dst, std::size_t capacity) noexcept;

@@ -40,6 +40,7 @@ struct CameraConfig {
   ExposureStamp stamp = ExposureStamp::kMiddle;  // which instant the exposure time stamp names
   bool annotations = true;                      // attach ground truth to every frame
   int render_threads = 1;                       // renderer threads for this camera, 1..16
+  int robot_file_order = 0;                     // place among its robot's cameras in the robot file
 };
 
 // Camera frame (x right, y down, z forward) looking along the body's x axis (body: x forward,

@@ -26,6 +26,7 @@ struct CameraInfo {
   uint64_t noise_request_id = 0;      // NoiseRequest::request_id that set them; 0 = configuration
   uint64_t noise_from_sequence = 0;   // first frame sequence number rendered with them
   uint64_t settings_rejected = 0;     // NoiseRequests refused (out of range), since start
+  int32_t robot_file_order = 0;       // CameraConfig::robot_file_order: doppel-run's /dev/videoN follow it
 };
 
 // A settings change sent to a running camera on ("DoppelCamera", <name>, "settings"). The camera

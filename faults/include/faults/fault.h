@@ -6,10 +6,12 @@
 // API, doppel-ctl and scenario files describe faults with FaultSpec; the gateway hands the active
 // ones to its bus and simulation threads as a FaultTable (fixed size: copying it allocates nothing).
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -94,8 +96,14 @@ struct Fault {
 inline constexpr std::size_t kMaxFaults = 32;
 struct FaultTable {
   std::array<Fault, kMaxFaults> faults{};
-  std::size_t count = 0;
+  std::size_t count = 0;  // slots from here on are empty (a fault keeps its slot while in force)
 };
+
+// The slots that may hold a fault: the effects loop over these only, so that a bus without faults
+// (the usual case) pays nothing per packet or measurement for them. rt-safe.
+inline std::span<const Fault> in_use(const FaultTable& table) noexcept {
+  return {table.faults.data(), std::min(table.count, kMaxFaults)};
+}
 
 // A counter-based random number generator: the n-th draw of a stream depends only on its seed and
 // n, so a fault replays the same way for the same traffic. rt-safe.
