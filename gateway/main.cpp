@@ -14,7 +14,6 @@
 #include <thread>
 
 #include "gateway/gateway.h"
-#include "gateway/handshake_service.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "scenario/run.h"
@@ -104,14 +103,9 @@ int main(int argc, char** argv) {
       return 0;
     }
     gateway.start();
-    // The session handshake (docs/handshake.md): control software adds and removes robots through it.
-    std::unique_ptr<doppel::handshake::Server> handshake =
-        start_handshake(options, gateway.robot_host(), gateway.access_token(), std::cerr);
-    if (handshake != nullptr && handshake->tcp_port() != 0) gateway.publish_token(handshake->tcp_port());
-    std::cout << (handshake ? handshake->describe() : std::string()) << gateway.describe() << std::flush;
+    std::cout << gateway.describe() << std::flush;
     received.wait(0);
     std::cout << "doppel: " << signal_name(received.load()) << ", stopping\n" << std::flush;
-    handshake.reset();  // its clients' requests end before the gateway stops
     gateway.stop();
     std::cout << gateway.summary() << std::flush;
   } catch (const std::exception& e) {

@@ -12,8 +12,6 @@
 #include <optional>
 #include <sstream>
 
-#include "body/kinematic_body.h"
-#include "body/physics_body.h"
 #include "bus/latency_timer_files.h"
 #include "bus/link_directory.h"
 #include "camera_feed.h"
@@ -34,6 +32,9 @@
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
+#include "handshake/server.h"
+#include "gateway/handshake_service.h"
+#include "robot_builder.h"
 #include "sensor_levels_feed.h"
 
 namespace doppel::gateway {
@@ -78,171 +79,315 @@ Gateway::Gateway(const Options& options)
     : Gateway(options, load_robots(options),
               options.session.empty() ? SessionConfig{} : load_session(options.session)) {}
 
-Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session)
-    : options_(options) {
-  // One world holds the bodies of every robot that has one.
-  std::vector<physics::RobotModel> bodies;
-  std::vector<physics::RobotPlacement> placements;
-  std::vector<std::optional<std::size_t>> in_world(configs.size());  // robot's index in the world, if it has a body
-  if (options.physics) {
-    for (std::size_t r = 0; r < configs.size(); ++r) {
-      if (configs[r].body) {
-        in_world[r] = bodies.size();
-        bodies.push_back(*configs[r].body);
-        placements.push_back(start_placement(options, r));
-      }
-    }
-  }
-  if (!bodies.empty()) {
-    physics::WorldOptions world_options;
-    world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
-    world_options.hold = options.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
-    world_options.field = physics::field_shapes();
-    for (const Eigen::Vector2d& ball : session.extra_balls) {
-      physics::BallOptions extra = world_options.ball;
-      extra.position_m = Eigen::Vector3d(ball.x(), ball.y(), 0.0);
-      world_options.extra_balls.push_back(extra);
-    }
-    int files_sweeps = 0;
-    for (const RobotConfig& config : configs) files_sweeps = std::max(files_sweeps, config.solver_iterations.value_or(0));
-    world_options.solver_iterations =
-        options.solver_iterations.value_or(files_sweeps > 0 ? files_sweeps : world_options.solver_iterations);
-    world_ = std::make_unique<physics::World>(physics::make_backend(*options.physics), std::move(bodies),
-                                              std::move(placements), world_options);
-  }
-  // Saved EEPROM areas (read before any port exists: a bad state file stops doppel cleanly).
-  std::vector<std::optional<RobotEeprom>> saved(configs.size());
-  if (!options.state_dir.empty()) {
-    prepare_state_dir(options.state_dir);
-    for (std::size_t r = 0; r < configs.size(); ++r) {
-      state_files_.push_back(state_file_path(options.state_dir, configs[r], r));
-      if (!options.fresh) {
-        saved[r] = read_state(state_files_[r], configs[r]);
-      }
-    }
-  }
-  try {
-    links_ = std::make_unique<bus::LinkDirectory>(options.link_dir, options.allow_shared_link_dir, std::cerr);
-    for (std::size_t r = 1; r < configs.size(); ++r) {
-      links_->subdirectory("robot" + std::to_string(r));
-    }
-  } catch (const bus::UnsafeLinkDirectory& e) {
-    throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
-  }
+Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session, TransitionHook hook)
+    : options_(options), session_(session), configs_(std::move(configs)), lifecycle_(std::move(hook)) {
   if (options.token) {
     access_token_ = control::new_access_token();
   } else if (options.viewer || (options.handshake && options.handshake_tcp)) {
     std::cerr << "doppel: warning: --no-token: every local user and program can use the control API and the TCP "
                  "handshake (docs/security.md)\n";
   }
-  for (std::size_t r = 0; r < configs.size(); ++r) {
-    std::unique_ptr<body::SimulatedBody> body;
-    if (in_world[r]) {
-      body = std::make_unique<body::PhysicsBody>(*world_, *in_world[r]);
-    } else {
-      body = std::make_unique<body::KinematicBody>();
-    }
-    robots_.push_back(std::make_unique<RobotRuntime>(configs[r], r, std::move(body), options_,
-                                                     saved[r] ? &*saved[r] : nullptr,
-                                                     state_files_.empty() ? std::string() : state_files_[r]));
-  }
-  latency_files_ = std::make_unique<bus::LatencyTimerFiles>(std::cerr);
-  for (auto& robot : robots_) {
-    robot->add_latency_timer_files(*latency_files_);
-  }
-  if (options.camera && (world_ != nullptr || !session.world_cameras.empty())) {
-    std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by robot
-    for (std::size_t r = 0; r < configs.size(); ++r) {
-      if (in_world[r]) {
-        cameras[*in_world[r]] = configs[r].cameras;
-        for (CameraSetup& setup : cameras[*in_world[r]]) {
-          if (r > 0) {
-            setup.config.name = "robot" + std::to_string(r) + "-" + setup.config.name;  // unique per machine
-          }
-        }
+  add_components();
+  lifecycle_.configure();
+}
+
+void Gateway::add_components() {
+  // The order is the one place that says what needs what: a component may use every one above it
+  // from configure until release, and stops before any of them.
+  lifecycle_.add({"links", [this] {
+                    try {
+                      links_ = std::make_unique<bus::LinkDirectory>(options_.link_dir, options_.allow_shared_link_dir, std::cerr);
+                      for (std::size_t r = 1; r < configs_.size(); ++r) links_->subdirectory("robot" + std::to_string(r));
+                    } catch (const bus::UnsafeLinkDirectory& e) {
+                      throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
+                    }
+                  },
+                  {}, {}, [this] { links_.reset(); }});
+  lifecycle_.add({"world", [this] { configure_world(); }, {}, {}, [this] { world_.reset(); }});
+  // The state thread saves what the bus threads change, so it stops (and saves last) after them.
+  lifecycle_.add({"state", [this] { configure_state(); },
+                  [this] {
+                    if (state_files_.empty()) return;
+                    state_stop_ = false;
+                    state_thread_ = std::thread([this] {
+                      pthread_setname_np(pthread_self(), "doppel-state");
+                      keep_state();
+                    });
+                  },
+                  [this] {
+                    state_stop_ = true;
+                    if (state_thread_.joinable()) state_thread_.join();
+                    if (!state_files_.empty()) save_state(false);
+                  },
+                  [this] { state_files_.clear(); }});
+  // Ports open here; their links appear only once the buses are served ("buses", below).
+  lifecycle_.add({"robots", [this] { configure_robots(); }, {}, {}, [this] { robots_.clear(); }});
+  lifecycle_.add({"latency timer files",
+                  [this] {
+                    latency_files_ = std::make_unique<bus::LatencyTimerFiles>(std::cerr);
+                    for (auto& robot : robots_) robot->add_latency_timer_files(*latency_files_);
+                  },
+                  [this] { latency_files_->start(); }, [this] { latency_files_->stop(); },
+                  [this] { latency_files_.reset(); }});
+  lifecycle_.add({"lockstep clock", [this] { configure_lockstep(); }, {}, {},
+                  [this] {
+                    lockstep_.reset();
+                    bus_hashes_.clear();
+                    hashes_file_.close();
+                  }});
+  lifecycle_.add({"simulation control",
+                  [this] {
+                    std::vector<SimController::Robot> controlled;
+                    for (std::size_t r = 0; r < configs_.size(); ++r) {
+                      controlled.push_back({robots_[r].get(), world_ != nullptr ? in_world_[r] : std::nullopt, configs_[r].name, nullptr});
+                    }
+                    const physics::FieldSpec field;
+                    controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
+                                                                  0.5 * field.field_length_m + field.border_strip_width_m,
+                                                                  0.5 * field.field_width_m + field.border_strip_width_m);
+                  },
+                  {}, {}, [this] { controller_.reset(); }});
+  lifecycle_.add({"faults",
+                  [this] {
+                    std::vector<RobotRuntime*> faulty;
+                    for (auto& robot : robots_) faulty.push_back(robot.get());
+                    faults_ = std::make_unique<FaultBoard>(std::move(faulty), sim_time_ns_);
+                    controller_->set_fault_board(faults_.get());
+                  },
+                  {}, {},
+                  [this] {
+                    controller_->set_fault_board(nullptr);
+                    faults_.reset();
+                  }});
+  // Cameras, truth and recorder take what the simulation thread hands them: they start before it
+  // and stop after it (the recorder also after the bus threads, so every tapped event is in the
+  // file). Truth hosts iceoryx itself only when no camera does (one host per process): after them.
+  lifecycle_.add({"cameras", [this] { configure_cameras(); },
+                  [this] {
+                    if (cameras_ != nullptr) cameras_->start();
+                  },
+                  [this] {
+                    if (cameras_ != nullptr) cameras_->stop();
+                  },
+                  [this] { cameras_.reset(); }});
+  lifecycle_.add({"truth", [this] { configure_truth(); },
+                  [this] {
+                    if (truth_ != nullptr) truth_->start();
+                  },
+                  [this] {
+                    if (truth_ != nullptr) truth_->stop();
+                  },
+                  [this] {
+                    controller_->set_world_model(nullptr);
+                    levels_feed_.reset();
+                    truth_.reset();
+                  }});
+  lifecycle_.add({"recorder", [this] { configure_recorder(); },
+                  [this] {
+                    if (recorder_ != nullptr) recorder_->start();
+                  },
+                  [this] {
+                    if (recorder_ != nullptr) recorder_->stop();
+                  },
+                  [this] { recorder_.reset(); }});
+  lifecycle_.add({"simulation", {},
+                  [this] {
+                    simulation_stop_ = false;
+                    simulation_thread_ = std::thread([this] {
+                      if (lockstep_ != nullptr) {
+                        simulate_lockstep();
+                      } else {
+                        simulate();
+                      }
+                    });
+                    pthread_setname_np(simulation_thread_.native_handle(), "doppel-sim");  // named before any link appears
+                  },
+                  [this] {
+                    simulation_stop_ = true;
+                    if (simulation_thread_.joinable()) simulation_thread_.join();
+                  },
+                  {}});
+  // Neither runs on the simulation thread; the control API serves their state and commands.
+  lifecycle_.add({"field services",
+                  [this] {
+                    field_ = std::make_unique<FieldServices>(options_);
+                    controller_->set_field_services(field_.get());
+                  },
+                  [this] { field_->start(); }, [this] { field_->stop(); },
+                  [this] {
+                    controller_->set_field_services(nullptr);
+                    field_.reset();
+                  }});
+  // Robots added while running are built on the simulation thread, and go while it still runs.
+  lifecycle_.add({"robots added at run time", [this] { configure_live_robots(); },
+                  [this] { live_->simulation_started(); },
+                  [this] {
+                    live_->close();
+                    live_->simulation_stopped();
+                  },
+                  [this] { live_.reset(); }});
+  // No request waits for a simulation thread that is gone: the API stops before it.
+  lifecycle_.add({"control API", [this] { configure_control(); },
+                  [this] {
+                    if (control_api_ != nullptr) control_api_->start();
+                  },
+                  [this] {
+                    if (control_api_ != nullptr) control_api_->stop();
+                  },
+                  [this] {
+                    control_token_.reset();
+                    control_api_.reset();
+                  }});
+  // A port's link appears only once its bus is served, after every other start-up step.
+  lifecycle_.add({"buses", {},
+                  [this] {
+                    bus_stop_ = false;
+                    for (auto& robot : robots_) {
+                      if (lockstep_ == nullptr) {
+                        robot->start(bus_stop_, options_.rt_priority);
+                      } else {
+                        robot->publish_links();  // under lockstep the simulation thread serves the buses itself
+                      }
+                    }
+                  },
+                  [this] {
+                    bus_stop_ = true;
+                    for (auto& robot : robots_) robot->join();
+                  },
+                  {}});
+  // Control software asks for robots once everything they use runs; its requests end first.
+  lifecycle_.add({"handshake", {}, [this] { start_handshake(); },
+                  [this] {
+                    handshake_.reset();
+                    handshake_token_.reset();
+                  },
+                  {}});
+}
+
+void Gateway::configure_world() {
+  // One world holds the bodies of every robot that has one.
+  std::vector<physics::RobotModel> bodies;
+  std::vector<physics::RobotPlacement> placements;
+  in_world_.assign(configs_.size(), std::nullopt);
+  if (options_.physics) {
+    for (std::size_t r = 0; r < configs_.size(); ++r) {
+      if (configs_[r].body) {
+        in_world_[r] = bodies.size();
+        bodies.push_back(*configs_[r].body);
+        placements.push_back(start_placement(options_, r));
       }
     }
-    cameras_ = std::make_unique<CameraFeed>(world_.get(), cameras, session.world_cameras, options_);
   }
-  std::vector<SimController::Robot> controlled;
-  for (std::size_t r = 0; r < configs.size(); ++r) {
-    controlled.push_back({robots_[r].get(), world_ != nullptr ? in_world[r] : std::nullopt, configs[r].name, nullptr});
+  if (bodies.empty()) return;
+  physics::WorldOptions world_options;
+  world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
+  world_options.hold = options_.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
+  world_options.field = physics::field_shapes();
+  for (const Eigen::Vector2d& ball : session_.extra_balls) {
+    physics::BallOptions extra = world_options.ball;
+    extra.position_m = Eigen::Vector3d(ball.x(), ball.y(), 0.0);
+    world_options.extra_balls.push_back(extra);
   }
-  const physics::FieldSpec field;
-  controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
-                                                0.5 * field.field_length_m + field.border_strip_width_m,
-                                                0.5 * field.field_width_m + field.border_strip_width_m);
-  if ((options.world_model && world_ != nullptr) || options.sensor_levels_hz > 0.0) start_truth(configs, in_world);
-  if (options.world_model && world_ == nullptr) {
-    std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
+  int files_sweeps = 0;
+  for (const RobotConfig& config : configs_) files_sweeps = std::max(files_sweeps, config.solver_iterations.value_or(0));
+  world_options.solver_iterations =
+      options_.solver_iterations.value_or(files_sweeps > 0 ? files_sweeps : world_options.solver_iterations);
+  world_ = std::make_unique<physics::World>(physics::make_backend(*options_.physics), std::move(bodies),
+                                            std::move(placements), world_options);
+}
+
+void Gateway::configure_state() {
+  if (options_.state_dir.empty()) return;
+  prepare_state_dir(options_.state_dir);
+  for (std::size_t r = 0; r < configs_.size(); ++r) {
+    state_files_.push_back(state_file_path(options_.state_dir, configs_[r], r));
   }
-  field_ = std::make_unique<FieldServices>(options_);
-  controller_->set_field_services(field_.get());
-  std::vector<RobotRuntime*> faulty;
-  for (auto& robot : robots_) faulty.push_back(robot.get());
-  faults_ = std::make_unique<FaultBoard>(std::move(faulty), sim_time_ns_);
-  controller_->set_fault_board(faults_.get());
-  if (options.viewer) {
-    // The viewer's page beside the API; without its files (no libjs-three) the API alone.
-    control::StaticFiles files = control::default_static_files();
-    if (!options.viewer_dir.empty()) files.viewer_dir = options.viewer_dir;
-    if (const std::string problem = control::static_files_problem(files); !problem.empty()) {
-      if (!options.viewer_dir.empty()) throw std::runtime_error("--viewer-dir: " + problem);
-      std::cerr << "doppel: viewer page off: " << problem << "\n";
-      files = {};
+}
+
+void Gateway::configure_robots() {
+  // Saved EEPROM areas are read before any port exists: a bad state file stops doppel cleanly.
+  std::vector<std::optional<RobotEeprom>> saved(configs_.size());
+  for (std::size_t r = 0; r < state_files_.size() && !options_.fresh; ++r) {
+    saved[r] = read_state(state_files_[r], configs_[r]);
+  }
+  const RobotBuilder builder(options_, world_.get());
+  for (std::size_t r = 0; r < configs_.size(); ++r) {
+    robots_.push_back(builder.runtime(configs_[r], r, in_world_[r], saved[r] ? &*saved[r] : nullptr,
+                                      state_files_.empty() ? std::string() : state_files_[r]));
+  }
+}
+
+void Gateway::configure_cameras() {
+  if (!options_.camera || (world_ == nullptr && session_.world_cameras.empty())) return;
+  std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by world robot
+  for (std::size_t r = 0; r < configs_.size(); ++r) {
+    if (in_world_[r]) cameras[*in_world_[r]] = RobotBuilder::cameras(r, configs_[r].cameras);
+  }
+  cameras_ = std::make_unique<CameraFeed>(world_.get(), cameras, session_.world_cameras, options_);
+}
+
+void Gateway::configure_control() {
+  if (!options_.viewer) return;
+  // The viewer's page beside the API; without its files (no libjs-three) the API alone.
+  control::StaticFiles files = control::default_static_files();
+  if (!options_.viewer_dir.empty()) files.viewer_dir = options_.viewer_dir;
+  if (const std::string problem = control::static_files_problem(files); !problem.empty()) {
+    if (!options_.viewer_dir.empty()) throw std::runtime_error("--viewer-dir: " + problem);
+    std::cerr << "doppel: viewer page off: " << problem << "\n";
+    files = {};
+  }
+  viewer_page_ = !files.viewer_dir.empty();
+  try {
+    control_api_ = std::make_unique<control::HttpApi>(*controller_, options_.viewer_address,
+                                                      options_.viewer_port.value_or(control::kDefaultPort), files,
+                                                      access_token_);
+  } catch (const std::runtime_error& e) {
+    if (options_.viewer_port) {
+      throw std::runtime_error(std::string("--viewer: ") + e.what());
     }
-    viewer_page_ = !files.viewer_dir.empty();
-    try {
-      control_api_ = std::make_unique<control::HttpApi>(*controller_, options.viewer_address,
-                                                        options.viewer_port.value_or(control::kDefaultPort), files,
-                                                        access_token_);
-    } catch (const std::runtime_error& e) {
-      if (options.viewer_port) {
-        throw std::runtime_error(std::string("--viewer: ") + e.what());
-      }
-      std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
-    }
-    if (control_api_ != nullptr) publish_token(control_api_->port());
+    std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
   }
-  if (!options.record_path.empty()) start_recorder(configs);
-  // Robots added and removed while doppel runs (the session handshake); these are robots 0..n-1.
+  if (control_api_ != nullptr) control_token_ = publish_token(control_api_->port());
+}
+
+void Gateway::configure_live_robots() {
+  // The robots doppel started with are robots 0..n-1 of those added and removed while it runs.
   std::vector<control::RobotAdded> started;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
-    control::RobotAdded robot{static_cast<uint32_t>(r), configs[r].name, {}};
-    for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
-      const std::string& link = robots_[r]->bus(b).link();
-      robot.links.push_back({"bus", "ttyDXL" + std::to_string(b), link});
-      robot.links.push_back({"latency_timer", "ttyDXL" + std::to_string(b), bus::LatencyTimerFiles::path_for_link(link)});
+    std::vector<std::string> camera_names;
+    for (std::size_t c = 0; cameras_ != nullptr && in_world_[r] && c < configs_[r].cameras.size(); ++c) {
+      camera_names.push_back(RobotBuilder::camera_name(r, configs_[r].cameras[c].config.name));
     }
-    for (std::size_t c = 0; cameras_ != nullptr && in_world[r] && c < configs[r].cameras.size(); ++c) {
-      const std::string name = (r > 0 ? "robot" + std::to_string(r) + "-" : "") + configs[r].cameras[c].config.name;
-      robot.links.push_back({"camera", name, "iceoryx:DoppelCamera/" + name + "/frames"});
+    RobotBuilder::Topics topics;
+    if (truth_ != nullptr) {
+      topics.transport = &truth_->transport_options();
+      topics.world_model = truth_->settings(r).has_value();
+      topics.sensor_levels = levels_feed_ != nullptr;
     }
-    for (const char* topic : {"world_model", "sensor_levels"}) {
-      const bool published = std::string_view(topic) == "world_model" ? truth_ != nullptr && truth_->settings(r).has_value()
-                                                                       : levels_feed_ != nullptr;
-      if (!published) continue;
-      for (const std::string& location : truth::topic_locations(truth_->transport_options(), r, topic)) {
-        robot.links.push_back({topic, topic, location});
-      }
-    }
-    started.push_back(std::move(robot));
+    started.push_back(RobotBuilder::listing(r, configs_[r], *robots_[r], camera_names, topics));
   }
+  const physics::FieldSpec field;
   live_ = std::make_unique<LiveRobots>(
       LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(), truth_.get(),
                         0.5 * field.field_length_m + field.border_strip_width_m,
                         0.5 * field.field_width_m + field.border_strip_width_m},
       std::move(started));
-  if (options.lockstep) set_up_lockstep();
-  in_world_ = std::move(in_world);
+}
+
+void Gateway::start_handshake() {
+  handshake_ = gateway::start_handshake(options_, *live_, access_token_, std::cerr);
+  if (handshake_ != nullptr && handshake_->tcp_port() != 0) handshake_token_ = publish_token(handshake_->tcp_port());
 }
 
 std::optional<std::size_t> Gateway::world_index(std::size_t robot) const {
   return robot < in_world_.size() ? in_world_[robot] : std::nullopt;
 }
 
-void Gateway::start_truth(const std::vector<RobotConfig>& configs,
-                          const std::vector<std::optional<std::size_t>>& in_world) {
+void Gateway::configure_truth() {
+  if (options_.world_model && world_ == nullptr) {
+    std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
+  }
+  if (!((options_.world_model && world_ != nullptr) || options_.sensor_levels_hz > 0.0)) return;
   truth::TruthOptions truth_options;
   truth_options.transport.iceoryx = options_.truth_iceoryx;
   truth_options.transport.udp_base_port = options_.truth_udp_port;
@@ -259,16 +404,9 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
     levels_feed_ = std::make_unique<SensorLevelsFeed>(std::move(robots));
     truth_->add_poller([feed = levels_feed_.get()](truth::Transport& transport) { feed->publish(transport); });
   }
-  for (std::size_t r = 0; r < configs.size(); ++r) {
-    if (!in_world[r] || !options_.world_model) continue;
-    truth::RobotBinding binding;
-    binding.in_world = *in_world[r];
-    binding.team = start_placement(options_, r).team;
-    if (!configs[r].cameras.empty()) {  // the head camera: the file's first
-      binding.has_camera = true;
-      binding.camera_body = configs[r].cameras.front().body;
-      binding.X_BC = camera::camera_pose_W(configs[r].cameras.front().config.mount, Eigen::Isometry3d::Identity());
-    }
+  for (std::size_t r = 0; r < configs_.size(); ++r) {
+    if (!in_world_[r] || !options_.world_model) continue;
+    const truth::RobotBinding binding = RobotBuilder::truth_binding(configs_[r], *in_world_[r], start_placement(options_, r).team);
     if (const std::string problem = truth_->add_robot(r, binding, options_.world_model_settings); !problem.empty()) {
       throw std::runtime_error("--world-model: " + problem);
     }
@@ -280,7 +418,8 @@ control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 
 control::FaultAnswer Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
 
-void Gateway::set_up_lockstep() {
+void Gateway::configure_lockstep() {
+  if (!options_.lockstep) return;
   std::vector<lockstep::LockstepBus> buses;
   for (auto& robot : robots_) {
     for (std::size_t b = 0; b < robot->bus_count(); ++b) {
@@ -319,7 +458,9 @@ void Gateway::on_second_hash(HashCallback callback) { hash_callback_ = std::move
 
 std::string Gateway::lockstep_clock_path() const { return lockstep_ != nullptr ? lockstep_->path() : std::string(); }
 
-void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
+void Gateway::configure_recorder() {
+  if (options_.record_path.empty()) return;
+  const std::vector<RobotConfig>& configs = configs_;
   recording::RunInfo run;
   run.set_doppel_version(DOPPEL_VERSION);
   run.set_command_line(options_.command_line);
@@ -370,61 +511,18 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
   }
 }
 
-Gateway::~Gateway() { stop(); }
+Gateway::~Gateway() { lifecycle_.release(); }
 
-void Gateway::publish_token(uint16_t port) {
-  if (access_token_.empty()) return;
-  token_files_.push_back(std::make_unique<control::TokenFile>(control::token_file_path(links_->path(), port), access_token_));
+std::unique_ptr<control::TokenFile> Gateway::publish_token(uint16_t port) const {
+  if (access_token_.empty()) return nullptr;
+  return std::make_unique<control::TokenFile>(control::token_file_path(links_->path(), port), access_token_);
 }
 
 teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }
 
 uint16_t Gateway::control_port() const noexcept { return control_api_ != nullptr ? control_api_->port() : 0; }
 
-void Gateway::start() {
-  if (simulation_thread_.joinable()) {
-    return;
-  }
-  stop_ = false;
-  // Everything else first: a port's link appears only once its bus is served (BusRuntime::start),
-  // and no start-up work of the cameras, the viewer or the recorder comes after it.
-  latency_files_->start();
-  if (cameras_ != nullptr) {
-    cameras_->start();
-  }
-  live_->simulation_started();
-  simulation_thread_ = std::thread([this] {
-    if (lockstep_ != nullptr) {
-      simulate_lockstep();
-    } else {
-      simulate();
-    }
-  });
-  pthread_setname_np(simulation_thread_.native_handle(), "doppel-sim");  // named before any link appears
-  field_->start();
-  if (control_api_ != nullptr) {
-    control_api_->start();
-  }
-  if (recorder_ != nullptr) {
-    recorder_->start();
-  }
-  if (truth_ != nullptr) {
-    truth_->start();
-  }
-  if (!state_files_.empty()) {
-    state_thread_ = std::thread([this] {
-      pthread_setname_np(pthread_self(), "doppel-state");
-      keep_state();
-    });
-  }
-  for (auto& robot : robots_) {
-    if (lockstep_ == nullptr) {
-      robot->start(stop_, options_.rt_priority);
-    } else {
-      robot->publish_links();  // under lockstep the simulation thread serves the buses itself
-    }
-  }
-}
+void Gateway::start() { lifecycle_.start(); }
 
 bool Gateway::save_state(bool published) {
   bool ok = true;
@@ -456,7 +554,7 @@ void Gateway::keep_state() noexcept {
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     saved_generation[r] = seen_generation[r] = robots_[r]->eeprom_generation();
   }
-  while (!stop_.load(std::memory_order_relaxed)) {
+  while (!state_stop_.load(std::memory_order_relaxed)) {
     std::this_thread::sleep_for(kPoll);
     const Clock::time_point now = Clock::now();
     for (std::size_t r = 0; r < robots_.size(); ++r) {
@@ -490,46 +588,7 @@ void Gateway::keep_state() noexcept {
   }
 }
 
-void Gateway::stop() {
-  if (live_ != nullptr) {
-    live_->close();  // the robots added while running go first, while the simulation thread still runs
-  }
-  if (control_api_ != nullptr) {
-    control_api_->stop();  // no request waits for a simulation thread that is gone
-  }
-  if (field_ != nullptr) {
-    field_->stop();
-  }
-  stop_ = true;
-  if (latency_files_ != nullptr) {
-    latency_files_->stop();
-  }
-  if (simulation_thread_.joinable()) {
-    simulation_thread_.join();
-  }
-  if (truth_ != nullptr) {
-    truth_->stop();  // after the simulation thread: nothing captures any more
-  }
-  if (live_ != nullptr) {
-    live_->simulation_stopped();
-  }
-  if (cameras_ != nullptr) {
-    cameras_->stop();
-  }
-  for (auto& robot : robots_) {
-    robot->join();
-  }
-  if (recorder_ != nullptr) {
-    recorder_->stop();  // after the bus threads: every event they tapped is in the file
-  }
-  if (state_thread_.joinable()) {
-    state_thread_.join();
-  }
-  if (!state_files_.empty() && !state_saved_) {
-    state_saved_ = true;
-    save_state(false);
-  }
-}
+void Gateway::stop() { lifecycle_.stop(); }
 
 void Gateway::step_world(int64_t& sim_time_ns) noexcept {
   const double dt_s = static_cast<double>(kSimulationStepNs) * 1e-9;
@@ -562,7 +621,7 @@ void Gateway::step_world(int64_t& sim_time_ns) noexcept {
 void Gateway::simulate() noexcept {
   FixedRateClock clock(kSimulationStepNs);
   int64_t sim_time_ns = world_ != nullptr ? world_->time_ns() : 0;
-  while (!stop_.load(std::memory_order_relaxed)) {
+  while (!simulation_stop_.load(std::memory_order_relaxed)) {
     live_->run_pending();  // a robot added or removed: this tick may overrun
     // Paused (doppel-ctl pause), the world and the sensors' time stand still; the buses answer on.
     if (controller_->begin_tick()) {
@@ -598,8 +657,8 @@ void Gateway::simulate_lockstep() noexcept {
     }
     stepped = false;
   };
-  while (!stop_.load(std::memory_order_relaxed)) {
-    if (!lockstep_->settle(stop_)) break;
+  while (!simulation_stop_.load(std::memory_order_relaxed)) {
+    if (!lockstep_->settle(simulation_stop_)) break;
     serve_buses();
     if (lockstep_->wake_one()) continue;
     if (lockstep_->threads() == 0) {
@@ -656,6 +715,7 @@ void Gateway::simulate_lockstep() noexcept {
 
 std::string Gateway::describe() const {
   std::ostringstream out;
+  if (handshake_ != nullptr) out << handshake_->describe();
   for (const auto& robot : robots_) {
     out << robot->describe();
   }
@@ -681,7 +741,8 @@ std::string Gateway::describe() const {
           << (access_token_.empty() ? "" : "?token=" + access_token_) << "\n";
     }
   }
-  for (const auto& file : token_files_) {
+  for (const control::TokenFile* file : {control_token_.get(), handshake_token_.get()}) {
+    if (file == nullptr) continue;
     out << "doppel: access token in " << file->path() << " (doppel-ctl, doppel_session.py read it; docs/security.md)\n";
   }
   out << field_->describe();

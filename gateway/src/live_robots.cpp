@@ -7,7 +7,6 @@
 #include <sstream>
 #include <thread>
 
-#include "body/physics_body.h"
 #include "bus/latency_timer_files.h"
 #include "bus/link_directory.h"
 #include "camera/lens.h"
@@ -17,6 +16,7 @@
 #include "camera_feed.h"
 #include "gateway/gateway.h"
 #include "physics/world.h"
+#include "robot_builder.h"
 #include "robot_runtime.h"
 #include "truth/transport.h"
 #include "truth/truth_service.h"
@@ -138,8 +138,6 @@ std::optional<Refusal> apply(const control::CameraRequest& request, const std::s
   return std::nullopt;
 }
 
-std::string camera_location(const std::string& name) { return "iceoryx:DoppelCamera/" + name + "/frames"; }
-
 }  // namespace
 
 LiveRobots::LiveRobots(Parts parts, std::vector<control::RobotAdded> started)
@@ -249,9 +247,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRe
   if (plan.cameras.size() > kSimMaxCameras) {
     return Refusal{"cameras", "at most " + std::to_string(kSimMaxCameras) + " cameras per robot"};
   }
-  for (CameraSetup& setup : plan.cameras) {
-    if (plan.index > 0) setup.config.name = "robot" + std::to_string(plan.index) + "-" + setup.config.name;  // as gateway.cpp
-  }
+  plan.cameras = RobotBuilder::cameras(plan.index, std::move(plan.cameras));
   return plan;
 }
 
@@ -284,9 +280,7 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     on_simulation_thread([&] {
       physics::World& world = *parts_.world;
       robot.in_world = world.add_robot(*robot.config.body, plan.placement);
-      robot.runtime = std::make_unique<RobotRuntime>(robot.config, index,
-                                                     std::make_unique<body::PhysicsBody>(world, *robot.in_world),
-                                                     *parts_.options);
+      robot.runtime = RobotBuilder(*parts_.options, &world).runtime(robot.config, index, robot.in_world);
       parts_.controller->attach(index, SimController::Robot{robot.runtime.get(), robot.in_world, robot.config.name, &robot.config});
       robot.attached = true;
       for (; robot.cameras_attached < robot.camera_ids.size(); ++robot.cameras_attached) {
@@ -315,14 +309,7 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     return Refusal{"", std::string("robot '") + robot.config.name + "': " + e.what()};
   }
   if (request.world_model) {
-    truth::RobotBinding binding;  // as Gateway::start_truth binds the robots doppel started with
-    binding.in_world = *robot.in_world;
-    binding.team = plan.placement.team;
-    if (!robot.config.cameras.empty()) {  // the head camera: the file's first
-      binding.has_camera = true;
-      binding.camera_body = robot.config.cameras.front().body;
-      binding.X_BC = camera::camera_pose_W(robot.config.cameras.front().config.mount, Eigen::Isometry3d::Identity());
-    }
+    const truth::RobotBinding binding = RobotBuilder::truth_binding(robot.config, *robot.in_world, plan.placement.team);
     if (const std::string problem = parts_.truth->add_robot(index, binding, *request.world_model); !problem.empty()) {
       tear_down(robot);
       return Refusal{"world_model", problem};
@@ -330,24 +317,13 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     robot.world_model = true;
   }
 
-  control::RobotAdded& added = robot.added;
-  added.robot = static_cast<uint32_t>(index);
-  added.name = robot.config.name;
-  for (std::size_t b = 0; b < robot.runtime->bus_count(); ++b) {
-    const std::string link = robot.runtime->bus(b).link();
-    const std::string bus_name = "ttyDXL" + std::to_string(b);
-    added.links.push_back({"bus", bus_name, link});
-    added.links.push_back({"latency_timer", bus_name, bus::LatencyTimerFiles::path_for_link(link)});
-  }
-  for (const CameraSetup& setup : plan.cameras) {
-    added.links.push_back({"camera", setup.config.name, camera_location(setup.config.name)});
-  }
+  RobotBuilder::Topics topics;
   if (robot.world_model) {
-    for (const std::string& location : truth::topic_locations(parts_.truth->transport_options(), index, "world_model")) {
-      added.links.push_back({"world_model", "world_model", location});
-    }
+    topics.transport = &parts_.truth->transport_options();
+    topics.world_model = true;
   }
-  control::RobotAdded result = added;
+  robot.added = RobotBuilder::listing(index, robot.config, *robot.runtime, robot.camera_names, topics);
+  control::RobotAdded result = robot.added;
   live_[index] = std::move(live);
   return result;
 }

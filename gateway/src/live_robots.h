@@ -5,7 +5,9 @@
 // cameras' streams (CameraFeed::add), then, on the simulation thread between two ticks, its body in
 // the world, its buses' devices and ports (RobotRuntime) and its entries in the simulation control
 // (SimController::attach) — that tick may overrun —, then on the asking thread its latency-timer
-// files, its bus threads and its cameras. A step that fails undoes the steps before it. Removal
+// files, its bus threads and its cameras. Its runtime, camera names, world-model binding and
+// listing come from the RobotBuilder that builds the robots doppel started with (robot_builder.h).
+// A step that fails undoes the steps before it. Removal
 // runs the same steps backwards. One request at a time (a mutex on the asking side); the
 // simulation thread never waits for it.
 //
@@ -72,7 +74,7 @@ class LiveRobots final : public control::RobotHost {
   void simulation_started() noexcept { simulation_running_.store(true, std::memory_order_release); }
   void simulation_stopped() noexcept { simulation_running_.store(false, std::memory_order_release); }
   // Removes every robot added here and refuses later requests. Call while the simulation thread
-  // still runs (Gateway::stop does it first).
+  // still runs (Gateway::stop does it before it stops that thread).
   void close();
 
   // Simulation thread, at the start of every tick: carries out a pending add or remove (allocates,

@@ -2,7 +2,9 @@
 
 #include <CLI/CLI.hpp>
 
+#include <memory>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include "base/command_line.h"
@@ -16,299 +18,553 @@ CLI::Validator not_empty(std::string what) {
       [what](std::string& text) { return text.empty() ? what + " must not be empty" : std::string(); }, "");
 }
 
+template <typename T>
+std::string shown(const T& value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+// What --help shows after the option's name: its value's label and, when it has one, its default.
+CLI::Option* label(CLI::Option* option, const std::string& value, const std::string& default_value = "") {
+  return option->option_text(value + (default_value.empty() ? "" : "=" + default_value));
+}
+
+// One service's command-line options: declared into their own group of the parser (and so of
+// --help) with their defaults, then checked and turned into the service's settings once parsed.
+// Members hold what a service reads as text first (e.g. "A,B").
+class ServiceOptions {
+ public:
+  virtual ~ServiceOptions() = default;
+  virtual void declare(CLI::App& app, Options& options) = 0;
+  // After parsing; throws std::invalid_argument naming the option.
+  virtual void check(const CLI::App& app, Options& options) { (void)app, (void)options; }
+};
+
+// The robots and their buses.
+class BusOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Robots and their buses";
+    label(app.add_option("--robot", options.robots,
+                         "Robot description: a shipped robot name (see --list-robots) or a protobuf text\n"
+                         "file. Repeat to run several robots.")
+              ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+              ->allow_extra_args(false)
+              ->group(group),
+          "NAME|FILE", "fumanoid-2011");
+    label(app.add_option("--robots-dir", options.robots_dir,
+                         "Where robot names are looked up (default: the robots/ folder of the source tree,\n"
+                         "or $DOPPEL_ROBOTS_DIR).")
+              ->group(group),
+          "DIR");
+    label(app.add_option("--link-dir", options.link_dir,
+                         "Directory for the stable port links ($XDG_RUNTIME_DIR/doppel, or\n"
+                         "/tmp/doppel-$USER without a private XDG_RUNTIME_DIR).\n"
+                         "Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel-$USER/ttyDXL0)\n"
+                         "Robot r>0, bus b: DIR/robot<r>/ttyDXL<b>\n"
+                         "Refused if it is a symlink, another user's, or writable by others.")
+              ->check(not_empty("the directory"))
+              ->group(group),
+          "DIR", "$XDG_RUNTIME_DIR/doppel");
+    app.add_flag("--allow-shared-link-dir", options.allow_shared_link_dir, "Use such a link directory anyway, with a warning.")
+        ->group(group);
+    label(app.add_option_function<std::string>(
+                 "--timing",
+                 [&options](const std::string& mode) {
+                   options.timing = mode == "wire" ? bus::TimingMode::kWire : bus::TimingMode::kFast;
+                 },
+                 "wire: statuses arrive when a real bus at the port's baud rate would deliver\n"
+                 "them (wire time, firmware time, Return Delay Time). fast: statuses are written\n"
+                 "as soon as they are computed.")
+              ->check(CLI::IsMember({"wire", "fast"}))
+              ->group(group),
+          "wire|fast", options.timing == bus::TimingMode::kWire ? "wire" : "fast");
+    label(app.add_option("--processing-us", options.processing_us,
+                         "Firmware processing time before the Return Delay Time starts, in µs (as\n"
+                         "measured on MX-64 servos).")
+              ->transform(number_in<double>(0.0, 10000.0))
+              ->group(group),
+          "US", shown(options.processing_us));
+    label(app.add_option("--latency-timer", options.latency_timer_ms,
+                         "Model a USB serial adapter (FTDI/U2D2) whose latency timer is MS ms (1..255;\n"
+                         "FTDI default 16). 0: no adapter model.")
+              ->transform(number_in<uint32_t>(0, 255))
+              ->group(group),
+          "MS", shown(options.latency_timer_ms));
+    label(app.add_option("--rt-priority", options.rt_priority,
+                         "Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs CAP_SYS_NICE\n"
+                         "or root). 0: normal scheduling. Cuts the latency tail on a loaded machine.")
+              ->transform(number_in<int>(0, 99))
+              ->group(group),
+          "P", shown(options.rt_priority));
+    app.add_flag("--list-robots", options.list_robots, "Print the shipped robots and exit.")->group(group);
+  }
+  void check(const CLI::App&, Options& options) override {
+    if (options.robots.empty()) options.robots.emplace_back("fumanoid-2011");
+  }
+};
+
+// The physics world of the robots' bodies.
+class WorldOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "World";
+    label(app.add_option_function<std::string>(
+                 "--physics",
+                 [&options](const std::string& engine) {
+                   options.physics = engine == "none" ? std::nullopt : std::optional(physics::engine_from_name(engine));
+                 },
+                 "Physics engine for the robots' bodies. Robots whose file has no body, and every\n"
+                 "robot with 'none', move kinematically: joints turn toward their goals at the\n"
+                 "commanded speed, the IMU lies level, the feet carry the weight evenly.")
+              ->check(CLI::IsMember({"ode", "bullet", "none"}))
+              ->group(group),
+          "ode|bullet|none", options.physics ? std::string(physics::engine_name(*options.physics)) : "none");
+    label(app.add_option("--solver-iterations", options.solver_iterations,
+                         "Constraint solver sweeps per physics step (1..1000). Default: the largest a\n"
+                         "robot file asks for (op3: 100, its light links carry a heavy trunk), else 10.")
+              ->transform(number_in<int>(1, 1000))
+              ->group(group),
+          "N");
+    app.add_flag_callback("--no-hold", [&options] { options.hold = false; },
+                 "Release every robot at start. By default a robot is held in its initial pose, as\n"
+                 "a handler holds a real robot while it powers up, until its driver has enabled\n"
+                 "torque on all of its servos (each joint follows its servo from its Torque Enable\n"
+                 "on), or 1 s after the first.")
+        ->group(group);
+    label(app.add_option("--session", options.session,
+                         "Session file (protobuf text, proto/session.proto): cameras fixed in the field,\n"
+                         "such as sessions/sideline-camera.textproto (a TV view from the touch line).\n"
+                         "They stream like the robots' cameras, also with --physics none.")
+              ->check(not_empty("the file name"))
+              ->group(group),
+          "FILE");
+  }
+};
+
+// Persistent EEPROM (README "State").
+class StateOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "EEPROM state";
+    label(app.add_option("--state-dir", options.state_dir,
+                         "Keep each robot's EEPROM areas (IDs, baud rates, Protocol Type, limits the\n"
+                         "driver wrote) in DIR across runs, as real servos keep them ($XDG_STATE_HOME/\n"
+                         "doppel, else ~/.local/state/doppel). A state file that is corrupt or belongs\n"
+                         "to another robot layout stops doppel.")
+              ->check(not_empty("the directory"))
+              ->group(group),
+          "DIR", "$XDG_STATE_HOME/doppel");
+    app.add_flag("--fresh", options.fresh, "Start from the robot files' values and overwrite the saved state.")->group(group);
+  }
+  void check(const CLI::App&, Options& options) override {
+    if (options.state_dir.empty()) options.state_dir = default_state_dir();
+  }
+};
+
+// The cameras over iceoryx.
+class CameraOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Cameras";
+    app.add_flag_callback("--no-camera", [&options] { options.camera = false; },
+                 "Stream no camera. By default every camera of a simulated robot's description\n"
+                 "(the default robot's head camera: 640x480 YUYV, 20 fps, wide lens) streams\n"
+                 "through iceoryx shared memory; see doppel-camera.")
+        ->group(group);
+    app.add_flag("--external-roudi", options.external_roudi,
+                 "Use an iceoryx RouDi that is already running (iox-roudi) and fail without one.\n"
+                 "By default doppel uses a running RouDi if there is one and otherwise runs RouDi\n"
+                 "inside itself.")
+        ->group(group);
+    app.add_flag("--verbose", options.verbose, "Also print iceoryx's own log lines (warnings and info).")->group(group);
+  }
+};
+
+// The web viewer and simulation control over HTTP.
+class ControlOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Viewer and simulation control";
+    label(app.add_option("--viewer", options.viewer_port,
+                         "Serve the web viewer (http://127.0.0.1:PORT/: 3D view, servo tables, controls)\n"
+                         "and simulation control (JSON API for doppel-ctl: state, pause, resume, step,\n"
+                         "reset, place, push, ball) on PORT (0 = any free port, printed at start). If\n"
+                         "the default port is taken doppel runs without it and says so.")
+              ->transform(number_in<uint16_t>(0, 65535))
+              ->group(group),
+          "PORT", "7580");
+    label(app.add_option("--viewer-address", options.viewer_address,
+                         "Address to serve it on (127.0.0.1: this machine only). Anyone who can reach it\n"
+                         "can move the robots: name another address only on a network you trust.")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDR", options.viewer_address);
+    label(app.add_option("--viewer-dir", options.viewer_dir,
+                         "The viewer's page (index.html, viewer.js) from DIR instead of the source tree's\n"
+                         "viewer/ (or $DOPPEL_VIEWER_DIR). three.js comes from Debian's libjs-three.")
+              ->check(not_empty("the folder"))
+              ->group(group),
+          "DIR");
+    app.add_flag_callback("--no-viewer", [&options] { options.viewer = false; }, "Serve neither the viewer nor simulation control.")->group(group);
+    app.add_flag_callback("--no-token", [&options] { options.token = false; },
+                 "Let any local user and program use the control API and the TCP handshake\n"
+                 "without the run's access token (the old behaviour; only for a machine of your\n"
+                 "own with no other users: docs/security.md). Host and Origin are checked still.")
+        ->group(group);
+  }
+};
+
+// The session handshake (docs/handshake.md).
+class HandshakeOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Session handshake";
+    label(app.add_option("--handshake-socket", options.handshake_socket,
+                         "Serve the session handshake (docs/handshake.md: control software asks for\n"
+                         "robots, their cameras and sensors, and gets their links) on this Unix socket.")
+              ->check(not_empty("the socket path"))
+              ->group(group),
+          "PATH", "LINK_DIR/handshake.sock");
+    label(app.add_option("--handshake-port", options.handshake_port,
+                         "Also serve it over TCP on PORT (the default used only if free; 0 = any free\n"
+                         "port, printed at start).")
+              ->transform(number_in<uint16_t>(0, 65535))
+              ->group(group),
+          "PORT", "7590");
+    label(app.add_option("--handshake-address", options.handshake_address,
+                         "Address of the TCP handshake (127.0.0.1: this machine only). Anyone who can\n"
+                         "reach it can add and remove robots: name another address only on a network\n"
+                         "you trust.")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDR", options.handshake_address);
+    app.add_flag_callback("--no-handshake-tcp", [&options] { options.handshake_tcp = false; }, "Serve the handshake on the Unix socket only.")->group(group);
+    app.add_flag_callback("--no-handshake", [&options] { options.handshake = false; }, "Serve no handshake.")->group(group);
+  }
+};
+
+// The recorder (docs/recording.md).
+class RecorderOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Recording";
+    label(app.add_option("--record", options.record_path,
+                         "Record the run to FILE (MCAP, docs/recording.md): every bus transaction with its\n"
+                         "bytes and times, the world state at 100 Hz, servo tables, the scene. Read it\n"
+                         "with doppel-bus report, doppel-replay or Foxglove.")
+              ->check(not_empty("the file name"))
+              ->group(group),
+          "FILE.mcap");
+    label(app.add_option("--record-cameras", options.record_camera_hz,
+                         "Also record each camera's still (PNG) HZ times a second (0.1..30).")
+              ->transform(number_in<double>(0.1, 30.0))
+              ->group(group),
+          "HZ");
+    label(app.add_option("--record-compression", options.record_compression, "Chunk compression of the recording.")
+              ->check(CLI::IsMember({"zstd", "lz4", "none"}))
+              ->group(group),
+          "zstd|lz4|none", options.record_compression);
+  }
+  void check(const CLI::App&, Options& options) override {
+    if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
+      throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
+    }
+  }
+};
+
+// The world-model sensor and the sensor levels on the truth transport (docs/multilevel.md).
+class TruthOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "World model and sensor levels";
+    control::WorldModelSettings& world_model = options.world_model_settings;
+    app.add_flag("--world-model", options.world_model,
+                 "Give every simulated robot a world-model sensor (docs/multilevel.md): its own\n"
+                 "pose, the balls, goal posts, side poles, field landmarks and the other robots,\n"
+                 "in the field frame and relative to the robot, 30 times a second of simulation\n"
+                 "time, published over iceoryx (\"DoppelTruth\", \"robot<N>\", \"world_model\") and\n"
+                 "UDP; read them with doppel-truth. Noise, dropout and latency: doppel-ctl\n"
+                 "world-model.")
+        ->group(group);
+    implying_.push_back(label(app.add_option("--world-model-rate", world_model.rate_hz,
+                                             "Messages per second of simulation time (0.1..1000).")
+                                  ->transform(number_in<double>(0.1, 1000.0))
+                                  ->group(group),
+                              "HZ", shown(world_model.rate_hz)));
+    implying_.push_back(label(app.add_option("--world-model-fov", world_model.fov_deg,
+                                             "Horizontal field of view about the head camera's optical axis (the heading\n"
+                                             "without a camera), 1..179; 0: all around.")
+                                  ->transform(number_in<double>(1.0, 179.0))
+                                  ->group(group),
+                              "DEG", shown(world_model.fov_deg)));
+    implying_.push_back(label(app.add_option("--world-model-range", world_model.max_range_m,
+                                             "Objects farther than M metres are not seen (0: no limit).")
+                                  ->transform(number_in<double>(0.0, 100.0))
+                                  ->group(group),
+                              "M", shown(world_model.max_range_m)));
+    implying_.push_back(app.add_flag("--world-model-nearest-ball", world_model.nearest_ball_only,
+                                     "Of several balls (a session's extra balls), report only the nearest seen.")
+                            ->group(group));
+    label(app.add_option("--truth-udp-port", options.truth_udp_port, "Robot N's world model goes to UDP port BASE+N.")
+              ->transform(number_in<uint16_t>(1, 65471))
+              ->group(group),
+          "BASE", shown(options.truth_udp_port));
+    label(app.add_option("--truth-udp-address", options.truth_udp_address,
+                         "...on this IPv4 address (127.0.0.1: this machine only; name another address only\n"
+                         "for control software on another machine).")
+              ->check(CLI::ValidIPV4)
+              ->group(group),
+          "ADDR", options.truth_udp_address);
+    app.add_flag_callback("--no-truth-iceoryx", [&options] { options.truth_iceoryx = false; },
+                 "Publish the world model over UDP only (no iceoryx RouDi needed).")
+        ->group(group);
+    label(app.add_option("--sensor-levels", options.sensor_levels_hz,
+                         "Publish every servo's, IMU's and foot board's registers decoded to SI units\n"
+                         "beside the simulation's true values, HZ times per simulated second\n"
+                         "(0.1..1000), as topic sensor_levels on the same transport (docs/multilevel.md).")
+              ->transform(number_in<double>(0.1, 1000.0))
+              ->group(group),
+          "HZ");
+  }
+  void check(const CLI::App&, Options& options) override {
+    for (const CLI::Option* option : implying_) {
+      if (option->count() > 0) options.world_model = true;
+    }
+  }
+
+ private:
+  std::vector<CLI::Option*> implying_;  // the options that imply --world-model
+};
+
+// The GameController inside doppel (docs/gamecontroller.md).
+class GameControllerOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "GameController";
+    label(app.add_option("--gamecontroller", on_off_,
+                         "Run a RoboCup GameController (Humanoid League protocol, struct version 12;\n"
+                         "docs/gamecontroller.md) inside doppel, driven from doppel-ctl game and the\n"
+                         "viewer. Off by default: a robot's software behaves differently once it hears\n"
+                         "a GameController. doppel-ctl game on starts it later.")
+              ->expected(0, 1)
+              ->group(group),
+          "[on|off]", options.gamecontroller ? "on" : "off");
+    label(app.add_option("--gc-teams", teams_, "Team numbers of team A (cyan, kicks off first) and B.")
+              ->check(not_empty("the team numbers"))
+              ->group(group),
+          "A,B", shown(options.gc_team_a) + "," + shown(options.gc_team_b));
+    label(app.add_option("--gc-players", options.gc_players, "Players per team in the packets.")
+              ->transform(number_in<int>(1, 11))
+              ->group(group),
+          "N", shown(options.gc_players));
+    label(app.add_option("--gc-destination", options.gc_destination,
+                         "Where the game packets go (127.0.0.1: this machine only). A broadcast address\n"
+                         "(x.x.x.255) sends to the LAN: only if you name it.")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDRESS:PORT", options.gc_destination);
+    label(app.add_option("--gc-return", options.gc_return, "Where return packets are received.")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDRESS:PORT", options.gc_return);
+    label(app.add_option("--gc-watch", options.gc_watch,
+                         "Watch for another GameController's packets and stop sending when one appears\n"
+                         "(the default: broadcasts only, never the unicast packets meant for the robots;\n"
+                         "shares the port with SO_REUSEADDR, so a robot's software binding 3838 needs\n"
+                         "SO_REUSEADDR too, or use off).")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDRESS:PORT|off", options.gc_watch);
+  }
+  void check(const CLI::App& app, Options& options) override {
+    if (app.count("--gamecontroller") > 0) {
+      if (on_off_ != "" && on_off_ != "on" && on_off_ != "off") {
+        throw std::invalid_argument("--gamecontroller '" + on_off_ + "': expected on or off (see --help)");
+      }
+      options.gamecontroller = on_off_ != "off";
+    }
+    if (teams_.empty()) return;
+    const auto comma = teams_.find(',');
+    const auto team = [this](const std::string& part) {
+      if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
+        throw std::invalid_argument("--gc-teams '" + teams_ + "': '" + part + "' is not a team number 0..255 (see --help)");
+      }
+      return std::stoi(part);
+    };
+    if (comma == std::string::npos) throw std::invalid_argument("--gc-teams '" + teams_ + "': expected A,B (see --help)");
+    options.gc_team_a = team(teams_.substr(0, comma));
+    options.gc_team_b = team(teams_.substr(comma + 1));
+    if (options.gc_team_a == options.gc_team_b) {
+      throw std::invalid_argument("--gc-teams '" + teams_ + "': the two teams need different numbers (see --help)");
+    }
+  }
+
+ private:
+  std::string on_off_;  // --gamecontroller's value: "", on or off
+  std::string teams_;   // --gc-teams A,B
+};
+
+// The team-communication hub (docs/teamcomm.md).
+class TeamcommOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Team communication";
+    label(app.add_option("--teamcomm", options.teamcomm,
+                         "Relay the robots' team messages (UDP) between their software on this machine\n"
+                         "(docs/teamcomm.md), listening on ADDRESS:PORT (default address 127.0.0.1; port\n"
+                         "0: any free port, printed at start).")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "[ADDRESS:]PORT");
+    label(app.add_option("--teamcomm-robot", options.teamcomm_robots,
+                         "A robot's software that receives (and sends from) PORT; repeat. Robots can also\n"
+                         "register while doppel runs (doppel-ctl teamcomm add).")
+              ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
+              ->group(group),
+          "TEAM:PLAYER:PORT");
+    label(app.add_option("--teamcomm-robot-address", options.teamcomm_robot_address,
+                         "The address the robots' software runs on.")
+              ->check(not_empty("the address"))
+              ->group(group),
+          "ADDR", options.teamcomm_robot_address);
+    // The WiFi model of every link, as doppel-teamcomm's options of the same names.
+    const char* link = "The WiFi model of every link, as doppel-teamcomm's option of the same name.";
+    teamcomm::LinkModelConfig& model = options.teamcomm_link;
+    label(app.add_option("--teamcomm-loss", model.loss_probability, link)->transform(number_in<double>(0.0, 1.0))->group(group),
+          "P", shown(model.loss_probability));
+    label(app.add_option("--teamcomm-delay-ms", delay_ms_, link)->transform(number_in<double>(0.0, 60000.0))->group(group),
+          "D", shown(delay_ms_));
+    label(app.add_option("--teamcomm-jitter-ms", jitter_ms_, link)->transform(number_in<double>(0.0, 60000.0))->group(group),
+          "J", shown(jitter_ms_));
+    label(app.add_option("--teamcomm-jitter", jitter_, link)->check(CLI::IsMember({"uniform", "normal"}))->group(group),
+          "uniform|normal", jitter_);
+    label(app.add_option("--teamcomm-burst-enter", model.p_good_to_bad, link)->transform(number_in<double>(0.0, 1.0))->group(group),
+          "P", shown(model.p_good_to_bad));
+    label(app.add_option("--teamcomm-burst-leave", model.p_bad_to_good, link)->transform(number_in<double>(0.0, 1.0))->group(group),
+          "P", shown(model.p_bad_to_good));
+    label(app.add_option("--teamcomm-burst-loss", model.loss_in_bad, link)->transform(number_in<double>(0.0, 1.0))->group(group),
+          "P", shown(model.loss_in_bad));
+    label(app.add_option("--teamcomm-seed", options.teamcomm_seed, link)->group(group), "S", shown(options.teamcomm_seed));
+  }
+  void check(const CLI::App& app, Options& options) override {
+    options.teamcomm_link.delay_ns = static_cast<int64_t>(delay_ms_ * 1e6);
+    options.teamcomm_link.jitter_ns = static_cast<int64_t>(jitter_ms_ * 1e6);
+    options.teamcomm_link.jitter = jitter_ == "normal" ? teamcomm::Jitter::kHalfNormal : teamcomm::Jitter::kUniform;
+    options.teamcomm_link.burst = options.teamcomm_link.p_good_to_bad > 0.0;
+    if (!options.teamcomm.empty()) return;
+    for (const char* name : {"--teamcomm-robot", "--teamcomm-loss", "--teamcomm-delay-ms", "--teamcomm-jitter-ms",
+                             "--teamcomm-burst-enter"}) {
+      if (app.count(name) > 0) throw std::invalid_argument(std::string(name) + " needs --teamcomm [ADDRESS:]PORT (see --help)");
+    }
+  }
+
+ private:
+  double delay_ms_ = 0.0, jitter_ms_ = 0.0;
+  std::string jitter_ = "uniform";
+};
+
+// Lockstep time (docs/lockstep.md).
+class LockstepOptions final : public ServiceOptions {
+ public:
+  void declare(CLI::App& app, Options& options) override {
+    const char* group = "Lockstep";
+    app.add_flag("--lockstep", options.lockstep,
+                 "Simulation time instead of the wall clock (docs/lockstep.md): time advances only\n"
+                 "while every thread of a controller started with `doppel-run --lockstep` waits,\n"
+                 "as fast as the machine can. Implies --timing wire on its own clock.")
+        ->group(group);
+    app.add_flag("--hashes", options.hashes,
+                 "With --lockstep: print `hash SECOND HEX` for every simulated second (bus bytes in\n"
+                 "and out with their times, world state): equal runs, equal lines.")
+        ->group(group);
+    label(app.add_option("--hashes-file", options.hashes_file, "The same lines to FILE instead of standard output.")
+              ->check(not_empty("the file name"))
+              ->group(group),
+          "FILE");
+    label(app.add_option("--lockstep-watchdog", options.lockstep_watchdog_s,
+                         "Wall seconds a controller thread may run without a wait doppel sees before it\n"
+                         "is reported.")
+              ->transform(number_in<double>(0.1, 3600.0))
+              ->group(group),
+          "S", shown(options.lockstep_watchdog_s));
+    label(app.add_option("--lockstep-epoch", options.lockstep_epoch_s,
+                         "CLOCK_REALTIME at simulation time 0, Unix seconds (default: when doppel starts).")
+              ->transform(number_in<double>(0.0, 1e11))
+              ->group(group),
+          "S");
+  }
+  void check(const CLI::App&, Options& options) override {
+    if ((options.hashes || !options.hashes_file.empty() || options.lockstep_epoch_s) && !options.lockstep) {
+      throw std::invalid_argument("--hashes, --hashes-file and --lockstep-epoch need --lockstep (see --help)");
+    }
+  }
+};
+
+// Every service's options, in the order --help shows them.
+std::vector<std::unique_ptr<ServiceOptions>> services() {
+  std::vector<std::unique_ptr<ServiceOptions>> out;
+  out.push_back(std::make_unique<BusOptions>());
+  out.push_back(std::make_unique<WorldOptions>());
+  out.push_back(std::make_unique<StateOptions>());
+  out.push_back(std::make_unique<CameraOptions>());
+  out.push_back(std::make_unique<ControlOptions>());
+  out.push_back(std::make_unique<HandshakeOptions>());
+  out.push_back(std::make_unique<RecorderOptions>());
+  out.push_back(std::make_unique<TruthOptions>());
+  out.push_back(std::make_unique<GameControllerOptions>());
+  out.push_back(std::make_unique<TeamcommOptions>());
+  out.push_back(std::make_unique<LockstepOptions>());
+  return out;
+}
+
+// The options a command line starts from (an in-process Options{} differs: no handshake, no state).
+Options command_line_defaults() {
+  Options options;
+  options.handshake = true;
+  return options;
+}
+
+// The parser of every service's options, filling `options`.
+std::unique_ptr<CLI::App> make_parser(Options& options, const std::vector<std::unique_ptr<ServiceOptions>>& declared) {
+  auto app = std::make_unique<CLI::App>(
+      "Emulates the Dynamixel buses of one or more robots on pseudo-terminals, so that unmodified\n"
+      "servo-bus drivers can talk to a simulated robot. Runs until SIGINT or SIGTERM.\n"
+      "Also: doppel scenario run FILE [--seed N] [--param NAME=VALUE]...   (docs/scenarios.md)",
+      "doppel");
+  app->set_help_flag();  // --help only sets Options::help; main prints usage()
+  app->option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  app->get_formatter()->column_width(25);
+  app->footer(
+      "The port baud rate set by the driver (termios, including BOTHER rates) must match the devices'\n"
+      "Baud Rate registers, as on real hardware; the robot file sets them (fumanoid-2011: 1 Mbps).");
+  app->add_flag("-h,--help", options.help, "Print this text and exit.");
+  for (const auto& service : declared) service->declare(*app, options);
+  return app;
+}
+
 }  // namespace
 
 std::string usage() {
-  return R"(Usage: doppel [OPTIONS]
-       doppel scenario run FILE [--seed N] [--param NAME=VALUE]...   (docs/scenarios.md)
-
-Emulates the Dynamixel buses of one or more robots on pseudo-terminals, so that unmodified
-servo-bus drivers can talk to a simulated robot. Runs until SIGINT or SIGTERM.
-
-Options:
-  --robot NAME|FILE      Robot description: a shipped robot name (see --list-robots) or a
-                         protobuf text file. Repeat to run several robots. Default: fumanoid-2011.
-  --link-dir DIR         Directory for the stable port links. Default: $XDG_RUNTIME_DIR/doppel,
-                         or /tmp/doppel-$USER without a private XDG_RUNTIME_DIR.
-                         Robot 0, bus b:  DIR/ttyDXL<b>        (e.g. /tmp/doppel-$USER/ttyDXL0)
-                         Robot r>0, bus b: DIR/robot<r>/ttyDXL<b>
-                         Refused if it is a symlink, another user's, or writable by others.
-  --allow-shared-link-dir
-                         Use such a link directory anyway, with a warning.
-  --timing wire|fast     wire (default): statuses arrive when a real bus at the port's baud rate
-                         would deliver them (wire time, firmware time, Return Delay Time).
-                         fast: statuses are written as soon as they are computed.
-  --processing-us US     Firmware processing time before the Return Delay Time starts, in µs
-                         (default 50, as measured on MX-64 servos).
-  --latency-timer MS     Model a USB serial adapter (FTDI/U2D2) whose latency timer is MS ms
-                         (1..255; FTDI default 16). Default 0: no adapter model.
-  --physics ode|bullet|none
-                         Physics engine for the robots' bodies (default ode). Robots whose file has
-                         no body, and every robot with 'none', move kinematically: joints turn toward
-                         their goals at the commanded speed, the IMU lies level, the feet carry the
-                         weight evenly.
-  --solver-iterations N  Constraint solver sweeps per physics step (1..1000). Default: the largest
-                         a robot file asks for (op3: 100, its light links carry a heavy trunk),
-                         else 10.
-  --no-hold              Release every robot at start. By default a robot is held in its initial
-                         pose, as a handler holds a real robot while it powers up, until its
-                         driver has enabled torque on all of its servos (each joint follows its
-                         servo from its Torque Enable on), or 1 s after the first.
-  --session FILE         Session file (protobuf text, proto/session.proto): cameras fixed in the
-                         field, such as sessions/sideline-camera.textproto (a TV view from the touch
-                         line). They stream like the robots' cameras, also with --physics none.
-  --no-camera            Stream no camera. By default every camera of a simulated robot's description
-                         (the default robot's head camera: 640x480 YUYV, 20 fps, wide lens) streams
-                         through iceoryx shared memory; see doppel-camera.
-  --external-roudi       Use an iceoryx RouDi that is already running (iox-roudi) and fail without one.
-                         By default doppel uses a running RouDi if there is one and otherwise runs
-                         RouDi inside itself.
-  --verbose              Also print iceoryx's own log lines (warnings and info).
-  --rt-priority P        Run the bus I/O threads with SCHED_FIFO priority P (1..99; needs
-                         CAP_SYS_NICE or root). Default 0: normal scheduling. Cuts the latency
-                         tail on a loaded machine.
-  --robots-dir DIR       Where robot names are looked up (default: the robots/ folder of the source tree,
-                         or $DOPPEL_ROBOTS_DIR).
-  --state-dir DIR        Keep each robot's EEPROM areas (IDs, baud rates, Protocol Type, limits the
-                         driver wrote) in DIR across runs, as real servos keep them. Default:
-                         $XDG_STATE_HOME/doppel, else ~/.local/state/doppel. A state file that is
-                         corrupt or belongs to another robot layout stops doppel.
-  --fresh                Start from the robot files' values and overwrite the saved state.
-  --viewer PORT          Serve the web viewer (http://127.0.0.1:PORT/: 3D view, servo tables, controls)
-                         and simulation control (JSON API for doppel-ctl: state, pause, resume, step,
-                         reset, place, push, ball) on PORT (default 7580; 0 = any free port, printed at
-                         start). If the default port is taken doppel runs without it and says so.
-  --viewer-address ADDR  Address to serve it on (default 127.0.0.1: this machine only). Anyone who
-                         can reach it can move the robots: name another address only on a network
-                         you trust.
-  --viewer-dir DIR       The viewer's page (index.html, viewer.js) from DIR instead of the source tree's
-                         viewer/ (or $DOPPEL_VIEWER_DIR). three.js comes from Debian's libjs-three.
-  --no-viewer            Serve neither the viewer nor simulation control.
-  --handshake-socket PATH
-                         Serve the session handshake (docs/handshake.md: control software asks for
-                         robots, their cameras and sensors, and gets their links) on this Unix socket.
-                         Default: LINK_DIR/handshake.sock.
-  --handshake-port PORT  Also serve it over TCP on PORT (default 7590, used only if free; 0 = any free
-                         port, printed at start).
-  --handshake-address ADDR
-                         Address of the TCP handshake (default 127.0.0.1: this machine only). Anyone
-                         who can reach it can add and remove robots: name another address only on a
-                         network you trust.
-  --no-handshake-tcp     Serve the handshake on the Unix socket only.
-  --no-handshake         Serve no handshake.
-  --no-token             Let any local user and program use the control API and the TCP handshake
-                         without the run's access token (the old behaviour; only for a machine of
-                         your own with no other users: docs/security.md). Host and Origin are
-                         checked still.
-  --record FILE.mcap     Record the run to FILE (MCAP, docs/recording.md): every bus transaction with
-                         its bytes and times, the world state at 100 Hz, servo tables, the scene.
-                         Read it with doppel-bus report, doppel-replay or Foxglove.
-  --record-cameras HZ    Also record each camera's still (PNG) HZ times a second (0.1..30).
-  --record-compression zstd|lz4|none
-                         Chunk compression of the recording (default zstd).
-  --world-model          Give every simulated robot a world-model sensor (docs/multilevel.md): its own
-                         pose, the balls, goal posts, side poles, field landmarks and the other robots,
-                         in the field frame and relative to the robot, 30 times a second of simulation
-                         time, published over iceoryx ("DoppelTruth", "robot<N>", "world_model") and
-                         UDP; read them with doppel-truth. Noise, dropout and latency: doppel-ctl
-                         world-model.
-  --world-model-rate HZ  Messages per second of simulation time (0.1..1000; default 30).
-  --world-model-fov DEG  Horizontal field of view about the head camera's optical axis (the heading
-                         without a camera), 1..179; default 0: all around.
-  --world-model-range M  Objects farther than M metres are not seen (default 0: no limit).
-  --world-model-nearest-ball
-                         Of several balls (a session's extra balls), report only the nearest seen.
-  --truth-udp-port BASE  Robot N's world model goes to UDP port BASE+N (default 7600).
-  --truth-udp-address ADDR
-                         ...on this IPv4 address (default 127.0.0.1: this machine only; name another
-                         address only for control software on another machine).
-  --no-truth-iceoryx     Publish the world model over UDP only (no iceoryx RouDi needed).
-  --gamecontroller [on|off]
-                         Run a RoboCup GameController (Humanoid League protocol, struct version 12;
-                         docs/gamecontroller.md) inside doppel, driven from doppel-ctl game and the
-                         viewer. Off by default: a robot's software behaves differently once it hears
-                         a GameController. doppel-ctl game on starts it later.
-  --gc-teams A,B         Team numbers of team A (cyan, kicks off first) and B (default 1,2).
-  --gc-players N         Players per team in the packets (default 4).
-  --gc-destination ADDRESS:PORT
-                         Where the game packets go (default 127.0.0.1:3838: this machine only). A
-                         broadcast address (x.x.x.255) sends to the LAN: only if you name it.
-  --gc-return ADDRESS:PORT
-                         Where return packets are received (default 127.0.0.1:3939).
-  --gc-watch ADDRESS:PORT|off
-                         Watch for another GameController's packets and stop sending when one
-                         appears (default 255.255.255.255:3838: broadcasts only, never the unicast
-                         packets meant for the robots; shares the port with SO_REUSEADDR, so a
-                         robot's software binding 3838 needs SO_REUSEADDR too, or use off).
-  --teamcomm [ADDRESS:]PORT
-                         Relay the robots' team messages (UDP) between their software on this
-                         machine (docs/teamcomm.md), listening on ADDRESS:PORT (default address
-                         127.0.0.1; port 0: any free port, printed at start).
-  --teamcomm-robot TEAM:PLAYER:PORT
-                         A robot's software that receives (and sends from) PORT; repeat. Robots can
-                         also register while doppel runs (doppel-ctl teamcomm add).
-  --teamcomm-robot-address ADDR
-                         The address the robots' software runs on (default 127.0.0.1).
-  --teamcomm-loss P, --teamcomm-delay-ms D, --teamcomm-jitter-ms J, --teamcomm-jitter uniform|normal,
-  --teamcomm-burst-enter P, --teamcomm-burst-leave P, --teamcomm-burst-loss P, --teamcomm-seed S
-                         The WiFi model of every link, as doppel-teamcomm's options of the same names.
-  --lockstep             Simulation time instead of the wall clock (docs/lockstep.md): time advances
-                         only while every thread of a controller started with `doppel-run --lockstep`
-                         waits, as fast as the machine can. Implies --timing wire on its own clock.
-  --hashes               With --lockstep: print `hash SECOND HEX` for every simulated second (bus
-                         bytes in and out with their times, world state): equal runs, equal lines.
-  --hashes-file FILE     The same lines to FILE instead of standard output.
-  --lockstep-watchdog S  Wall seconds a controller thread may run without a wait doppel sees before
-                         it is reported (default 5).
-  --lockstep-epoch S     CLOCK_REALTIME at simulation time 0, Unix seconds (default: when doppel starts).
-  --sensor-levels HZ     Publish every servo's, IMU's and foot board's registers decoded to SI units
-                         beside the simulation's true values, HZ times per simulated second
-                         (0.1..1000), as topic sensor_levels on the same transport (docs/multilevel.md).
-  --list-robots          Print the shipped robots and exit.
-  --help                 Print this text and exit.
-
-The port baud rate set by the driver (termios, including BOTHER rates) must match the devices'
-Baud Rate registers, as on real hardware; the robot file sets them (fumanoid-2011: 1 Mbps).
-)";
+  Options options = command_line_defaults();
+  const auto declared = services();
+  return make_parser(options, declared)->help();
 }
 
 Options parse_options(int argc, const char* const* argv) {
-  Options options;
-  CLI::App app("doppel", "doppel");
-  app.set_help_flag();  // usage() is the help text; --help only sets Options::help
-  app.option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
-  app.add_flag("-h,--help", options.help);
-  app.add_flag("--list-robots", options.list_robots);
-  app.add_option("--robot", options.robots)
-      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll)
-      ->allow_extra_args(false);
-  app.add_option("--link-dir", options.link_dir)->check(not_empty("the directory"));
-  app.add_flag("--allow-shared-link-dir", options.allow_shared_link_dir);
-  app.add_option("--robots-dir", options.robots_dir);
-  app.add_option("--session", options.session)->check(not_empty("the file name"));
-  app.add_option_function<std::string>(
-         "--timing",
-         [&options](const std::string& mode) {
-           options.timing = mode == "wire" ? bus::TimingMode::kWire : bus::TimingMode::kFast;
-         })
-      ->check(CLI::IsMember({"wire", "fast"}));
-  app.add_option("--processing-us", options.processing_us)->transform(number_in<double>(0.0, 10000.0));
-  app.add_option_function<std::string>(
-         "--physics",
-         [&options](const std::string& engine) {
-           options.physics = engine == "none" ? std::nullopt : std::optional(physics::engine_from_name(engine));
-         })
-      ->check(CLI::IsMember({"ode", "bullet", "none"}));
-  app.add_option("--solver-iterations", options.solver_iterations)->transform(number_in<int>(1, 1000));
-  app.add_flag("--no-camera{false}", options.camera);
-  app.add_flag("--external-roudi", options.external_roudi);
-  app.add_flag("--verbose", options.verbose);
-  app.add_flag("--no-hold{false}", options.hold);
-  app.add_option("--state-dir", options.state_dir)->check(not_empty("the directory"));
-  app.add_flag("--fresh", options.fresh);
-  app.add_option("--viewer", options.viewer_port)->transform(number_in<uint16_t>(0, 65535));
-  app.add_option("--viewer-address", options.viewer_address)->check(not_empty("the address"));
-  app.add_option("--viewer-dir", options.viewer_dir)->check(not_empty("the folder"));
-  app.add_flag("--no-viewer{false}", options.viewer);
-  app.add_option("--rt-priority", options.rt_priority)->transform(number_in<int>(0, 99));
-  app.add_option("--handshake-socket", options.handshake_socket)->check(not_empty("the socket path"));
-  app.add_option("--handshake-port", options.handshake_port)->transform(number_in<uint16_t>(0, 65535));
-  app.add_option("--handshake-address", options.handshake_address)->check(not_empty("the address"));
-  app.add_flag("--no-handshake-tcp{false}", options.handshake_tcp);
-  app.add_flag("--no-handshake{false}", options.handshake);
-  app.add_flag("--no-token{false}", options.token);
-  app.add_option("--record", options.record_path)->check(not_empty("the file name"));
-  app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
-  app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
-  app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
-  control::WorldModelSettings& world_model = options.world_model_settings;
-  app.add_flag("--world-model", options.world_model);
-  CLI::Option* rate = app.add_option("--world-model-rate", world_model.rate_hz)->transform(number_in<double>(0.1, 1000.0));
-  CLI::Option* fov = app.add_option("--world-model-fov", world_model.fov_deg)->transform(number_in<double>(1.0, 179.0));
-  CLI::Option* range = app.add_option("--world-model-range", world_model.max_range_m)->transform(number_in<double>(0.0, 100.0));
-  CLI::Option* nearest = app.add_flag("--world-model-nearest-ball", world_model.nearest_ball_only);
-  app.add_option("--truth-udp-port", options.truth_udp_port)->transform(number_in<uint16_t>(1, 65471));
-  app.add_option("--truth-udp-address", options.truth_udp_address)->check(CLI::ValidIPV4);
-  app.add_flag("--no-truth-iceoryx{false}", options.truth_iceoryx);
-  std::string gamecontroller;
-  app.add_option("--gamecontroller", gamecontroller)->expected(0, 1);
-  std::string gc_teams;
-  app.add_option("--gc-teams", gc_teams)->check(not_empty("the team numbers"));
-  app.add_option("--gc-players", options.gc_players)->transform(number_in<int>(1, 11));
-  app.add_option("--gc-destination", options.gc_destination)->check(not_empty("the address"));
-  app.add_option("--gc-return", options.gc_return)->check(not_empty("the address"));
-  app.add_option("--gc-watch", options.gc_watch)->check(not_empty("the address"));
-  app.add_option("--teamcomm", options.teamcomm)->check(not_empty("the address"));
-  app.add_option("--teamcomm-robot", options.teamcomm_robots)->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  app.add_option("--teamcomm-robot-address", options.teamcomm_robot_address)->check(not_empty("the address"));
-  double teamcomm_delay_ms = 0.0, teamcomm_jitter_ms = 0.0;
-  std::string teamcomm_jitter = "uniform";
-  app.add_option("--teamcomm-loss", options.teamcomm_link.loss_probability)->transform(number_in<double>(0.0, 1.0));
-  app.add_option("--teamcomm-delay-ms", teamcomm_delay_ms)->transform(number_in<double>(0.0, 60000.0));
-  app.add_option("--teamcomm-jitter-ms", teamcomm_jitter_ms)->transform(number_in<double>(0.0, 60000.0));
-  app.add_option("--teamcomm-jitter", teamcomm_jitter)->check(CLI::IsMember({"uniform", "normal"}));
-  app.add_option("--teamcomm-burst-enter", options.teamcomm_link.p_good_to_bad)->transform(number_in<double>(0.0, 1.0));
-  app.add_option("--teamcomm-burst-leave", options.teamcomm_link.p_bad_to_good)->transform(number_in<double>(0.0, 1.0));
-  app.add_option("--teamcomm-burst-loss", options.teamcomm_link.loss_in_bad)->transform(number_in<double>(0.0, 1.0));
-  app.add_option("--teamcomm-seed", options.teamcomm_seed);
-  app.add_flag("--lockstep", options.lockstep);
-  app.add_flag("--hashes", options.hashes);
-  app.add_option("--hashes-file", options.hashes_file)->check(not_empty("the file name"));
-  app.add_option("--lockstep-watchdog", options.lockstep_watchdog_s)->transform(number_in<double>(0.1, 3600.0));
-  app.add_option("--lockstep-epoch", options.lockstep_epoch_s)->transform(number_in<double>(0.0, 1e11));
-  app.add_option("--sensor-levels", options.sensor_levels_hz)->transform(number_in<double>(0.1, 1000.0));
+  Options options = command_line_defaults();
+  const auto declared = services();
+  const std::unique_ptr<CLI::App> app = make_parser(options, declared);
   try {
-    app.parse(argc, argv);
+    app->parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     throw std::invalid_argument(std::string(e.what()) + " (see --help)");
   }
   for (int i = 0; i < argc; ++i) {
     options.command_line += (i > 0 ? " " : "") + std::string(argv[i]);
   }
-  if (options.robots.empty()) {
-    options.robots.emplace_back("fumanoid-2011");
-  }
-  if (app.count("--gamecontroller") > 0) {
-    if (gamecontroller != "" && gamecontroller != "on" && gamecontroller != "off") {
-      throw std::invalid_argument("--gamecontroller '" + gamecontroller + "': expected on or off (see --help)");
-    }
-    options.gamecontroller = gamecontroller != "off";
-  }
-  if (!gc_teams.empty()) {
-    const auto comma = gc_teams.find(',');
-    const auto team = [&gc_teams](const std::string& part) {
-      if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
-        throw std::invalid_argument("--gc-teams '" + gc_teams + "': '" + part + "' is not a team number 0..255 (see --help)");
-      }
-      return std::stoi(part);
-    };
-    if (comma == std::string::npos) throw std::invalid_argument("--gc-teams '" + gc_teams + "': expected A,B (see --help)");
-    options.gc_team_a = team(gc_teams.substr(0, comma));
-    options.gc_team_b = team(gc_teams.substr(comma + 1));
-    if (options.gc_team_a == options.gc_team_b) {
-      throw std::invalid_argument("--gc-teams '" + gc_teams + "': the two teams need different numbers (see --help)");
-    }
-  }
-  options.teamcomm_link.delay_ns = static_cast<int64_t>(teamcomm_delay_ms * 1e6);
-  options.teamcomm_link.jitter_ns = static_cast<int64_t>(teamcomm_jitter_ms * 1e6);
-  options.teamcomm_link.jitter = teamcomm_jitter == "normal" ? teamcomm::Jitter::kHalfNormal : teamcomm::Jitter::kUniform;
-  options.teamcomm_link.burst = options.teamcomm_link.p_good_to_bad > 0.0;
-  if (options.teamcomm.empty()) {
-    for (const char* name : {"--teamcomm-robot", "--teamcomm-loss", "--teamcomm-delay-ms", "--teamcomm-jitter-ms",
-                             "--teamcomm-burst-enter"}) {
-      if (app.count(name) > 0) throw std::invalid_argument(std::string(name) + " needs --teamcomm [ADDRESS:]PORT (see --help)");
-    }
-  }
-  if (options.record_camera_hz > 0.0 && options.record_path.empty()) {
-    throw std::invalid_argument("--record-cameras needs --record FILE.mcap (see --help)");
-  }
-  if (rate->count() + fov->count() + range->count() + nearest->count() > 0) options.world_model = true;
-  if ((options.hashes || !options.hashes_file.empty() || options.lockstep_epoch_s) && !options.lockstep) {
-    throw std::invalid_argument("--hashes, --hashes-file and --lockstep-epoch need --lockstep (see --help)");
-  }
-  if (options.state_dir.empty()) {
-    options.state_dir = default_state_dir();
-  }
+  for (const auto& service : declared) service->check(*app, options);
   return options;
 }
 

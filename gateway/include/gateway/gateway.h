@@ -1,10 +1,12 @@
 #pragma once
 // The running double of one or more robots: for every bus a pseudo-terminal with its devices and
 // an I/O thread, and one simulation thread at 1 kHz that runs the servos' motor controllers, steps
-// the physics world of the robots' bodies and produces the sensor readings. Lifecycle as in ros2_control: the constructor configures (loads robots, builds the
-// devices, opens the ports and links: everything that allocates or may fail), start() activates
-// the threads, stop() joins them. The bus threads never wait for the simulation: commands and
-// feedback cross between them as lock-free snapshots.
+// the physics world of the robots' bodies and produces the sensor readings, and around them the
+// cameras, the world model, the recorder, the control API, the field services and the session
+// handshake. Each is a component in one ordered list (lifecycle.h): the constructor configures them
+// (loads robots, builds the devices, opens the ports and links: everything that allocates or may
+// fail), start() starts their threads, stop() joins them. The bus threads never wait for the
+// simulation: commands and feedback cross between them as lock-free snapshots.
 
 #include <atomic>
 #include <cstdint>
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "control/sim_control.h"
+#include "gateway/lifecycle.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 
@@ -49,6 +52,9 @@ class LatencyTimerFiles;
 namespace doppel::teamcomm {
 class Hub;
 }
+namespace doppel::handshake {
+class Server;
+}
 
 namespace doppel::gateway {
 
@@ -77,14 +83,21 @@ class Gateway {
   // message for the user when a robot file or a port cannot be set up.
   explicit Gateway(const Options& options);
   // The same with the robots (in the order of options.robots) and the session already loaded, so
-  // that a caller can tell reading files (no side effects) from opening ports and links.
-  Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session);
+  // that a caller can tell reading files (no side effects) from opening ports and links. `hook`
+  // sees every component's transitions (lifecycle.h; tests inject failures with it).
+  Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session, TransitionHook hook = {});
   ~Gateway();
   Gateway(const Gateway&) = delete;
   Gateway& operator=(const Gateway&) = delete;
 
-  void start();  // starts the bus and simulation threads (and the state thread with a state directory)
-  void stop();   // stops and joins them, then saves every robot's EEPROM state; idempotent
+  // Starts every component in list order (components()): the bus and simulation threads, the
+  // servers, the session handshake. When one fails, those started stop in reverse order and the
+  // error is thrown. Once.
+  void start();
+  // Stops the started components in reverse order, saving every robot's EEPROM state; idempotent.
+  void stop();
+  // The components in the order they configure and start (they stop and release in reverse).
+  std::vector<std::string> components() const { return lifecycle_.names(); }
 
   // Adds and removes robots while doppel runs (control/robot_host.h; docs/robots-at-run-time.md).
   // Any thread; valid for the gateway's lifetime.
@@ -118,54 +131,69 @@ class Gateway {
 
   // The run's access token for the HTTP API and the TCP handshake ("" with --no-token).
   const std::string& access_token() const noexcept { return access_token_; }
-  // Writes the token for a TCP listener on `port` to LINK_DIR/token-PORT (0600; removed at exit);
-  // nothing with --no-token. Setup only; throws std::runtime_error naming the file.
-  void publish_token(uint16_t port);
 
   // Writes each robot's state file now (bus threads stopped, or from the published snapshots when
   // `published`). Returns false and reports on `std::cerr` when a file cannot be written.
   bool save_state(bool published);
 
  private:
+  // The components, in order (gateway.cpp says why each stands where it does).
+  void add_components();
+  void configure_world();
+  void configure_state();
+  void configure_robots();
+  void configure_lockstep();  // --lockstep; throws
+  void configure_truth();     // --world-model, --sensor-levels; throws
+  void configure_cameras();
+  void configure_recorder();  // --record: opens the file; throws
+  void configure_control();   // the HTTP API (and the viewer's page); throws for a port the user named
+  void configure_live_robots();
+  void start_handshake();     // the session handshake and its token file; throws for a named port
   void simulate() noexcept;
   void simulate_lockstep() noexcept;  // simulate() on the lockstep clock (docs/lockstep.md)
   // One simulation tick (1 ms): drives, steps, senses. Simulation thread; rt-safe.
   void step_world(int64_t& sim_time_ns) noexcept;
-  void set_up_lockstep();  // constructor, --lockstep; throws
   void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
-  void start_truth(const std::vector<RobotConfig>& configs, const std::vector<std::optional<std::size_t>>& in_world);
-  void start_recorder(const std::vector<RobotConfig>& configs);  // --record: opens the file; throws
+  // Writes the token for a TCP listener on `port` to LINK_DIR/token-PORT (0600; removed with the
+  // returned file); null with --no-token. Throws std::runtime_error naming the file.
+  std::unique_ptr<control::TokenFile> publish_token(uint16_t port) const;
 
   Options options_;
-  std::unique_ptr<bus::LinkDirectory> links_;  // outlives the ports, so it can remove what it created
+  SessionConfig session_;
+  std::vector<RobotConfig> configs_;
+  std::string access_token_;  // control/access.h; "" with --no-token
+  std::unique_ptr<bus::LinkDirectory> links_;
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
-  std::vector<std::unique_ptr<RobotRuntime>> robots_;
-  std::unique_ptr<bus::LatencyTimerFiles> latency_files_;  // after robots_: gone before the servers it feeds
-  std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
-  std::unique_ptr<SensorLevelsFeed> levels_feed_;  // --sensor-levels: a poller of truth_, so it outlives it
-  std::unique_ptr<truth::TruthService> truth_;  // --world-model, --sensor-levels; after cameras_: gone before their iceoryx
-  std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
-  std::unique_ptr<FaultBoard> faults_;          // every fault of the run; sets the buses' fault tables
-  std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
-  std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
-  std::string access_token_;                       // control/access.h; "" with --no-token
-  std::vector<std::unique_ptr<control::TokenFile>> token_files_;  // after links_: removed before its directory
-  std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
-  std::unique_ptr<LiveRobots> live_;  // robots added while running; last: goes first, using the parts above
-  std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
-  std::thread simulation_thread_;
-  std::thread state_thread_;
+  std::vector<std::optional<std::size_t>> in_world_;  // per robot: its index in world_
   std::vector<std::string> state_files_;  // per robot; empty without a state directory
-  bool state_saved_ = false;               // stop() saved the final state
-  uint64_t missed_ticks_ = 0;
-  std::atomic<int64_t> sim_time_ns_{0};
-  std::unique_ptr<lockstep::Coordinator> lockstep_;  // --lockstep; before the buses stop serving, after links_
+  std::atomic<bool> state_stop_{false};
+  std::thread state_thread_;
+  std::vector<std::unique_ptr<RobotRuntime>> robots_;
+  std::unique_ptr<bus::LatencyTimerFiles> latency_files_;
+  std::unique_ptr<lockstep::Coordinator> lockstep_;  // --lockstep
   std::vector<std::unique_ptr<Fnv1a>> bus_hashes_;   // --lockstep: per bus (robot order), folded by its server
   HashCallback hash_callback_;
   std::ofstream hashes_file_;
-  bool viewer_page_ = false;  // control_api_ serves the viewer's page too
+  std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
+  std::unique_ptr<FaultBoard> faults_;          // every fault of the run; sets the buses' fault tables
+  std::unique_ptr<truth::TruthService> truth_;  // --world-model, --sensor-levels
+  std::unique_ptr<SensorLevelsFeed> levels_feed_;  // --sensor-levels: a poller of truth_
+  std::unique_ptr<CameraFeed> cameras_;   // cameras of the simulated robots; null with --no-camera
+  std::unique_ptr<record::Recorder> recorder_;  // --record; reads controller_ and the buses' taps
+  std::unique_ptr<FieldServices> field_;        // the GameController and the team-communication hub
+  std::atomic<bool> simulation_stop_{false};
+  std::thread simulation_thread_;
+  uint64_t missed_ticks_ = 0;
+  std::atomic<int64_t> sim_time_ns_{0};
   StepObserver* step_observer_ = nullptr;
-  std::vector<std::optional<std::size_t>> in_world_;  // per robot
+  std::unique_ptr<LiveRobots> live_;  // robots added while running
+  std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
+  std::unique_ptr<control::TokenFile> control_token_;
+  bool viewer_page_ = false;  // control_api_ serves the viewer's page too
+  std::atomic<bool> bus_stop_{false};  // tells the bus threads to stop
+  std::unique_ptr<handshake::Server> handshake_;  // --no-handshake: null
+  std::unique_ptr<control::TokenFile> handshake_token_;
+  Lifecycle lifecycle_;  // last: released (in its own order) before any member above goes
 };
 
 // The robots of `options`, loaded in order (robot names looked up in robots_dir or the default).

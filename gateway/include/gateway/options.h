@@ -1,5 +1,8 @@
 #pragma once
-// Command-line options of the `doppel` executable. Parsing is setup code: a bad option throws
+// Command-line options of the `doppel` executable. Each service (buses, world, state, cameras,
+// control API, handshake, recorder, truth, GameController, team hub, lockstep) declares its own in
+// options.cpp: its group of the parser, its defaults (taken from this struct) and its checks;
+// --help is generated from those declarations. Parsing is setup code: a bad option throws
 // std::invalid_argument with a message meant for the user.
 
 #include <cstdint>
@@ -49,8 +52,9 @@ struct Options {
   // The session handshake (handshake/, docs/handshake.md): control software asks for robots over a
   // Unix socket (--handshake-socket PATH; "" = LINK_DIR/handshake.sock) and TCP (--handshake-port
   // PORT, 0 = any free port; unset = handshake::kDefaultPort, used only if free;
-  // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither.
-  bool handshake = true;
+  // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither. On by default on the
+  // command line (parse_options); off for a Gateway built in-process unless told.
+  bool handshake = false;
   // The run's access token (control/access.h, docs/security.md) for the HTTP API and the TCP
   // handshake, in LINK_DIR/token-PORT; --no-token: none (with a warning).
   bool token = true;
@@ -102,7 +106,7 @@ struct Options {
 // Parses argv (argv[0] is the program). Throws std::invalid_argument naming the bad option.
 Options parse_options(int argc, const char* const* argv);
 
-// The --help text.
+// The --help text, generated from every service's option declarations: grouped, with defaults.
 std::string usage();
 
 }  // namespace doppel::gateway
