@@ -23,7 +23,7 @@
 #include "physics/world.h"
 #include "eeprom_state.h"
 #include "field_services.h"
-#include "control/access.h"
+#include "contract/access_token.h"
 #include "control/http_api.h"
 #include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
@@ -130,7 +130,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
   }
   if (options.token) {
-    access_token_ = control::new_access_token();
+    access_token_ = contract::new_access_token();
   } else if (options.viewer || (options.handshake && options.handshake_tcp)) {
     std::cerr << "doppel: warning: --no-token: every local user and program can use the control API and the TCP "
                  "handshake (docs/security.md)\n";
@@ -193,7 +193,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
     }
     viewer_page_ = !files.viewer_dir.empty();
     try {
-      control_api_ = std::make_unique<control::HttpApi>(*controller_, options.viewer_address,
+      control_api_ = std::make_unique<control::HttpApi>(controller_->facets(), options.viewer_address,
                                                         options.viewer_port.value_or(control::kDefaultPort), files,
                                                         access_token_);
     } catch (const std::runtime_error& e) {
@@ -206,9 +206,9 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   }
   if (!options.record_path.empty()) start_recorder(configs);
   // Robots added and removed while doppel runs (the session handshake); these are robots 0..n-1.
-  std::vector<control::RobotAdded> started;
+  std::vector<contract::RobotAdded> started;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
-    control::RobotAdded robot{static_cast<uint32_t>(r), configs[r].name, {}};
+    contract::RobotAdded robot{static_cast<uint32_t>(r), configs[r].name, {}};
     for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
       const std::string& link = robots_[r]->bus(b).link();
       robot.links.push_back({"bus", "ttyDXL" + std::to_string(b), link});
@@ -276,9 +276,9 @@ void Gateway::start_truth(const std::vector<RobotConfig>& configs,
   controller_->set_world_model(truth_.get());
 }
 
-control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
+contract::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 
-control::FaultAnswer Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
+contract::Result<uint32_t> Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
 
 void Gateway::set_up_lockstep() {
   std::vector<lockstep::LockstepBus> buses;
@@ -363,7 +363,7 @@ void Gateway::start_recorder(const std::vector<RobotConfig>& configs) {
                                                                          : mcap::Compression::kZstd;
   recorder_options.progress = options_.record_progress && ::isatty(STDERR_FILENO) == 1;
   try {
-    recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_.get(),
+    recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_->facets(),
                                                    &std::cerr);
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("--record: ") + e.what());
@@ -374,7 +374,7 @@ Gateway::~Gateway() { stop(); }
 
 void Gateway::publish_token(uint16_t port) {
   if (access_token_.empty()) return;
-  token_files_.push_back(std::make_unique<control::TokenFile>(control::token_file_path(links_->path(), port), access_token_));
+  token_files_.push_back(std::make_unique<contract::TokenFile>(contract::token_file_path(links_->path(), port), access_token_));
 }
 
 teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }

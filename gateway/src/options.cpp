@@ -221,7 +221,7 @@ Options parse_options(int argc, const char* const* argv) {
   app.add_option("--record-cameras", options.record_camera_hz)->transform(number_in<double>(0.1, 30.0));
   app.add_option("--record-compression", options.record_compression)->check(CLI::IsMember({"zstd", "lz4", "none"}));
   app.add_option("--latency-timer", options.latency_timer_ms)->transform(number_in<uint32_t>(0, 255));
-  control::WorldModelSettings& world_model = options.world_model_settings;
+  contract::WorldModelSettings& world_model = options.world_model_settings;
   app.add_flag("--world-model", options.world_model);
   CLI::Option* rate = app.add_option("--world-model-rate", world_model.rate_hz)->transform(number_in<double>(0.1, 1000.0));
   CLI::Option* fov = app.add_option("--world-model-fov", world_model.fov_deg)->transform(number_in<double>(1.0, 179.0));

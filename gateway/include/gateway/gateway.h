@@ -16,7 +16,8 @@
 #include <thread>
 #include <vector>
 
-#include "control/sim_control.h"
+#include "contract/faults.h"
+#include "contract/robot_host.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 
@@ -32,8 +33,9 @@ class Fnv1a;
 
 namespace doppel::control {
 class HttpApi;
+}
+namespace doppel::contract {
 class TokenFile;
-class RobotHost;
 }
 namespace doppel::record {
 class Recorder;
@@ -88,7 +90,7 @@ class Gateway {
 
   // Adds and removes robots while doppel runs (control/robot_host.h; docs/robots-at-run-time.md).
   // Any thread; valid for the gateway's lifetime.
-  control::RobotHost& robot_host() noexcept;
+  contract::RobotHost& robot_host() noexcept;
 
   std::string describe() const;  // the links and the devices behind them, for the user
   uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
@@ -110,7 +112,7 @@ class Gateway {
   void set_step_observer(StepObserver* observer) noexcept { step_observer_ = observer; }
   // Faults on demand (docs/faults.md), as /api/faults adds them: a scenario adds its faults here
   // before start(). Any thread.
-  control::FaultAnswer add_fault(const faults::FaultSpec& spec);
+  contract::Result<uint32_t> add_fault(const faults::FaultSpec& spec);
   // Robot r's index in the physics world; nullopt when it moves kinematically.
   std::optional<std::size_t> world_index(std::size_t robot) const;
   // The physics world (setup: look-ups such as find_motor); null when no robot has a body.
@@ -149,7 +151,7 @@ class Gateway {
   std::unique_ptr<SimController> controller_;   // pause, step, reset, place, push (simulation thread)
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
   std::string access_token_;                       // control/access.h; "" with --no-token
-  std::vector<std::unique_ptr<control::TokenFile>> token_files_;  // after links_: removed before its directory
+  std::vector<std::unique_ptr<contract::TokenFile>> token_files_;  // after links_: removed before its directory
   std::unique_ptr<record::Recorder> recorder_;     // --record; reads controller_ and the buses' taps
   std::unique_ptr<LiveRobots> live_;  // robots added while running; last: goes first, using the parts above
   std::atomic<bool> stop_{false};  // tells the bus and simulation threads to stop
