@@ -30,7 +30,7 @@ contract::Facets host(Fake& fake) {
   return facets;
 }
 
-class RecordingControl final : public contract::Simulation {
+class RecordingControl : public contract::Simulation {
  public:
   contract::SimState state() override {
     contract::SimState s;
@@ -211,21 +211,10 @@ TEST(HttpApi, ALiveSimulationHasNoBusAnalysis) {
 
 // The host refuses in the contract's terms; the API alone turns them into HTTP statuses.
 TEST(HttpApi, EachKindOfRefusalHasItsStatusAndKeepsItsMessage) {
-  class Refusing final : public contract::Simulation {
+  class Refusing final : public RecordingControl {
    public:
-    contract::SimState state() override { return inner.state(); }
     contract::Outcome pause() override { return contract::Outcome::fail(kind, "refused as asked"); }
-    contract::Outcome resume() override { return inner.resume(); }
-    contract::Outcome step(uint32_t n) override { return inner.step(n); }
-    contract::Outcome reset() override { return inner.reset(); }
-    contract::Outcome place(std::size_t r, double x, double y, double yaw) override { return inner.place(r, x, y, yaw); }
-    contract::Outcome push(std::size_t r, double a, double b, double c, uint32_t n) override { return inner.push(r, a, b, c, n); }
-    contract::Outcome ball(double x, double y) override { return inner.ball(x, y); }
-    contract::Scene scene() override { return inner.scene(); }
-    std::vector<contract::BusTable> buses() override { return inner.buses(); }
-    contract::Result<contract::CameraStill> camera_still(const std::string& name) override { return inner.camera_still(name); }
     contract::ErrorKind kind = contract::ErrorKind::kInvalid;
-    RecordingControl inner;
   } refusing;
   const std::pair<contract::ErrorKind, int> kinds[] = {{contract::ErrorKind::kInvalid, 400},
                                                        {contract::ErrorKind::kNotFound, 404},
