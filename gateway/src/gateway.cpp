@@ -19,6 +19,7 @@
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
 #include "physics/engines.h"
+#include "physics/carpet.h"
 #include "physics/field.h"
 #include "physics/world.h"
 #include "eeprom_state.h"
@@ -31,6 +32,7 @@
 #include "record/recorder.h"
 #include "fault_board.h"
 #include "live_robots.h"
+#include "robot_names.h"
 #include "robot_runtime.h"
 #include "sim_controller.h"
 #include "truth/truth_service.h"
@@ -156,9 +158,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       if (in_world[r]) {
         cameras[*in_world[r]] = configs[r].cameras;
         for (CameraSetup& setup : cameras[*in_world[r]]) {
-          if (r > 0) {
-            setup.config.name = "robot" + std::to_string(r) + "-" + setup.config.name;  // unique per machine
-          }
+          setup.config.name = robot_camera_name(r, setup.config.name);  // unique per machine
         }
       }
     }
@@ -170,8 +170,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   }
   const physics::FieldSpec field;
   controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
-                                                0.5 * field.field_length_m + field.border_strip_width_m,
-                                                0.5 * field.field_width_m + field.border_strip_width_m);
+                                                physics::carpet_half_length_m(field), physics::carpet_half_width_m(field));
   if ((options.world_model && world_ != nullptr) || options.sensor_levels_hz > 0.0) start_truth(configs, in_world);
   if (options.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
@@ -215,7 +214,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
       robot.links.push_back({"latency_timer", "ttyDXL" + std::to_string(b), bus::LatencyTimerFiles::path_for_link(link)});
     }
     for (std::size_t c = 0; cameras_ != nullptr && in_world[r] && c < configs[r].cameras.size(); ++c) {
-      const std::string name = (r > 0 ? "robot" + std::to_string(r) + "-" : "") + configs[r].cameras[c].config.name;
+      const std::string name = robot_camera_name(r, configs[r].cameras[c].config.name);
       robot.links.push_back({"camera", name, "iceoryx:DoppelCamera/" + name + "/frames"});
     }
     for (const char* topic : {"world_model", "sensor_levels"}) {
@@ -230,8 +229,7 @@ Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const
   }
   live_ = std::make_unique<LiveRobots>(
       LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(), truth_.get(),
-                        0.5 * field.field_length_m + field.border_strip_width_m,
-                        0.5 * field.field_width_m + field.border_strip_width_m},
+                        physics::carpet_half_length_m(field), physics::carpet_half_width_m(field)},
       std::move(started));
   if (options.lockstep) set_up_lockstep();
   in_world_ = std::move(in_world);

@@ -17,6 +17,7 @@
 #include "camera_feed.h"
 #include "gateway/gateway.h"
 #include "physics/world.h"
+#include "robot_names.h"
 #include "robot_runtime.h"
 #include "truth/transport.h"
 #include "truth/truth_service.h"
@@ -250,7 +251,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const contract::RobotR
     return Refusal{"cameras", "at most " + std::to_string(kSimMaxCameras) + " cameras per robot"};
   }
   for (CameraSetup& setup : plan.cameras) {
-    if (plan.index > 0) setup.config.name = "robot" + std::to_string(plan.index) + "-" + setup.config.name;  // as gateway.cpp
+    setup.config.name = robot_camera_name(plan.index, setup.config.name);
   }
   return plan;
 }

@@ -7,6 +7,7 @@
 #include "camera/lens.h"
 #include "fault_board.h"
 #include "field_services.h"
+#include "robot_names.h"
 #include "robot_runtime.h"
 #include "truth/truth_service.h"
 
@@ -42,8 +43,7 @@ void SimController::add_devices(std::size_t r) {
   }
   for (const CameraSetup& setup : config.cameras) {
     Camera camera;
-    // The name CameraFeed streams it under (gateway.cpp): robots after the first get a prefix.
-    camera.name = r > 0 ? "robot" + std::to_string(r) + "-" + setup.config.name : setup.config.name;
+    camera.name = robot_camera_name(r, setup.config.name);  // the name CameraFeed streams it under
     camera.body = setup.body;
     camera.config = setup.config;
     const camera::Lens lens(setup.config.lens, setup.config.width_px, setup.config.height_px);
