@@ -1,4 +1,4 @@
-// A recording served as a SimControl (replay/replay_control.h) and through the HTTP API's
+// A recording served as the simulation and replay facets (replay/replay_control.h) and through the HTTP API's
 // /api/replay: which recorded message each moment shows (latest-before), play / pause / seek /
 // speed against a clock the test drives, world changes refused, bad playback requests refused
 // without a half-applied change.
