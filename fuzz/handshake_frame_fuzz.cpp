@@ -41,10 +41,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     if (request.has_add_robot()) {
       const auto checked = hs::check_add_robot(request.add_robot());
-      if (const auto* refusal = std::get_if<doppel::control::Refusal>(&checked)) {
+      if (const auto* refusal = std::get_if<doppel::contract::Refusal>(&checked)) {
         FUZZ_CHECK(refusal->field.rfind("add_robot.", 0) == 0 && !refusal->message.empty());
       } else {
-        const auto& r = std::get<doppel::control::RobotRequest>(checked);
+        const auto& r = std::get<doppel::contract::RobotRequest>(checked);
         FUZZ_CHECK(r.robot.empty() != r.description.empty());
         FUZZ_CHECK(!r.team || *r.team <= 1);
         FUZZ_CHECK(!r.x_m || std::fabs(*r.x_m) <= 100.0);

@@ -7,223 +7,344 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <regex>
 #include <set>
 #include <stdexcept>
 
 namespace doppel::control {
 namespace {
 
+using contract::Error;
+using contract::ErrorKind;
 using nlohmann::json;
-
-// A request that cannot be applied as asked: its status and message.
-struct Refused {
-  int status;
-  std::string message;
-};
 
 json error_body(const std::string& message) { return json{{"error", message}}; }
 
-json parse_object(const std::string& body) {
-  if (body.empty()) return json::object();
-  json request = json::parse(body, nullptr, false);
-  if (request.is_discarded()) throw Refused{400, "the request body is not JSON"};
-  if (!request.is_object()) throw Refused{400, "the request body must be a JSON object"};
-  return request;
-}
+// An answer that refuses: an HTTP-only status (405, 500) with its message, or a domain error mapped.
+Answer refusal(int status, const std::string& message) { return {status, error_body(message)}; }
+Answer refusal(const Error& error) { return {http_status(error.kind), error_body(error.message)}; }
 
-void only_fields(const json& request, const std::set<std::string>& allowed) {
-  for (const auto& [key, value] : request.items()) {
-    if (allowed.count(key) == 0) throw Refused{400, "unknown field '" + key + "'"};
+// The checks of one request's JSON body. The first check that fails keeps its Error and every later
+// one does nothing (returning a neutral value), so a handler runs its checks in order and looks at
+// failed() once before it asks the host anything: all fields are checked before any applies.
+class Fields {
+ public:
+  // The body: a JSON object, or empty (no fields).
+  explicit Fields(const std::string& body) : request_(json::object()) {
+    if (body.empty()) return;
+    request_ = json::parse(body, nullptr, false);
+    if (request_.is_discarded()) {
+      refuse("the request body is not JSON");
+    } else if (!request_.is_object()) {
+      refuse("the request body must be a JSON object");
+    }
   }
-}
 
-double number(const json& request, const std::string& field) {
-  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
-  const json& value = request.at(field);
-  if (!value.is_number()) throw Refused{400, "field '" + field + "' must be a number"};
-  const double x = value.get<double>();
-  if (!std::isfinite(x)) throw Refused{400, "field '" + field + "' must be finite"};
-  return x;
-}
-
-uint32_t milliseconds(const json& request, uint32_t most) {
-  if (!request.contains("ms")) throw Refused{400, "missing field 'ms'"};
-  const json& value = request.at("ms");
-  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field 'ms' must be a whole number"};
-  const int64_t ms = value.get<int64_t>();
-  if (ms < 1 || ms > most) {
-    throw Refused{400, "field 'ms' must be within 1.." + std::to_string(most) + ", got " + std::to_string(ms)};
+  bool failed() const noexcept { return error_.has_value(); }
+  const Error& error() const { return *error_; }
+  // The request's error unless an earlier check failed already.
+  void refuse(std::string message, ErrorKind kind = ErrorKind::kInvalid) {
+    if (!error_) error_ = Error{kind, std::move(message)};
   }
-  return static_cast<uint32_t>(ms);
-}
+  bool has(const std::string& field) const { return !failed() && request_.contains(field); }
+  bool none() const { return !failed() && request_.empty(); }
+  const json& at(const std::string& field) const { return request_.at(field); }
 
-std::size_t robot_index(const json& request, const SimState& state) {
-  if (!request.contains("robot")) throw Refused{400, "missing field 'robot' (a robot's index or name)"};
-  const json& robot = request.at("robot");
+  // No field but these; `kind`: the fault kind they were chosen for, named in the refusal.
+  void only(const std::set<std::string>& allowed, std::string_view kind = {}) {
+    if (failed()) return;
+    for (const auto& [key, value] : request_.items()) {
+      if (allowed.count(key) != 0) continue;
+      return refuse(kind.empty() ? "unknown field '" + key + "'"
+                                 : "field '" + key + "' does not belong to kind " + std::string(kind));
+    }
+  }
+
+  double number(const std::string& field) {
+    if (failed()) return 0.0;
+    if (!request_.contains(field)) return refuse("missing field '" + field + "'"), 0.0;
+    const json& value = request_.at(field);
+    if (!value.is_number()) return refuse("field '" + field + "' must be a number"), 0.0;
+    const double x = value.get<double>();
+    if (!std::isfinite(x)) return refuse("field '" + field + "' must be finite"), 0.0;
+    return x;
+  }
+
+  uint32_t whole(const std::string& field, uint32_t least, uint32_t most) {
+    if (failed()) return least;
+    if (!request_.contains(field)) return refuse("missing field '" + field + "'"), least;
+    const json& value = request_.at(field);
+    if (!value.is_number_integer() && !value.is_number_unsigned()) {
+      return refuse("field '" + field + "' must be a whole number"), least;
+    }
+    const int64_t x = value.get<int64_t>();
+    if (x < least || x > most) {
+      refuse("field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) + ", got " +
+             std::to_string(x));
+      return least;
+    }
+    return static_cast<uint32_t>(x);
+  }
+
+  // A whole number field within least..most, or `fallback` when absent.
+  int64_t optional_whole(const std::string& field, int64_t least, int64_t most, int64_t fallback) {
+    if (!has(field)) return fallback;
+    const json& value = request_.at(field);
+    if (!value.is_number_integer() && !value.is_number_unsigned()) {
+      return refuse("field '" + field + "' must be a whole number"), fallback;
+    }
+    if (value.is_number_unsigned() && value.get<uint64_t>() > static_cast<uint64_t>(most)) {
+      return refuse("field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most)), fallback;
+    }
+    const int64_t x = value.get<int64_t>();
+    if (x < least || x > most) {
+      refuse("field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) + ", got " +
+             std::to_string(x));
+      return fallback;
+    }
+    return x;
+  }
+
+  std::string text(const std::string& field, const std::set<std::string>& allowed) {
+    if (failed()) return "";
+    if (!request_.contains(field)) return refuse("missing field '" + field + "'"), "";
+    const json& value = request_.at(field);
+    if (!value.is_string() || allowed.count(value.get<std::string>()) == 0) {
+      std::string names;
+      for (const std::string& name : allowed) names += (names.empty() ? "" : ", ") + name;
+      return refuse("field '" + field + "' must be one of " + names + ", got " + value.dump()), "";
+    }
+    return value.get<std::string>();
+  }
+
+  // Optional fields: `to` keeps its value when the field is absent.
+  void flag(const std::string& field, bool& to) {
+    if (!has(field)) return;
+    if (!request_.at(field).is_boolean()) return refuse("field '" + field + "' must be true or false");
+    to = request_.at(field).get<bool>();
+  }
+  void real(const std::string& field, double& to) {
+    if (has(field)) to = number(field);
+  }
+  void seed(const std::string& field, uint64_t& to) {
+    if (!has(field)) return;
+    const json& value = request_.at(field);
+    if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<int64_t>() >= 0)) {
+      return refuse("field '" + field + "' must be a whole number >= 0");
+    }
+    to = value.get<uint64_t>();
+  }
+
+ private:
+  json request_;
+  std::optional<Error> error_;
+};
+
+std::size_t robot_index(Fields& fields, const contract::SimState& state) {
+  if (fields.failed()) return 0;
+  if (!fields.has("robot")) return fields.refuse("missing field 'robot' (a robot's index or name)"), 0;
+  const json& robot = fields.at("robot");
   if (robot.is_number_integer() || robot.is_number_unsigned()) {
     const int64_t index = robot.get<int64_t>();
     if (index < 0 || static_cast<std::size_t>(index) >= state.robots.size()) {
-      throw Refused{404, "no robot " + std::to_string(index) + " (there are " + std::to_string(state.robots.size()) + ")"};
+      fields.refuse("no robot " + std::to_string(index) + " (there are " + std::to_string(state.robots.size()) + ")",
+                    ErrorKind::kNotFound);
+      return 0;
     }
     return static_cast<std::size_t>(index);
   }
-  if (!robot.is_string()) throw Refused{400, "field 'robot' must be a robot's index or name"};
+  if (!robot.is_string()) return fields.refuse("field 'robot' must be a robot's index or name"), 0;
   const std::string name = robot.get<std::string>();
   std::optional<std::size_t> found;
   for (std::size_t r = 0; r < state.robots.size(); ++r) {
     if (state.robots[r].name != name) continue;
-    if (found) throw Refused{400, "two robots are named '" + name + "': give its index"};
+    if (found) return fields.refuse("two robots are named '" + name + "': give its index"), 0;
     found = r;
   }
-  if (!found) throw Refused{404, "no robot named '" + name + "'"};
+  if (!found) return fields.refuse("no robot named '" + name + "'", ErrorKind::kNotFound), 0;
   return *found;
 }
 
-void on_carpet(const SimState& state, double x, double y) {
+void on_carpet(Fields& fields, const contract::SimState& state, double x, double y) {
+  if (fields.failed()) return;
   if (std::abs(x) > state.carpet_half_length_m || std::abs(y) > state.carpet_half_width_m) {
-    throw Refused{400, "(" + json(x).dump() + ", " + json(y).dump() + ") is off the carpet (|x| <= " +
-                           json(state.carpet_half_length_m).dump() + ", |y| <= " + json(state.carpet_half_width_m).dump() + " m)"};
+    fields.refuse("(" + json(x).dump() + ", " + json(y).dump() + ") is off the carpet (|x| <= " +
+                  json(state.carpet_half_length_m).dump() + ", |y| <= " + json(state.carpet_half_width_m).dump() + " m)");
   }
 }
 
-void simulated(const SimState& state, std::size_t robot) {
-  if (!state.robots[robot].simulated) {
-    throw Refused{409, "robot " + std::to_string(robot) + " '" + state.robots[robot].name +
-                           "' has no body in the world (no figure, or --physics none)"};
-  }
+void simulated(Fields& fields, const contract::SimState& state, std::size_t robot) {
+  if (fields.failed() || state.robots[robot].simulated) return;
+  fields.refuse("robot " + std::to_string(robot) + " '" + state.robots[robot].name +
+                    "' has no body in the world (no figure, or --physics none)",
+                ErrorKind::kConflict);
 }
 
-Outcome apply(SimControl& control, const std::string& action, const json& request) {
+// What the route's pattern captured and the request's method and body.
+struct Call {
+  const std::string& method;
+  const std::smatch& path;  // [0] the whole path, [1].. the pattern's groups
+  const std::string& body;
+};
+
+contract::Outcome apply(contract::Simulation& simulation, const std::string& action, Fields& fields) {
   if (action == "pause" || action == "resume" || action == "reset") {
-    only_fields(request, {});
-    return action == "pause" ? control.pause() : action == "resume" ? control.resume() : control.reset();
+    fields.only({});
+    if (fields.failed()) return fields.error();
+    return action == "pause" ? simulation.pause() : action == "resume" ? simulation.resume() : simulation.reset();
   }
   if (action == "step") {
-    only_fields(request, {"ms"});
-    return control.step(milliseconds(request, kMaxStepMs));
+    fields.only({"ms"});
+    const uint32_t ms = fields.whole("ms", 1, kMaxStepMs);
+    if (fields.failed()) return fields.error();
+    return simulation.step(ms);
   }
-  const SimState state = control.state();
+  const contract::SimState state = simulation.state();
   if (action == "place") {
-    only_fields(request, {"robot", "x", "y", "yaw"});
-    const std::size_t robot = robot_index(request, state);
-    const double x = number(request, "x"), y = number(request, "y"), yaw = number(request, "yaw");
-    on_carpet(state, x, y);
-    simulated(state, robot);
-    return control.place(robot, x, y, yaw);
+    fields.only({"robot", "x", "y", "yaw"});
+    const std::size_t robot = robot_index(fields, state);
+    const double x = fields.number("x"), y = fields.number("y"), yaw = fields.number("yaw");
+    on_carpet(fields, state, x, y);
+    simulated(fields, state, robot);
+    if (fields.failed()) return fields.error();
+    return simulation.place(robot, x, y, yaw);
   }
   if (action == "push") {
-    only_fields(request, {"robot", "fx", "fy", "fz", "ms"});
-    const std::size_t robot = robot_index(request, state);
-    const double fx = number(request, "fx"), fy = number(request, "fy"), fz = number(request, "fz");
-    if (std::sqrt(fx * fx + fy * fy + fz * fz) > kMaxPushForceN) {
-      throw Refused{400, "a push of more than " + std::to_string(static_cast<int>(kMaxPushForceN)) + " N is refused"};
+    fields.only({"robot", "fx", "fy", "fz", "ms"});
+    const std::size_t robot = robot_index(fields, state);
+    const double fx = fields.number("fx"), fy = fields.number("fy"), fz = fields.number("fz");
+    if (!fields.failed() && std::sqrt(fx * fx + fy * fy + fz * fz) > kMaxPushForceN) {
+      fields.refuse("a push of more than " + std::to_string(static_cast<int>(kMaxPushForceN)) + " N is refused");
     }
-    const uint32_t ms = milliseconds(request, kMaxPushMs);
-    simulated(state, robot);
-    return control.push(robot, fx, fy, fz, ms);
+    const uint32_t ms = fields.whole("ms", 1, kMaxPushMs);
+    simulated(fields, state, robot);
+    if (fields.failed()) return fields.error();
+    return simulation.push(robot, fx, fy, fz, ms);
   }
-  if (action == "ball") {
-    only_fields(request, {"x", "y"});
-    const double x = number(request, "x"), y = number(request, "y");
-    if (!state.ball_m) throw Refused{409, "there is no ball (no world: --physics none or no robot with a body)"};
-    on_carpet(state, x, y);
-    return control.ball(x, y);
+  // ball (the route names no other action)
+  fields.only({"x", "y"});
+  const double x = fields.number("x"), y = fields.number("y");
+  if (!fields.failed() && !state.ball_m) {
+    fields.refuse("there is no ball (no world: --physics none or no robot with a body)", ErrorKind::kConflict);
   }
-  throw Refused{404, "no such request: /api/" + action};
+  on_carpet(fields, state, x, y);
+  if (fields.failed()) return fields.error();
+  return simulation.ball(x, y);
+}
+
+// POST /api/pause, resume, reset, step, place, push, ball: checked, applied, the state afterwards.
+Answer simulation_request(const contract::Facets& host, const Call& call) {
+  const std::string action = call.path[1];
+  if (call.method != "POST") return refusal(405, "/api/" + action + " is a POST request");
+  Fields fields(call.body);
+  if (const contract::Outcome outcome = apply(*host.simulation, action, fields); !outcome.ok()) return refusal(outcome.error());
+  return {200, state_json(host.simulation->state())};
+}
+
+// GET /api/state, /api/scene, /api/buses.
+Answer reading_request(const contract::Facets& host, const Call& call) {
+  const std::string what = call.path[1];
+  if (call.method != "GET") return refusal(405, "/api/" + what + " is read with GET");
+  if (what == "scene") return {200, scene_json(host.simulation->scene())};
+  if (what == "buses") return {200, buses_json(host.simulation->buses())};
+  return {200, state_json(host.simulation->state())};
+}
+
+// Any other /api/ path.
+Answer unknown_request(const contract::Facets&, const Call& call) {
+  const std::string action = call.path[1];
+  if (call.method != "POST") return refusal(405, "/api/" + action + " is a POST request");
+  const Fields fields(call.body);
+  if (fields.failed()) return refusal(fields.error());
+  return refusal(404, "no such request: /api/" + action);
 }
 
 // The checked fields of POST /api/replay against the replay's `status`: all or nothing.
-ReplayChange replay_change(const json& request, const ReplayStatus& status) {
-  only_fields(request, {"position_s", "speed", "playing"});
-  if (request.empty()) throw Refused{400, "give at least one of 'position_s', 'speed', 'playing'"};
-  ReplayChange change;
-  if (request.contains("position_s")) {
-    const double position = number(request, "position_s");
-    if (position < status.start_s || position > status.end_s) {
-      throw Refused{400, "field 'position_s' must be within " + json(status.start_s).dump() + ".." + json(status.end_s).dump() +
-                             " s (the recording), got " + json(position).dump()};
+contract::ReplayChange replay_change(Fields& fields, const contract::ReplayStatus& status) {
+  fields.only({"position_s", "speed", "playing"});
+  if (fields.none()) fields.refuse("give at least one of 'position_s', 'speed', 'playing'");
+  contract::ReplayChange change;
+  if (fields.has("position_s")) {
+    const double position = fields.number("position_s");
+    if (!fields.failed() && (position < status.start_s || position > status.end_s)) {
+      fields.refuse("field 'position_s' must be within " + json(status.start_s).dump() + ".." + json(status.end_s).dump() +
+                    " s (the recording), got " + json(position).dump());
     }
     change.position_s = position;
   }
-  if (request.contains("speed")) {
-    const double speed = number(request, "speed");
-    if (speed < kMinReplaySpeed || speed > kMaxReplaySpeed) {
-      throw Refused{400, "field 'speed' must be within " + json(kMinReplaySpeed).dump() + ".." + json(kMaxReplaySpeed).dump() +
-                             ", got " + json(speed).dump()};
+  if (fields.has("speed")) {
+    const double speed = fields.number("speed");
+    if (!fields.failed() && (speed < contract::kMinReplaySpeed || speed > contract::kMaxReplaySpeed)) {
+      fields.refuse("field 'speed' must be within " + json(contract::kMinReplaySpeed).dump() + ".." +
+                    json(contract::kMaxReplaySpeed).dump() + ", got " + json(speed).dump());
     }
     change.speed = speed;
   }
-  if (request.contains("playing")) {
-    if (!request.at("playing").is_boolean()) throw Refused{400, "field 'playing' must be true or false"};
-    change.playing = request.at("playing").get<bool>();
+  if (fields.has("playing")) {
+    bool playing = false;
+    fields.flag("playing", playing);
+    change.playing = playing;
   }
   return change;
 }
 
-Answer replay_request(SimControl& control, const std::string& method, const std::string& body) {
-  const std::optional<ReplayStatus> status = control.replay();
-  if (!status) return {404, error_body("this is not a replay: /api/replay is served by doppel-replay (docs/replay.md)")};
-  if (method == "GET") return {200, replay_json(*status)};
-  if (method != "POST") return {405, error_body("/api/replay is read with GET and changed with POST")};
-  try {
-    const Outcome outcome = control.change_replay(replay_change(parse_object(body), *status));
-    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-  } catch (const Refused& refused) {
-    return {refused.status, error_body(refused.message)};
+Answer replay_request(const contract::Facets& host, const Call& call) {
+  if (host.replay == nullptr) return refusal(404, "this is not a replay: /api/replay is served by doppel-replay (docs/replay.md)");
+  const contract::ReplayStatus status = host.replay->replay();
+  if (call.method == "GET") return {200, replay_json(status)};
+  if (call.method != "POST") return refusal(405, "/api/replay is read with GET and changed with POST");
+  Fields fields(call.body);
+  const contract::ReplayChange change = replay_change(fields, status);
+  if (fields.failed()) return refusal(fields.error());
+  if (const contract::Outcome outcome = host.replay->change_replay(change); !outcome.ok()) return refusal(outcome.error());
+  return {200, replay_json(host.replay->replay())};
+}
+
+Answer analysis_request(const contract::Facets& host, const Call& call) {
+  if (call.method != "GET") return refusal(405, "/api/analysis is read with GET");
+  const std::optional<std::string> analysis = host.replay != nullptr ? host.replay->bus_analysis() : std::nullopt;
+  if (!analysis) {
+    return refusal(404, "no bus analysis: /api/analysis is served by doppel-replay for a recording with bus "
+                        "transactions (docs/analyzer.md)");
   }
-  const std::optional<ReplayStatus> after = control.replay();
-  return {200, after ? replay_json(*after) : json(nullptr)};
+  json parsed = json::parse(*analysis, nullptr, false);
+  if (parsed.is_discarded()) return refusal(500, "the bus analysis is not valid JSON");
+  return {200, std::move(parsed)};
 }
 
 // GET/PUT /api/robots/N/world_model: a robot's world-model sensor settings; PUT changes the fields
 // it names (the others stay), each checked for its type here and for its range by the sensor.
-Answer world_model_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
-  constexpr std::string_view kRobots = "robots/", kWorldModel = "/world_model";
-  const std::string index = action.substr(kRobots.size(), action.size() - kRobots.size() - kWorldModel.size());
-  if (index.empty() || index.size() > 6 || index.find_first_not_of("0123456789") != std::string::npos) {
-    return {404, error_body("no such path: /api/" + action + " (/api/robots/N/world_model, N a robot's index)")};
+Answer world_model_request(const contract::Facets& host, const Call& call) {
+  const std::string index = call.path[1];
+  if (index.size() > 6 || index.find_first_not_of("0123456789") != std::string::npos) {
+    return refusal(404, "no such path: " + call.path.str(0) + " (/api/robots/N/world_model, N a robot's index)");
   }
+  if (call.method != "GET" && call.method != "PUT") {
+    return refusal(405, "/api/robots/N/world_model is read with GET and changed with PUT");
+  }
+  if (host.world_model == nullptr) return refusal(404, "no world-model sensor in this simulation (doppel --world-model)");
   const auto robot = static_cast<std::size_t>(std::stoul(index));
-  WorldModelAnswer answer = control.world_model(robot);
-  if (answer.status == 200 && method == "PUT") {
-    try {
-      const json request = parse_object(body);
-      only_fields(request, {"enabled", "rate_hz", "fov_deg", "max_range_m", "nearest_ball_only", "position_sigma_m",
-                            "angle_sigma_rad", "dropout", "latency_s", "seed"});
-      WorldModelSettings settings = answer.settings;
-      auto flag = [&](const char* field, bool& to) {
-        if (!request.contains(field)) return;
-        if (!request.at(field).is_boolean()) throw Refused{400, "field '" + std::string(field) + "' must be true or false"};
-        to = request.at(field).get<bool>();
-      };
-      auto real = [&](const char* field, double& to) {
-        if (request.contains(field)) to = number(request, field);
-      };
-      flag("enabled", settings.enabled);
-      flag("nearest_ball_only", settings.nearest_ball_only);
-      real("rate_hz", settings.rate_hz);
-      real("fov_deg", settings.fov_deg);
-      real("max_range_m", settings.max_range_m);
-      real("position_sigma_m", settings.position_sigma_m);
-      real("angle_sigma_rad", settings.angle_sigma_rad);
-      real("dropout", settings.dropout);
-      real("latency_s", settings.latency_s);
-      if (request.contains("seed")) {
-        const json& seed = request.at("seed");
-        if (!seed.is_number_unsigned() && !(seed.is_number_integer() && seed.get<int64_t>() >= 0)) {
-          throw Refused{400, "field 'seed' must be a whole number >= 0"};
-        }
-        settings.seed = seed.get<uint64_t>();
-      }
-      answer = control.set_world_model(robot, settings);
-    } catch (const Refused& refused) {
-      return {refused.status, error_body(refused.message)};
-    }
-  } else if (method != "GET" && method != "PUT") {
-    return {405, error_body("/api/robots/N/world_model is read with GET and changed with PUT")};
+  contract::Result<contract::WorldModelSettings> answer = host.world_model->world_model(robot);
+  if (answer.ok() && call.method == "PUT") {
+    Fields fields(call.body);
+    fields.only({"enabled", "rate_hz", "fov_deg", "max_range_m", "nearest_ball_only", "position_sigma_m", "angle_sigma_rad",
+                 "dropout", "latency_s", "seed"});
+    contract::WorldModelSettings settings = answer.value();
+    fields.flag("enabled", settings.enabled);
+    fields.flag("nearest_ball_only", settings.nearest_ball_only);
+    fields.real("rate_hz", settings.rate_hz);
+    fields.real("fov_deg", settings.fov_deg);
+    fields.real("max_range_m", settings.max_range_m);
+    fields.real("position_sigma_m", settings.position_sigma_m);
+    fields.real("angle_sigma_rad", settings.angle_sigma_rad);
+    fields.real("dropout", settings.dropout);
+    fields.real("latency_s", settings.latency_s);
+    fields.seed("seed", settings.seed);
+    if (fields.failed()) return refusal(fields.error());
+    answer = host.world_model->set_world_model(robot, settings);
   }
-  if (answer.status != 200) return {answer.status, error_body(answer.error)};
-  const WorldModelSettings& s = answer.settings;
+  if (!answer.ok()) return refusal(answer.error());
+  const contract::WorldModelSettings& s = answer.value();
   return {200, json{{"robot", robot},
                     {"enabled", s.enabled},
                     {"rate_hz", s.rate_hz},
@@ -238,9 +359,10 @@ Answer world_model_request(SimControl& control, const std::string& method, const
 }
 
 // A team: "A" / "B" (index 0 / 1) or its team number.
-int game_team(const json& request, const GameStatus& status, bool drop_ball_allowed = false) {
-  if (!request.contains("team")) throw Refused{400, "missing field 'team' (A, B or a team number)"};
-  const json& team = request.at("team");
+int game_team(Fields& fields, const contract::GameStatus& status, bool drop_ball_allowed = false) {
+  if (fields.failed()) return 0;
+  if (!fields.has("team")) return fields.refuse("missing field 'team' (A, B or a team number)"), 0;
+  const json& team = fields.at("team");
   if (team.is_string()) {
     const std::string name = team.get<std::string>();
     if (name == "A" || name == "a") return 0;
@@ -251,137 +373,130 @@ int game_team(const json& request, const GameStatus& status, bool drop_ball_allo
     if (number == status.teams[0].number) return 0;
     if (number == status.teams[1].number) return 1;
   }
-  throw Refused{400, "field 'team' must be A, B or a team number of this game (" + std::to_string(status.teams[0].number) +
-                         ", " + std::to_string(status.teams[1].number) + ")" + (drop_ball_allowed ? " or drop_ball" : "") +
-                         ", got " + team.dump()};
+  fields.refuse("field 'team' must be A, B or a team number of this game (" + std::to_string(status.teams[0].number) + ", " +
+                std::to_string(status.teams[1].number) + ")" + (drop_ball_allowed ? " or drop_ball" : "") + ", got " +
+                team.dump());
+  return 0;
 }
 
-uint32_t whole(const json& request, const std::string& field, uint32_t least, uint32_t most) {
-  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
-  const json& value = request.at(field);
-  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field '" + field + "' must be a whole number"};
-  const int64_t x = value.get<int64_t>();
-  if (x < least || x > most) {
-    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) +
-                           ", got " + std::to_string(x)};
-  }
-  return static_cast<uint32_t>(x);
-}
-
-std::string text(const json& request, const std::string& field, const std::set<std::string>& allowed) {
-  if (!request.contains(field)) throw Refused{400, "missing field '" + field + "'"};
-  const json& value = request.at(field);
-  std::string names;
-  for (const std::string& name : allowed) names += (names.empty() ? "" : ", ") + name;
-  if (!value.is_string() || allowed.count(value.get<std::string>()) == 0) {
-    throw Refused{400, "field '" + field + "' must be one of " + names + ", got " + value.dump()};
-  }
-  return value.get<std::string>();
-}
-
-GameCommand game_command(const json& request, const GameStatus& status) {
-  GameCommand command;
-  command.command = text(request, "command",
-                         {"on", "off", "state", "goal", "score", "kickoff", "penalize", "unpenalize", "set_play", "timeout", "normal"});
+contract::GameCommand game_command(Fields& fields, const contract::GameStatus& status) {
+  contract::GameCommand command;
+  command.command = fields.text("command", {"on", "off", "state", "goal", "score", "kickoff", "penalize", "unpenalize",
+                                            "set_play", "timeout", "normal"});
+  if (fields.failed()) return command;
   const std::string& c = command.command;
   if (c == "on" || c == "off" || c == "normal") {
-    only_fields(request, {"command"});
+    fields.only({"command"});
   } else if (c == "state") {
-    only_fields(request, {"command", "state"});
-    command.state = text(request, "state", {"initial", "ready", "set", "playing", "finished"});
+    fields.only({"command", "state"});
+    command.state = fields.text("state", {"initial", "ready", "set", "playing", "finished"});
   } else if (c == "goal" || c == "timeout") {
-    only_fields(request, {"command", "team"});
-    command.team = game_team(request, status);
+    fields.only({"command", "team"});
+    command.team = game_team(fields, status);
   } else if (c == "score") {
-    only_fields(request, {"command", "team", "score"});
-    command.team = game_team(request, status);
-    command.score = whole(request, "score", 0, 255);
+    fields.only({"command", "team", "score"});
+    command.team = game_team(fields, status);
+    command.score = fields.whole("score", 0, 255);
   } else if (c == "kickoff") {
-    only_fields(request, {"command", "team"});
-    command.team = game_team(request, status, true);
+    fields.only({"command", "team"});
+    command.team = game_team(fields, status, true);
   } else if (c == "penalize" || c == "unpenalize") {
-    only_fields(request, c == "penalize" ? std::set<std::string>{"command", "team", "player", "seconds", "reason"}
-                                         : std::set<std::string>{"command", "team", "player"});
-    command.team = game_team(request, status);
-    command.player = whole(request, "player", 1, kMaxGamePlayers);
+    fields.only(c == "penalize" ? std::set<std::string>{"command", "team", "player", "seconds", "reason"}
+                                : std::set<std::string>{"command", "team", "player"});
+    command.team = game_team(fields, status);
+    command.player = fields.whole("player", 1, kMaxGamePlayers);
     if (c == "penalize") {
-      if (request.contains("seconds")) command.seconds = whole(request, "seconds", 0, 255);
-      if (request.contains("reason")) {
+      if (fields.has("seconds")) command.seconds = fields.whole("seconds", 0, 255);
+      if (fields.has("reason")) {
         std::set<std::string> names;
-        for (const GamePenaltyName& penalty : kGamePenalties) names.insert(penalty.name);
-        const std::string reason = text(request, "reason", names);
-        for (const GamePenaltyName& penalty : kGamePenalties) {
+        for (const contract::GamePenaltyName& penalty : contract::kGamePenalties) names.insert(penalty.name);
+        const std::string reason = fields.text("reason", names);
+        for (const contract::GamePenaltyName& penalty : contract::kGamePenalties) {
           if (reason == penalty.name) command.penalty = penalty.code;
         }
       }
     }
   } else {  // set_play
-    only_fields(request, {"command", "kind", "team", "mode"});
+    fields.only({"command", "kind", "team", "mode"});
     command.set_play =
-        text(request, "kind", {"direct_free_kick", "indirect_free_kick", "penalty_kick", "corner_kick", "goal_kick", "throw_in"});
-    command.team = game_team(request, status);
-    if (request.contains("mode")) command.mode = whole(request, "mode", 0, 255);
+        fields.text("kind", {"direct_free_kick", "indirect_free_kick", "penalty_kick", "corner_kick", "goal_kick", "throw_in"});
+    command.team = game_team(fields, status);
+    if (fields.has("mode")) command.mode = fields.whole("mode", 0, 255);
   }
   return command;
 }
 
-Answer game_request(SimControl& control, const std::string& method, const std::string& body) {
-  const std::optional<GameStatus> status = control.game();
-  if (!status) return {404, error_body("no GameController here: /api/game is served by doppel (docs/gamecontroller.md)")};
-  if (method == "GET") return {200, game_json(*status)};
-  if (method != "POST") return {405, error_body("/api/game is read with GET and changed with POST")};
-  try {
-    const Outcome outcome = control.game_command(game_command(parse_object(body), *status));
-    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-  } catch (const Refused& refused) {
-    return {refused.status, error_body(refused.message)};
-  }
-  const std::optional<GameStatus> after = control.game();
-  return {200, after ? game_json(*after) : json(nullptr)};
+Answer game_request(const contract::Facets& host, const Call& call) {
+  if (host.game == nullptr) return refusal(404, "no GameController here: /api/game is served by doppel (docs/gamecontroller.md)");
+  const contract::GameStatus status = host.game->game();
+  if (call.method == "GET") return {200, game_json(status)};
+  if (call.method != "POST") return refusal(405, "/api/game is read with GET and changed with POST");
+  Fields fields(call.body);
+  const contract::GameCommand command = game_command(fields, status);
+  if (fields.failed()) return refusal(fields.error());
+  if (const contract::Outcome outcome = host.game->game_command(command); !outcome.ok()) return refusal(outcome.error());
+  return {200, game_json(host.game->game())};
 }
 
-// /api/teamcomm, /api/teamcomm/robots, /api/teamcomm/robots/TEAM/PLAYER.
-Answer teamcomm_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
-  const std::optional<TeamcommStatus> status = control.teamcomm();
-  if (!status) return {404, error_body("no team-communication hub: doppel --teamcomm starts one (docs/teamcomm.md)")};
-  try {
-    if (action == "teamcomm") {
-      if (method != "GET") return {405, error_body("/api/teamcomm is read with GET")};
-      return {200, teamcomm_json(*status)};
-    }
-    if (action == "teamcomm/robots") {
-      if (method == "GET") return {200, teamcomm_json(*status)["robots"]};
-      if (method != "POST") return {405, error_body("/api/teamcomm/robots is read with GET and added to with POST")};
-      const json request = parse_object(body);
-      only_fields(request, {"team", "player", "port"});
-      TeamcommRobot robot;
-      robot.team = static_cast<int>(whole(request, "team", 0, 255));
-      robot.player = static_cast<int>(whole(request, "player", 0, 255));
-      robot.port = static_cast<uint16_t>(whole(request, "port", 1, 65535));
-      const Outcome outcome = control.teamcomm_add(robot);
-      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-    } else {
-      // teamcomm/robots/TEAM/PLAYER
-      const std::string rest = action.substr(std::string("teamcomm/robots/").size());
-      const auto slash = rest.find('/');
-      const auto number = [](const std::string& part, const char* what) {
-        if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
-          throw Refused{400, std::string(what) + " '" + part + "' in the path must be a number within 0..255"};
-        }
-        return std::stoi(part);
-      };
-      if (slash == std::string::npos) throw Refused{404, "no such path: /api/" + action + " (use /api/teamcomm/robots/TEAM/PLAYER)"};
-      const int team = number(rest.substr(0, slash), "team");
-      const int player = number(rest.substr(slash + 1), "player");
-      if (method != "DELETE") return {405, error_body("/api/teamcomm/robots/TEAM/PLAYER is removed with DELETE")};
-      const Outcome outcome = control.teamcomm_remove(team, player);
-      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-    }
-  } catch (const Refused& refused) {
-    return {refused.status, error_body(refused.message)};
-  }
-  const std::optional<TeamcommStatus> after = control.teamcomm();
+// The hub, or why there is none.
+std::optional<contract::TeamcommStatus> teamcomm_status(const contract::Facets& host) {
+  return host.teamcomm != nullptr ? host.teamcomm->teamcomm() : std::nullopt;
+}
+const char* const kNoHub = "no team-communication hub: doppel --teamcomm starts one (docs/teamcomm.md)";
+
+Answer teamcomm_answer(const contract::Facets& host) {
+  const std::optional<contract::TeamcommStatus> after = teamcomm_status(host);
   return {200, after ? teamcomm_json(*after) : json(nullptr)};
+}
+
+// GET /api/teamcomm.
+Answer teamcomm_request(const contract::Facets& host, const Call& call) {
+  const std::optional<contract::TeamcommStatus> status = teamcomm_status(host);
+  if (!status) return refusal(404, kNoHub);
+  if (call.method != "GET") return refusal(405, "/api/teamcomm is read with GET");
+  return {200, teamcomm_json(*status)};
+}
+
+// GET, POST /api/teamcomm/robots.
+Answer teamcomm_robots_request(const contract::Facets& host, const Call& call) {
+  const std::optional<contract::TeamcommStatus> status = teamcomm_status(host);
+  if (!status) return refusal(404, kNoHub);
+  if (call.method == "GET") return {200, teamcomm_json(*status)["robots"]};
+  if (call.method != "POST") return refusal(405, "/api/teamcomm/robots is read with GET and added to with POST");
+  Fields fields(call.body);
+  fields.only({"team", "player", "port"});
+  contract::TeamcommRobot robot;
+  robot.team = static_cast<int>(fields.whole("team", 0, 255));
+  robot.player = static_cast<int>(fields.whole("player", 0, 255));
+  robot.port = static_cast<uint16_t>(fields.whole("port", 1, 65535));
+  if (fields.failed()) return refusal(fields.error());
+  if (const contract::Outcome outcome = host.teamcomm->teamcomm_add(robot); !outcome.ok()) return refusal(outcome.error());
+  return teamcomm_answer(host);
+}
+
+// DELETE /api/teamcomm/robots/TEAM/PLAYER.
+Answer teamcomm_robot_request(const contract::Facets& host, const Call& call) {
+  if (!teamcomm_status(host)) return refusal(404, kNoHub);
+  int numbers[2] = {0, 0};
+  const char* const what[2] = {"team", "player"};
+  for (int i = 0; i < 2; ++i) {
+    const std::string part = call.path[i + 1];
+    if (part.empty() || part.size() > 3 || part.find_first_not_of("0123456789") != std::string::npos || std::stoi(part) > 255) {
+      return refusal(400, std::string(what[i]) + " '" + part + "' in the path must be a number within 0..255");
+    }
+    numbers[i] = std::stoi(part);
+  }
+  if (call.method != "DELETE") return refusal(405, "/api/teamcomm/robots/TEAM/PLAYER is removed with DELETE");
+  if (const contract::Outcome outcome = host.teamcomm->teamcomm_remove(numbers[0], numbers[1]); !outcome.ok()) {
+    return refusal(outcome.error());
+  }
+  return teamcomm_answer(host);
+}
+
+// Any other /api/teamcomm/robots... path.
+Answer teamcomm_path_request(const contract::Facets& host, const Call& call) {
+  if (!teamcomm_status(host)) return refusal(404, kNoHub);
+  return refusal(404, "no such path: " + call.path.str(0) + " (use /api/teamcomm/robots/TEAM/PLAYER)");
 }
 
 const char* scope_name(faults::FaultScope scope) {
@@ -398,111 +513,135 @@ const char* scope_name(faults::FaultScope scope) {
   return "";
 }
 
-// A whole number field within least..most, or `fallback` when absent.
-int64_t optional_whole(const json& request, const std::string& field, int64_t least, int64_t most, int64_t fallback) {
-  if (!request.contains(field)) return fallback;
-  const json& value = request.at(field);
-  if (!value.is_number_integer() && !value.is_number_unsigned()) throw Refused{400, "field '" + field + "' must be a whole number"};
-  if (value.is_number_unsigned() && value.get<uint64_t>() > static_cast<uint64_t>(most)) {
-    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most)};
-  }
-  const int64_t x = value.get<int64_t>();
-  if (x < least || x > most) {
-    throw Refused{400, "field '" + field + "' must be within " + std::to_string(least) + ".." + std::to_string(most) +
-                           ", got " + std::to_string(x)};
-  }
-  return x;
-}
-
 // POST /api/faults: the fields of one fault, checked completely (types here, ranges and the
 // kind's fields by faults::check) before anything is added.
-faults::FaultSpec fault_spec(const json& request, const SimState& state) {
-  if (!request.contains("kind")) throw Refused{400, "missing field 'kind' (one of " + faults::fault_kind_names() + ")"};
-  const json& kind_value = request.at("kind");
+faults::FaultSpec fault_spec(Fields& fields, const contract::SimState& state) {
+  faults::FaultSpec spec;
+  if (fields.failed()) return spec;
+  if (!fields.has("kind")) return fields.refuse("missing field 'kind' (one of " + faults::fault_kind_names() + ")"), spec;
+  const json& kind_value = fields.at("kind");
   const std::optional<faults::FaultKind> kind =
       kind_value.is_string() ? faults::fault_kind(kind_value.get<std::string>()) : std::nullopt;
-  if (!kind) throw Refused{400, "field 'kind' must be one of " + faults::fault_kind_names() + ", got " + kind_value.dump()};
+  if (!kind) {
+    return fields.refuse("field 'kind' must be one of " + faults::fault_kind_names() + ", got " + kind_value.dump()), spec;
+  }
   const faults::FaultKindInfo& info = faults::info(*kind);
   std::set<std::string> allowed = {"kind", "robot", "bus", "id", "start_s", "duration_s", "seed"};
   if (info.needs_rate) allowed.insert("rate");
   if (!info.value_field.empty()) allowed.insert(std::string(info.value_field));
-  for (const auto& [key, value] : request.items()) {
-    if (allowed.count(key) == 0) {
-      throw Refused{400, "field '" + key + "' does not belong to kind " + std::string(info.name)};
-    }
-  }
-  faults::FaultSpec spec;
+  fields.only(allowed, info.name);
   spec.kind = *kind;
-  spec.robot = static_cast<uint32_t>(robot_index(request, state));
-  spec.bus = static_cast<int32_t>(optional_whole(request, "bus", 0, 255, -1));
-  spec.id = static_cast<int32_t>(optional_whole(request, "id", 0, 253, -1));
-  if (request.contains("start_s")) {
-    const double start = number(request, "start_s");
-    if (start < 0.0 || start > faults::kMaxStartS) {
-      throw Refused{400, "field 'start_s' must be within 0.." + json(faults::kMaxStartS).dump() + " s, got " + json(start).dump()};
+  spec.robot = static_cast<uint32_t>(robot_index(fields, state));
+  spec.bus = static_cast<int32_t>(fields.optional_whole("bus", 0, 255, -1));
+  spec.id = static_cast<int32_t>(fields.optional_whole("id", 0, 253, -1));
+  if (fields.has("start_s")) {
+    const double start = fields.number("start_s");
+    if (!fields.failed() && (start < 0.0 || start > faults::kMaxStartS)) {
+      fields.refuse("field 'start_s' must be within 0.." + json(faults::kMaxStartS).dump() + " s, got " + json(start).dump());
     }
     spec.start_ns = std::llround(start * 1e9);
   }
-  if (request.contains("duration_s")) {
-    const double duration = number(request, "duration_s");
+  if (fields.has("duration_s")) {
+    const double duration = fields.number("duration_s");
     const double most = static_cast<double>(faults::kMaxDurationNs) * 1e-9;
-    if (duration < 0.0 || duration > most) {
-      throw Refused{400, "field 'duration_s' must be within 0.." + json(most).dump() + " s (0: until cleared), got " +
-                             json(duration).dump()};
+    if (!fields.failed() && (duration < 0.0 || duration > most)) {
+      fields.refuse("field 'duration_s' must be within 0.." + json(most).dump() + " s (0: until cleared), got " +
+                    json(duration).dump());
     }
     spec.duration_ns = std::llround(duration * 1e9);
   }
-  if (request.contains("seed")) {
-    const json& seed = request.at("seed");
-    if (!seed.is_number_unsigned() && !(seed.is_number_integer() && seed.get<int64_t>() >= 0)) {
-      throw Refused{400, "field 'seed' must be a whole number >= 0"};
-    }
-    spec.seed = seed.get<uint64_t>();
-  }
-  if (info.needs_rate) spec.rate = number(request, "rate");
-  if (!info.value_field.empty()) spec.value = number(request, std::string(info.value_field));
-  if (const std::string problem = faults::check(spec); !problem.empty()) throw Refused{400, problem};
+  fields.seed("seed", spec.seed);
+  if (info.needs_rate) spec.rate = fields.number("rate");
+  if (!info.value_field.empty()) spec.value = fields.number(std::string(info.value_field));
+  if (fields.failed()) return spec;
+  if (const std::string problem = faults::check(spec); !problem.empty()) fields.refuse(problem);
   return spec;
 }
 
-Answer faults_request(SimControl& control, const std::string& method, const std::string& action, const std::string& body) {
-  if (!control.faults()) return {404, error_body("no faults here: /api/faults is served by a live doppel (docs/faults.md)")};
-  try {
-    std::optional<uint32_t> added;
-    if (action == "faults") {
-      if (method == "POST") {
-        const faults::FaultSpec spec = fault_spec(parse_object(body), control.state());
-        const FaultAnswer answer = control.add_fault(spec);
-        if (answer.status != 200) return {answer.status, error_body(answer.error)};
-        added = answer.number;
-      } else if (method == "DELETE") {
-        if (!body.empty()) only_fields(parse_object(body), {});
-        const Outcome outcome = control.clear_faults();
-        if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-      } else if (method != "GET") {
-        return {405, error_body("/api/faults is read with GET, added to with POST and cleared with DELETE")};
-      }
-    } else {
-      const std::string number = action.substr(std::string("faults/").size());
-      if (number.empty() || number.size() > 9 || number.find_first_not_of("0123456789") != std::string::npos) {
-        return {404, error_body("no such path: /api/" + action + " (/api/faults/N, N a fault's number)")};
-      }
-      if (method != "DELETE") return {405, error_body("/api/faults/N is cleared with DELETE")};
-      const Outcome outcome = control.clear_fault(static_cast<uint32_t>(std::stoul(number)));
-      if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-    }
-    const std::optional<FaultList> list = control.faults();
-    json out = list ? faults_json(*list) : json::object();
-    if (added) out["added"] = *added;
-    return {200, out};
-  } catch (const Refused& refused) {
-    return {refused.status, error_body(refused.message)};
-  }
+const char* const kNoFaults = "no faults here: /api/faults is served by a live doppel (docs/faults.md)";
+
+Answer faults_answer(const contract::Facets& host, std::optional<uint32_t> added = std::nullopt) {
+  json out = faults_json(host.faults->faults());
+  if (added) out["added"] = *added;
+  return {200, out};
 }
+
+// GET, POST, DELETE /api/faults.
+Answer faults_request(const contract::Facets& host, const Call& call) {
+  if (host.faults == nullptr) return refusal(404, kNoFaults);
+  if (call.method == "POST") {
+    Fields fields(call.body);
+    const faults::FaultSpec spec = fault_spec(fields, host.simulation->state());
+    if (fields.failed()) return refusal(fields.error());
+    const contract::Result<uint32_t> added = host.faults->add_fault(spec);
+    if (!added.ok()) return refusal(added.error());
+    return faults_answer(host, added.value());
+  }
+  if (call.method == "DELETE") {
+    Fields fields(call.body);
+    fields.only({});
+    if (fields.failed()) return refusal(fields.error());
+    if (const contract::Outcome outcome = host.faults->clear_faults(); !outcome.ok()) return refusal(outcome.error());
+  } else if (call.method != "GET") {
+    return refusal(405, "/api/faults is read with GET, added to with POST and cleared with DELETE");
+  }
+  return faults_answer(host);
+}
+
+// DELETE /api/faults/N.
+Answer fault_request(const contract::Facets& host, const Call& call) {
+  if (host.faults == nullptr) return refusal(404, kNoFaults);
+  const std::string number = call.path[1];
+  if (number.empty() || number.size() > 9 || number.find_first_not_of("0123456789") != std::string::npos) {
+    return refusal(404, "no such path: " + call.path.str(0) + " (/api/faults/N, N a fault's number)");
+  }
+  if (call.method != "DELETE") return refusal(405, "/api/faults/N is cleared with DELETE");
+  if (const contract::Outcome outcome = host.faults->clear_fault(static_cast<uint32_t>(std::stoul(number))); !outcome.ok()) {
+    return refusal(outcome.error());
+  }
+  return faults_answer(host);
+}
+
+// Every /api/ request by its path, first match wins. The patterns are cpp-httplib's (a regular
+// expression over the whole path, its groups in Request::matches), so that the server and handle()
+// route alike.
+struct Route {
+  const char* pattern;
+  Answer (*serve)(const contract::Facets& host, const Call& call);
+};
+constexpr Route kRoutes[] = {
+    {R"(/api/(state|scene|buses))", reading_request},
+    {R"(/api/(pause|resume|reset|step|place|push|ball))", simulation_request},
+    {R"(/api/replay)", replay_request},
+    {R"(/api/analysis)", analysis_request},
+    {R"(/api/robots/(.+)/world_model)", world_model_request},
+    {R"(/api/game)", game_request},
+    {R"(/api/teamcomm)", teamcomm_request},
+    {R"(/api/teamcomm/robots)", teamcomm_robots_request},
+    {R"(/api/teamcomm/robots/([^/]*)/(.*))", teamcomm_robot_request},
+    {R"(/api/teamcomm/robots.+)", teamcomm_path_request},
+    {R"(/api/faults)", faults_request},
+    {R"(/api/faults/(.*))", fault_request},
+    {R"(/api/(.*))", unknown_request},
+};
 
 }  // namespace
 
-json fault_json(const FaultEntry& entry) {
+int http_status(contract::ErrorKind kind) noexcept {
+  switch (kind) {
+    case ErrorKind::kInvalid:
+      return 400;
+    case ErrorKind::kNotFound:
+      return 404;
+    case ErrorKind::kConflict:
+      return 409;
+    case ErrorKind::kUnavailable:
+      return 503;
+  }
+  return 500;
+}
+
+json fault_json(const contract::FaultEntry& entry) {
   const faults::Fault& f = entry.fault;
   const faults::FaultKindInfo& info = faults::info(f.spec.kind);
   json out = {{"number", f.number},
@@ -521,9 +660,9 @@ json fault_json(const FaultEntry& entry) {
   return out;
 }
 
-json faults_json(const FaultList& list) {
+json faults_json(const contract::FaultList& list) {
   json faults = json::array();
-  for (const FaultEntry& entry : list.faults) faults.push_back(fault_json(entry));
+  for (const contract::FaultEntry& entry : list.faults) faults.push_back(fault_json(entry));
   json kinds = json::array();
   for (const faults::FaultKindInfo& k : faults::fault_kinds()) {
     kinds.push_back({{"kind", std::string(k.name)},
@@ -537,17 +676,17 @@ json faults_json(const FaultList& list) {
   return {{"sim_time_s", list.sim_time_s}, {"faults", faults}, {"kinds", kinds}};
 }
 
-json game_json(const GameStatus& status) {
+json game_json(const contract::GameStatus& status) {
   json teams = json::array();
-  for (const GameTeam& team : status.teams) {
+  for (const contract::GameTeam& team : status.teams) {
     json penalties = json::array();
-    for (const GamePenalty& p : team.penalties) {
+    for (const contract::GamePenalty& p : team.penalties) {
       penalties.push_back({{"player", p.player}, {"penalty", p.penalty}, {"reason", p.reason}, {"seconds_left", p.seconds_left}});
     }
     teams.push_back({{"number", team.number}, {"score", team.score}, {"penalties", penalties}});
   }
   json returns = json::array();
-  for (const GameReturn& r : status.returns) {
+  for (const contract::GameReturn& r : status.returns) {
     returns.push_back({{"team", r.team}, {"player", r.player}, {"message", r.message}, {"count", r.count}, {"age_s", r.age_s}});
   }
   json out = {{"on", status.on},
@@ -579,12 +718,12 @@ json game_json(const GameStatus& status) {
   return out;
 }
 
-json teamcomm_json(const TeamcommStatus& status) {
-  const auto robot = [](const TeamcommRobot& r) { return json{{"team", r.team}, {"player", r.player}, {"port", r.port}}; };
+json teamcomm_json(const contract::TeamcommStatus& status) {
+  const auto robot = [](const contract::TeamcommRobot& r) { return json{{"team", r.team}, {"player", r.player}, {"port", r.port}}; };
   json robots = json::array();
-  for (const TeamcommRobot& r : status.robots) robots.push_back(robot(r));
+  for (const contract::TeamcommRobot& r : status.robots) robots.push_back(robot(r));
   json links = json::array();
-  for (const TeamcommLink& l : status.links) {
+  for (const contract::TeamcommLink& l : status.links) {
     links.push_back({{"from", robot(l.from)},
                      {"to", robot(l.to)},
                      {"relayed", l.relayed},
@@ -599,28 +738,28 @@ json teamcomm_json(const TeamcommStatus& status) {
           {"links", links}};
 }
 
-json replay_json(const ReplayStatus& status) {
+json replay_json(const contract::ReplayStatus& status) {
   return {{"start_s", status.start_s}, {"end_s", status.end_s}, {"position_s", status.position_s},
           {"speed", status.speed},     {"playing", status.playing}, {"cameras", status.cameras}};
 }
 
-json state_json(const SimState& state) {
+json state_json(const contract::SimState& state) {
   json robots = json::array();
-  for (const RobotState& robot : state.robots) {
+  for (const contract::RobotState& robot : state.robots) {
     json joints = json::object();
-    for (const JointState& joint : robot.joints) joints[joint.name] = joint.position_rad;
+    for (const contract::JointState& joint : robot.joints) joints[joint.name] = joint.position_rad;
     json imus = json::array();
-    for (const ImuReading& imu : robot.imus) {
+    for (const contract::ImuReading& imu : robot.imus) {
       imus.push_back({{"name", imu.name}, {"bus", imu.bus}, {"id", imu.id}, {"roll", imu.roll_rad}, {"pitch", imu.pitch_rad},
                       {"gyro", imu.gyro_rad_s}});
     }
     json feet = json::array();
-    for (const FootReading& foot : robot.feet) {
+    for (const contract::FootReading& foot : robot.feet) {
       const double total = foot.force_n[0] + foot.force_n[1] + foot.force_n[2] + foot.force_n[3];
       feet.push_back({{"name", foot.name}, {"bus", foot.bus}, {"id", foot.id}, {"cells", foot.force_n}, {"total", total}});
     }
     json cameras = json::array();
-    for (const CameraView& camera : robot.cameras) {
+    for (const contract::CameraView& camera : robot.cameras) {
       cameras.push_back({{"name", camera.name}, {"p", camera.position}, {"q", camera.quaternion}, {"corners", camera.corner_rays}});
     }
     robots.push_back({{"name", robot.name},
@@ -641,9 +780,9 @@ json state_json(const SimState& state) {
   return out;
 }
 
-json scene_json(const Scene& scene) {
+json scene_json(const contract::Scene& scene) {
   json shapes = json::array();
-  for (const SceneShape& shape : scene.shapes) {
+  for (const contract::SceneShape& shape : scene.shapes) {
     shapes.push_back({{"type", shape.type},
                       {"kind", shape.kind},
                       {"object", shape.object_id},
@@ -659,11 +798,11 @@ json scene_json(const Scene& scene) {
   return {{"sim_time_s", scene.sim_time_s}, {"shapes", shapes}};
 }
 
-json buses_json(const std::vector<BusTable>& buses) {
+json buses_json(const std::vector<contract::BusTable>& buses) {
   json out = json::array();
-  for (const BusTable& bus : buses) {
+  for (const contract::BusTable& bus : buses) {
     json servos = json::array();
-    for (const ServoRow& servo : bus.servos) {
+    for (const contract::ServoRow& servo : bus.servos) {
       servos.push_back({{"id", servo.id},
                         {"name", servo.name},
                         {"model", servo.model},
@@ -676,7 +815,7 @@ json buses_json(const std::vector<BusTable>& buses) {
                         {"voltage", servo.voltage},
                         {"error", servo.error >= 0 ? json(servo.error) : json(nullptr)}});
     }
-    const BusCounters& c = bus.counters;
+    const contract::BusCounters& c = bus.counters;
     const json counters = {{"packets", c.packets},
                            {"bad_checksums", c.bad_checksums},
                            {"replies", c.replies},
@@ -698,42 +837,17 @@ json buses_json(const std::vector<BusTable>& buses) {
   return out;
 }
 
-Answer handle(SimControl& control, const std::string& method, const std::string& path, const std::string& body) {
-  constexpr std::string_view kPrefix = "/api/";
-  if (path.rfind(kPrefix, 0) != 0) return {404, error_body("no such path: " + path)};
-  const std::string action = path.substr(kPrefix.size());
-  if (action == "replay") return replay_request(control, method, body);
-  if (action.rfind("robots/", 0) == 0 && action.size() > 19 && action.substr(action.size() - 12) == "/world_model") {
-    return world_model_request(control, method, action, body);
+Answer handle(const contract::Facets& host, const std::string& method, const std::string& path, const std::string& body) {
+  static const std::vector<std::regex> patterns = [] {
+    std::vector<std::regex> compiled;
+    for (const Route& route : kRoutes) compiled.emplace_back(route.pattern);
+    return compiled;
+  }();
+  for (std::size_t i = 0; i < patterns.size(); ++i) {
+    std::smatch matches;
+    if (std::regex_match(path, matches, patterns[i])) return kRoutes[i].serve(host, Call{method, matches, body});
   }
-  if (action == "game") return game_request(control, method, body);
-  if (action == "faults" || action.rfind("faults/", 0) == 0) return faults_request(control, method, action, body);
-  if (action == "teamcomm" || action.rfind("teamcomm/robots", 0) == 0) return teamcomm_request(control, method, action, body);
-  if (action == "analysis") {
-    if (method != "GET") return {405, error_body("/api/analysis is read with GET")};
-    const std::optional<std::string> analysis = control.bus_analysis();
-    if (!analysis) {
-      return {404, error_body("no bus analysis: /api/analysis is served by doppel-replay for a recording with bus "
-                              "transactions (docs/analyzer.md)")};
-    }
-    json parsed = json::parse(*analysis, nullptr, false);
-    if (parsed.is_discarded()) return {500, error_body("the bus analysis is not valid JSON")};
-    return {200, std::move(parsed)};
-  }
-  if (action == "state" || action == "scene" || action == "buses") {
-    if (method != "GET") return {405, error_body("/api/" + action + " is read with GET")};
-    if (action == "scene") return {200, scene_json(control.scene())};
-    if (action == "buses") return {200, buses_json(control.buses())};
-    return {200, state_json(control.state())};
-  }
-  if (method != "POST") return {405, error_body("/api/" + action + " is a POST request")};
-  try {
-    const Outcome outcome = apply(control, action, parse_object(body));
-    if (outcome.status != 200) return {outcome.status, error_body(outcome.error)};
-    return {200, state_json(control.state())};
-  } catch (const Refused& refused) {
-    return {refused.status, error_body(refused.message)};
-  }
+  return refusal(404, "no such path: " + path);
 }
 
 StaticFiles default_static_files() {
@@ -756,9 +870,10 @@ std::string static_files_problem(const StaticFiles& files) {
   return "";
 }
 
-HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files,
+HttpApi::HttpApi(const contract::Facets& host, const std::string& address, uint16_t port, const StaticFiles& files,
                  std::string token)
-    : control_(control), address_(address), server_(std::make_unique<httplib::Server>()) {
+    : host_(host), address_(address), server_(std::make_unique<httplib::Server>()) {
+  if (host_.simulation == nullptr) throw std::invalid_argument("the control API needs a host that offers the simulation");
   // The viewer: its page at /, three.js at /three/. Files only; the API answers JSON below.
   if (const std::string problem = static_files_problem(files); !problem.empty()) throw std::runtime_error(problem);
   if (!files.viewer_dir.empty()) server_->set_mount_point("/", files.viewer_dir);
@@ -796,19 +911,16 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
     }
     return httplib::Server::HandlerResponse::Unhandled;
   });
-  auto serve = [this](const httplib::Request& request, httplib::Response& response) {
-    const Answer answer = handle(control_, request.method, request.path, request.body);
-    response.status = answer.status;
-    response.set_content(answer.body.dump(), "application/json");
-  };
   // A camera's latest still as PNG (the only answer that is not JSON, unless it is an error).
   server_->Get(R"(/api/camera/(.+))", [this](const httplib::Request& request, httplib::Response& response) {
-    const CameraStill still = control_.camera_still(request.matches[1]);
-    response.status = still.status;
-    if (still.status != 200) {
-      response.set_content(error_body(still.error).dump(), "application/json");
+    const contract::Result<contract::CameraStill> answer = host_.simulation->camera_still(request.matches[1]);
+    if (!answer.ok()) {
+      response.status = http_status(answer.error().kind);
+      response.set_content(error_body(answer.error().message).dump(), "application/json");
       return;
     }
+    const contract::CameraStill& still = answer.value();
+    response.status = 200;
     response.set_header("Cache-Control", "no-store");
     response.set_header("X-Sim-Time", std::to_string(still.sim_time_s));
     // A replay serves the still as recorded: PNG, or JPEG (its magic bytes FF D8 FF).
@@ -816,10 +928,17 @@ HttpApi::HttpApi(SimControl& control, const std::string& address, uint16_t port,
                       static_cast<uint8_t>(still.png[1]) == 0xD8 && static_cast<uint8_t>(still.png[2]) == 0xFF;
     response.set_content(still.png, jpeg ? "image/jpeg" : "image/png");
   });
-  server_->Get(R"(/api/.*)", serve);
-  server_->Post(R"(/api/.*)", serve);
-  server_->Put(R"(/api/.*)", serve);
-  server_->Delete(R"(/api/.*)", serve);
+  for (const Route& route : kRoutes) {
+    auto serve = [this, &route](const httplib::Request& request, httplib::Response& response) {
+      const Answer answer = route.serve(host_, Call{request.method, request.matches, request.body});
+      response.status = answer.status;
+      response.set_content(answer.body.dump(), "application/json");
+    };
+    server_->Get(route.pattern, serve);
+    server_->Post(route.pattern, serve);
+    server_->Put(route.pattern, serve);
+    server_->Delete(route.pattern, serve);
+  }
   if (port == 0) {
     const int bound = server_->bind_to_any_port(address);
     if (bound <= 0) throw std::runtime_error("cannot listen on " + address + " (any port)");

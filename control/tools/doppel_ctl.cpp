@@ -12,6 +12,7 @@
 
 #include "base/command_line.h"
 #include "bus/link_directory.h"
+#include "contract/access_token.h"
 #include "control/access.h"
 #include "control/http_api.h"
 
@@ -265,7 +266,7 @@ int main(int argc, char** argv) {
   const std::string port_text = colon == std::string::npos ? "" : url.substr(colon + 1, url.find('/', colon) - colon - 1);
   const bool numeric = !port_text.empty() && port_text.size() <= 5 && port_text.find_first_not_of("0123456789") == std::string::npos;
   const auto port_number = static_cast<uint16_t>(numeric && std::stoul(port_text) <= 65535 ? std::stoul(port_text) : 80);
-  if (const std::optional<std::string> token = doppel::control::find_access_token(link_dir, port_number)) {
+  if (const std::optional<std::string> token = doppel::contract::find_access_token(link_dir, port_number)) {
     client.set_bearer_token_auth(token->c_str());
   }
   client.set_read_timeout(static_cast<time_t>(doppel::control::kMaxStepMs / 1000 + 30));
@@ -284,7 +285,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "doppel-ctl: %s: %s (HTTP %d)\n", command.c_str(), reason.c_str(), result->status);
     if (result->status == 401) {
       std::fprintf(stderr, "doppel-ctl: the token was looked for in %s (--link-dir names doppel's link directory)\n",
-                   doppel::control::token_file_path(link_dir, port_number).c_str());
+                   doppel::contract::token_file_path(link_dir, port_number).c_str());
     }
     return 1;
   }

@@ -7,8 +7,8 @@ namespace doppel::gateway {
 FaultBoard::FaultBoard(std::vector<RobotRuntime*> robots, const std::atomic<int64_t>& sim_time_ns)
     : robots_(std::move(robots)), sim_time_ns_(sim_time_ns) {}
 
-std::string FaultBoard::target_problem(const faults::FaultSpec& spec, int& status) const {
-  status = 404;
+std::string FaultBoard::target_problem(const faults::FaultSpec& spec, contract::ErrorKind& kind) const {
+  kind = contract::ErrorKind::kNotFound;
   if (spec.robot >= robots_.size() || robots_[spec.robot] == nullptr) {
     return "field 'robot': no robot " + std::to_string(spec.robot) + " with faults (there are " +
            std::to_string(robots_.size()) + "; robots added while doppel runs take none)";
@@ -24,7 +24,7 @@ std::string FaultBoard::target_problem(const faults::FaultSpec& spec, int& statu
     const std::string_view role = robot.bus(static_cast<std::size_t>(spec.bus)).device_role(spec.id);
     const std::string where = who + " bus " + std::to_string(spec.bus);
     if (role.empty()) return "field 'id': " + where + " has no device with ID " + std::to_string(spec.id);
-    status = 400;
+    kind = contract::ErrorKind::kInvalid;
     const bool any_device = spec.kind == faults::FaultKind::kDead || spec.kind == faults::FaultKind::kLate;
     if (info.scope == faults::FaultScope::kServo && !any_device && role != "servo") {
       return "field 'id': ID " + std::to_string(spec.id) + " on " + where + " is not a servo (kind " + std::string(info.name) + " needs one)";
@@ -43,14 +43,15 @@ std::string FaultBoard::target_problem(const faults::FaultSpec& spec, int& statu
     for (std::size_t b = 0; b < robot.bus_count(); ++b) boards += imu ? robot.bus(b).imu_count() : robot.bus(b).foot_count();
     if (boards == 0) return "field 'robot': " + who + " has no " + (imu ? "IMU" : "foot board");
   }
-  status = 200;
   return "";
 }
 
-control::FaultAnswer FaultBoard::add(const faults::FaultSpec& spec) {
-  if (const std::string problem = faults::check(spec); !problem.empty()) return {400, problem, 0};
-  int status = 200;
-  if (const std::string problem = target_problem(spec, status); !problem.empty()) return {status, problem, 0};
+contract::Result<uint32_t> FaultBoard::add(const faults::FaultSpec& spec) {
+  if (const std::string problem = faults::check(spec); !problem.empty()) {
+    return contract::Error{contract::ErrorKind::kInvalid, problem};
+  }
+  contract::ErrorKind kind = contract::ErrorKind::kNotFound;
+  if (const std::string problem = target_problem(spec, kind); !problem.empty()) return contract::Error{kind, problem};
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = sim_time_ns_.load(std::memory_order_relaxed);
   std::size_t free = slots_.size();
@@ -59,7 +60,8 @@ control::FaultAnswer FaultBoard::add(const faults::FaultSpec& spec) {
     if (slots_[s] == 0 || faults_[slots_[s] - 1].end_ns <= now) free = s;
   }
   if (free == slots_.size()) {
-    return {409, "at most " + std::to_string(faults::kMaxFaults) + " faults may act at once: clear one first", 0};
+    return contract::Error{contract::ErrorKind::kConflict,
+                           "at most " + std::to_string(faults::kMaxFaults) + " faults may act at once: clear one first"};
   }
   faults::Fault fault;
   fault.number = next_number_++;
@@ -69,36 +71,36 @@ control::FaultAnswer FaultBoard::add(const faults::FaultSpec& spec) {
   faults_.push_back(fault);
   slots_[free] = fault.number;
   publish();
-  return {200, "", fault.number};
+  return fault.number;
 }
 
-control::Outcome FaultBoard::clear(uint32_t number) {
+contract::Outcome FaultBoard::clear(uint32_t number) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (number == 0 || number > faults_.size()) {
-    return control::Outcome::fail(404, "no fault " + std::to_string(number) + " (there are " +
+    return contract::Outcome::fail(contract::ErrorKind::kNotFound, "no fault " + std::to_string(number) + " (there are " +
                                            std::to_string(faults_.size()) + ")");
   }
   const int64_t now = sim_time_ns_.load(std::memory_order_relaxed);
   faults::Fault& fault = faults_[number - 1];
   if (fault.end_ns > now) fault.end_ns = std::max(now, fault.start_ns);
   publish();
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome FaultBoard::clear_all() {
+contract::Outcome FaultBoard::clear_all() {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = sim_time_ns_.load(std::memory_order_relaxed);
   for (faults::Fault& fault : faults_) {
     if (fault.end_ns > now) fault.end_ns = std::max(now, fault.start_ns);
   }
   publish();
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::FaultList FaultBoard::list() {
+contract::FaultList FaultBoard::list() {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = sim_time_ns_.load(std::memory_order_relaxed);
-  control::FaultList out;
+  contract::FaultList out;
   out.sim_time_s = static_cast<double>(now) * 1e-9;
   for (const faults::Fault& fault : faults_) {
     out.faults.push_back({fault, fault.active_at(now), fault.end_ns <= now});

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "control/sim_control.h"
+#include "contract/faults.h"
 #include "faults/fault.h"
 
 namespace doppel::gateway {
@@ -28,14 +28,14 @@ class FaultBoard {
   // Adds a fault that passed faults::check(): starting at its start (kNow: the current simulation
   // time), for its duration. 404 naming the field for a robot, bus or device that is not there,
   // 400 for a device of the wrong kind, 409 when kMaxFaults may act at once already.
-  control::FaultAnswer add(const faults::FaultSpec& spec);
+  contract::Result<uint32_t> add(const faults::FaultSpec& spec);
   // Fault `number` ends now (an ended one keeps its end); 404 if there is none.
-  control::Outcome clear(uint32_t number);
-  control::Outcome clear_all();
-  control::FaultList list();
+  contract::Outcome clear(uint32_t number);
+  contract::Outcome clear_all();
+  contract::FaultList list();
 
  private:
-  std::string target_problem(const faults::FaultSpec& spec, int& status) const;
+  std::string target_problem(const faults::FaultSpec& spec, contract::ErrorKind& kind) const;
   // Every bus' table from slots_. Under mutex_.
   void publish();
 

@@ -30,7 +30,7 @@ constexpr std::array<const char*, 10> kSecondaryNames{"normal",           "penal
                                                       "throw_in"};
 
 std::string penalty_name(uint32_t code) {
-  for (const control::GamePenaltyName& penalty : control::kGamePenalties) {
+  for (const contract::GamePenaltyName& penalty : contract::kGamePenalties) {
     if (penalty.code == code) return penalty.name;
   }
   return "code " + std::to_string(code);
@@ -157,8 +157,8 @@ std::string FieldServices::describe() const {
   return out.str();
 }
 
-control::GameStatus FieldServices::game_status() {
-  control::GameStatus status;
+contract::GameStatus FieldServices::game_status() {
+  contract::GameStatus status;
   status.destination = gc_destination_;
   status.return_address = gc_return_;
   std::lock_guard lock(mutex_);
@@ -213,24 +213,24 @@ control::GameStatus FieldServices::game_status() {
   return status;
 }
 
-control::Outcome FieldServices::game_command(const control::GameCommand& command) {
+contract::Outcome FieldServices::game_command(const contract::GameCommand& command) {
   std::lock_guard lock(mutex_);
   const std::string& c = command.command;
   if (c == "off") {
     if (game_ != nullptr) game_->set_sending(false);
-    return control::Outcome::done();
+    return contract::Outcome::done();
   }
   if (game_ == nullptr) {
     if (c != "on") {
-      return control::Outcome::fail(409, "the GameController is off: turn it on first (doppel-ctl game on, or doppel --gamecontroller)");
+      return contract::Outcome::fail(contract::ErrorKind::kConflict, "the GameController is off: turn it on first (doppel-ctl game on, or doppel --gamecontroller)");
     }
-    if (const std::string error = open_game_controller(); !error.empty()) return control::Outcome::fail(409, error);
+    if (const std::string error = open_game_controller(); !error.empty()) return contract::Outcome::fail(contract::ErrorKind::kConflict, error);
     if (started_) game_->start();
-    return control::Outcome::done();
+    return contract::Outcome::done();
   }
   if (c == "on") {
     game_->set_sending(true);
-    return control::Outcome::done();
+    return contract::Outcome::done();
   }
   const gc::GameControllerOptions& options = gc_options_;
   const std::string refused = game_->with_game([&](gc::Game& game) -> std::string {
@@ -272,16 +272,16 @@ control::Outcome FieldServices::game_command(const control::GameCommand& command
     }
     return "no command '" + c + "'";
   });
-  if (!refused.empty()) return control::Outcome::fail(409, refused);
+  if (!refused.empty()) return contract::Outcome::fail(contract::ErrorKind::kConflict, refused);
   // The robots hear the change now, not at the next 500 ms tick (as the real GameController sends
   // at once on a button press).
   if (game_->sending()) game_->send_now();
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-std::optional<control::TeamcommStatus> FieldServices::teamcomm_status() {
+std::optional<contract::TeamcommStatus> FieldServices::teamcomm_status() {
   if (hub_ == nullptr) return std::nullopt;
-  control::TeamcommStatus status;
+  contract::TeamcommStatus status;
   status.listen = endpoint(hub_config_.listen_address, hub_->port());
   status.robot_address = hub_config_.robot_address;
   status.loss = hub_config_.link.loss_probability;
@@ -293,7 +293,7 @@ std::optional<control::TeamcommStatus> FieldServices::teamcomm_status() {
   status.oversized = counters.oversized;
   for (const teamcomm::Robot& robot : hub_->robots()) status.robots.push_back({robot.team, robot.player, robot.port});
   const auto port_of = [&status](int team, int player) -> uint16_t {
-    for (const control::TeamcommRobot& robot : status.robots) {
+    for (const contract::TeamcommRobot& robot : status.robots) {
       if (robot.team == team && robot.player == player) return robot.port;
     }
     return 0;
@@ -310,22 +310,22 @@ std::optional<control::TeamcommStatus> FieldServices::teamcomm_status() {
   return status;
 }
 
-control::Outcome FieldServices::teamcomm_add(const control::TeamcommRobot& robot) {
-  if (hub_ == nullptr) return control::Outcome::fail(404, "no team-communication hub (doppel --teamcomm)");
+contract::Outcome FieldServices::teamcomm_add(const contract::TeamcommRobot& robot) {
+  if (hub_ == nullptr) return contract::Outcome::fail(contract::ErrorKind::kNotFound, "no team-communication hub (doppel --teamcomm)");
   try {
     hub_->add_robot({robot.team, robot.player, robot.port});
   } catch (const std::invalid_argument& e) {
-    return control::Outcome::fail(409, e.what());
+    return contract::Outcome::fail(contract::ErrorKind::kConflict, e.what());
   }
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome FieldServices::teamcomm_remove(int team, int player) {
-  if (hub_ == nullptr) return control::Outcome::fail(404, "no team-communication hub (doppel --teamcomm)");
+contract::Outcome FieldServices::teamcomm_remove(int team, int player) {
+  if (hub_ == nullptr) return contract::Outcome::fail(contract::ErrorKind::kNotFound, "no team-communication hub (doppel --teamcomm)");
   if (!hub_->remove_robot(team, player)) {
-    return control::Outcome::fail(404, "no robot " + std::to_string(team) + ":" + std::to_string(player) + " is registered");
+    return contract::Outcome::fail(contract::ErrorKind::kNotFound, "no robot " + std::to_string(team) + ":" + std::to_string(player) + " is registered");
   }
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
 }  // namespace doppel::gateway

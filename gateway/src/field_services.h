@@ -2,7 +2,7 @@
 // What doppel adds around the robots on a real field: its own GameController (gamecontroller/,
 // docs/gamecontroller.md) and the team-communication hub (teamcomm/, docs/teamcomm.md), both off
 // unless the options or a control request turn them on, and the control API's view of both
-// (control::GameStatus, control::TeamcommStatus). Not real-time: each has threads of its own and
+// (contract::GameStatus, contract::TeamcommStatus). Not real-time: each has threads of its own and
 // none of it runs on the bus or simulation threads.
 
 #include <atomic>
@@ -12,7 +12,8 @@
 #include <string>
 #include <thread>
 
-#include "control/sim_control.h"
+#include "contract/game.h"
+#include "contract/teamcomm.h"
 #include "gamecontroller/game_controller.h"
 #include "gateway/options.h"
 #include "teamcomm/hub.h"
@@ -32,11 +33,11 @@ class FieldServices {
   void stop();   // idempotent
   std::string describe() const;
 
-  control::GameStatus game_status();
-  control::Outcome game_command(const control::GameCommand& command);
-  std::optional<control::TeamcommStatus> teamcomm_status();
-  control::Outcome teamcomm_add(const control::TeamcommRobot& robot);
-  control::Outcome teamcomm_remove(int team, int player);
+  contract::GameStatus game_status();
+  contract::Outcome game_command(const contract::GameCommand& command);
+  std::optional<contract::TeamcommStatus> teamcomm_status();
+  contract::Outcome teamcomm_add(const contract::TeamcommRobot& robot);
+  contract::Outcome teamcomm_remove(int team, int player);
 
   // The hub, for whoever registers robots (the session handshake): Hub::add_robot and
   // remove_robot are thread-safe. Null without --teamcomm.

@@ -16,12 +16,13 @@
 #include "bus/link_directory.h"
 #include "camera_feed.h"
 #include "gateway/fixed_rate_clock.h"
+#include "physics/carpet.h"
 #include "physics/engines.h"
 #include "physics/field.h"
 #include "physics/world.h"
 #include "eeprom_state.h"
 #include "field_services.h"
-#include "control/access.h"
+#include "contract/access_token.h"
 #include "control/http_api.h"
 #include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
@@ -82,7 +83,7 @@ Gateway::Gateway(const Options& options)
 Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session, TransitionHook hook)
     : options_(options), session_(session), configs_(std::move(configs)), lifecycle_(std::move(hook)) {
   if (options.token) {
-    access_token_ = control::new_access_token();
+    access_token_ = contract::new_access_token();
   } else if (options.viewer || (options.handshake && options.handshake_tcp)) {
     std::cerr << "doppel: warning: --no-token: every local user and program can use the control API and the TCP "
                  "handshake (docs/security.md)\n";
@@ -143,8 +144,8 @@ void Gateway::add_components() {
                     }
                     const physics::FieldSpec field;
                     controller_ = std::make_unique<SimController>(world_.get(), std::move(controlled),
-                                                                  0.5 * field.field_length_m + field.border_strip_width_m,
-                                                                  0.5 * field.field_width_m + field.border_strip_width_m);
+                                                                  physics::carpet_half_length_m(field),
+                                                                  physics::carpet_half_width_m(field));
                   },
                   {}, {}, [this] { controller_.reset(); }});
   lifecycle_.add({"faults",
@@ -338,7 +339,7 @@ void Gateway::configure_control() {
   }
   viewer_page_ = !files.viewer_dir.empty();
   try {
-    control_api_ = std::make_unique<control::HttpApi>(*controller_, options_.viewer_address,
+    control_api_ = std::make_unique<control::HttpApi>(controller_->facets(), options_.viewer_address,
                                                       options_.viewer_port.value_or(control::kDefaultPort), files,
                                                       access_token_);
   } catch (const std::runtime_error& e) {
@@ -352,7 +353,7 @@ void Gateway::configure_control() {
 
 void Gateway::configure_live_robots() {
   // The robots doppel started with are robots 0..n-1 of those added and removed while it runs.
-  std::vector<control::RobotAdded> started;
+  std::vector<contract::RobotAdded> started;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     std::vector<std::string> camera_names;
     for (std::size_t c = 0; cameras_ != nullptr && in_world_[r] && c < configs_[r].cameras.size(); ++c) {
@@ -369,8 +370,8 @@ void Gateway::configure_live_robots() {
   const physics::FieldSpec field;
   live_ = std::make_unique<LiveRobots>(
       LiveRobots::Parts{&options_, world_.get(), links_.get(), cameras_.get(), controller_.get(), truth_.get(),
-                        0.5 * field.field_length_m + field.border_strip_width_m,
-                        0.5 * field.field_width_m + field.border_strip_width_m},
+                        physics::carpet_half_length_m(field),
+                        physics::carpet_half_width_m(field)},
       std::move(started));
 }
 
@@ -414,9 +415,9 @@ void Gateway::configure_truth() {
   controller_->set_world_model(truth_.get());
 }
 
-control::RobotHost& Gateway::robot_host() noexcept { return *live_; }
+contract::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 
-control::FaultAnswer Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
+contract::Result<uint32_t> Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
 
 void Gateway::configure_lockstep() {
   if (!options_.lockstep) return;
@@ -504,7 +505,7 @@ void Gateway::configure_recorder() {
                                                                          : mcap::Compression::kZstd;
   recorder_options.progress = options_.record_progress && ::isatty(STDERR_FILENO) == 1;
   try {
-    recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_.get(),
+    recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_->facets(),
                                                    &std::cerr);
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("--record: ") + e.what());
@@ -513,9 +514,9 @@ void Gateway::configure_recorder() {
 
 Gateway::~Gateway() { lifecycle_.release(); }
 
-std::unique_ptr<control::TokenFile> Gateway::publish_token(uint16_t port) const {
+std::unique_ptr<contract::TokenFile> Gateway::publish_token(uint16_t port) const {
   if (access_token_.empty()) return nullptr;
-  return std::make_unique<control::TokenFile>(control::token_file_path(links_->path(), port), access_token_);
+  return std::make_unique<contract::TokenFile>(contract::token_file_path(links_->path(), port), access_token_);
 }
 
 teamcomm::Hub* Gateway::teamcomm_hub() noexcept { return field_ != nullptr ? field_->hub() : nullptr; }
@@ -741,7 +742,7 @@ std::string Gateway::describe() const {
           << (access_token_.empty() ? "" : "?token=" + access_token_) << "\n";
     }
   }
-  for (const control::TokenFile* file : {control_token_.get(), handshake_token_.get()}) {
+  for (const contract::TokenFile* file : {control_token_.get(), handshake_token_.get()}) {
     if (file == nullptr) continue;
     out << "doppel: access token in " << file->path() << " (doppel-ctl, doppel_session.py read it; docs/security.md)\n";
   }

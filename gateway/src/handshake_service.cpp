@@ -18,7 +18,7 @@ handshake::ServerOptions handshake_options(const Options& options, const std::st
   return out;
 }
 
-std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host,
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, contract::RobotHost& host,
                                                    const std::string& token, std::ostream& notes) {
   if (!options.handshake) {
     return nullptr;

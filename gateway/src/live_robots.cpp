@@ -49,12 +49,12 @@ struct LiveRobots::Live {
   std::atomic<bool> stop{false};          // its bus threads
   bool threads = false;
   bool world_model = false;               // TruthService::add_robot
-  control::RobotAdded added;
+  contract::RobotAdded added;
 };
 
 namespace {
 
-using control::Refusal;
+using contract::Refusal;
 
 bool finite(double v) { return std::isfinite(v); }
 
@@ -72,7 +72,7 @@ double hfov_deg_of(const camera::CameraConfig& config) {
 }
 
 // Applies one camera request to the file's settings of that camera; a refusal names the field.
-std::optional<Refusal> apply(const control::CameraRequest& request, const std::string& field, camera::CameraConfig& config) {
+std::optional<Refusal> apply(const contract::CameraRequest& request, const std::string& field, camera::CameraConfig& config) {
   const double file_hfov_deg = hfov_deg_of(config);
   if (request.width_px) {
     if (*request.width_px < 2 || *request.width_px > 8192 || *request.width_px % 2 != 0) {
@@ -140,12 +140,12 @@ std::optional<Refusal> apply(const control::CameraRequest& request, const std::s
 
 }  // namespace
 
-LiveRobots::LiveRobots(Parts parts, std::vector<control::RobotAdded> started)
+LiveRobots::LiveRobots(Parts parts, std::vector<contract::RobotAdded> started)
     : parts_(parts), started_(std::move(started)) {}
 
 LiveRobots::~LiveRobots() { close(); }
 
-std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRequest& request) const {
+std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const contract::RobotRequest& request) const {
   Plan plan;
   if (parts_.world == nullptr) {
     return Refusal{"", "this doppel runs without a physics world (--physics none): no robot can be added while it runs"};
@@ -227,7 +227,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRe
     std::string names;
     for (const CameraSetup& setup : plan.config.cameras) names += (names.empty() ? "" : ", ") + setup.config.name;
     for (std::size_t i = 0; i < request.cameras.size(); ++i) {
-      const control::CameraRequest& wanted = request.cameras[i];
+      const contract::CameraRequest& wanted = request.cameras[i];
       const std::string field = "cameras[" + std::to_string(i) + "]";
       const auto found = std::find_if(plan.config.cameras.begin(), plan.config.cameras.end(),
                                       [&](const CameraSetup& setup) { return setup.config.name == wanted.name; });
@@ -251,7 +251,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const control::RobotRe
   return plan;
 }
 
-control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
+contract::AddResult LiveRobots::add_robot(const contract::RobotRequest& request) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (closed_) return Refusal{"", "doppel is stopping"};
   auto checked = check(request);
@@ -323,7 +323,7 @@ control::AddResult LiveRobots::add_robot(const control::RobotRequest& request) {
     topics.world_model = true;
   }
   robot.added = RobotBuilder::listing(index, robot.config, *robot.runtime, robot.camera_names, topics);
-  control::RobotAdded result = robot.added;
+  contract::RobotAdded result = robot.added;
   live_[index] = std::move(live);
   return result;
 }
@@ -342,9 +342,9 @@ std::optional<Refusal> LiveRobots::remove_robot(uint32_t robot) {
   return std::nullopt;
 }
 
-std::vector<control::RobotAdded> LiveRobots::robots() {
+std::vector<contract::RobotAdded> LiveRobots::robots() {
   std::lock_guard<std::mutex> lock(mutex_);
-  std::vector<control::RobotAdded> out = started_;
+  std::vector<contract::RobotAdded> out = started_;
   for (const auto& live : live_) {
     if (live != nullptr) out.push_back(live->added);
   }

@@ -1,5 +1,5 @@
 #pragma once
-// Robots added and removed while doppel runs (control::RobotHost; docs/robots-at-run-time.md). A
+// Robots added and removed while doppel runs (contract::RobotHost; docs/robots-at-run-time.md). A
 // request is checked whole on the asking thread first (robot file, cameras, placement, team, room);
 // a refusal names the request's field and leaves nothing behind. Then the robot is built: its
 // cameras' streams (CameraFeed::add), then, on the simulation thread between two ticks, its body in
@@ -24,7 +24,7 @@
 #include <variant>
 #include <vector>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
 #include "sim_controller.h"
@@ -46,7 +46,7 @@ class RobotRuntime;
 // Where robot `robot` stands at kick-off (gateway.cpp): teams alternate, each on its own half.
 physics::RobotPlacement kick_off_placement(std::size_t robot);
 
-class LiveRobots final : public control::RobotHost {
+class LiveRobots final : public contract::RobotHost {
  public:
   // What the gateway owns and the robots added here use; every part outlives this object.
   struct Parts {
@@ -60,14 +60,14 @@ class LiveRobots final : public control::RobotHost {
     double carpet_half_width_m = 0.0;
   };
   // `started`: the robots doppel started with, by index (0..n-1), with their links.
-  LiveRobots(Parts parts, std::vector<control::RobotAdded> started);
+  LiveRobots(Parts parts, std::vector<contract::RobotAdded> started);
   ~LiveRobots() override;
   LiveRobots(const LiveRobots&) = delete;
   LiveRobots& operator=(const LiveRobots&) = delete;
 
-  control::AddResult add_robot(const control::RobotRequest& request) override;
-  std::optional<control::Refusal> remove_robot(uint32_t robot) override;
-  std::vector<control::RobotAdded> robots() override;
+  contract::AddResult add_robot(const contract::RobotRequest& request) override;
+  std::optional<contract::Refusal> remove_robot(uint32_t robot) override;
+  std::vector<contract::RobotAdded> robots() override;
 
   // The gateway, around its simulation thread: while it runs, the world's part of an add or remove
   // is handed to it; otherwise it runs on the asking thread.
@@ -90,7 +90,7 @@ class LiveRobots final : public control::RobotHost {
   struct Live;
   struct Plan;
   // The whole request checked, nothing built: a plan or the refusal.
-  std::variant<Plan, control::Refusal> check(const control::RobotRequest& request) const;
+  std::variant<Plan, contract::Refusal> check(const contract::RobotRequest& request) const;
   // Runs `job` on the simulation thread between two ticks (or here when it does not run) and
   // rethrows what it threw.
   void on_simulation_thread(const std::function<void()>& job);
@@ -99,7 +99,7 @@ class LiveRobots final : public control::RobotHost {
 
   Parts parts_;
 
-  std::vector<control::RobotAdded> started_;
+  std::vector<contract::RobotAdded> started_;
   std::mutex mutex_;    // one add or remove at a time (asking side)
   bool closed_ = false;  // under mutex_
   std::array<std::unique_ptr<Live>, kSimMaxRobots> live_;  // by robot index, under mutex_

@@ -279,7 +279,7 @@ class TruthOptions final : public ServiceOptions {
  public:
   void declare(CLI::App& app, Options& options) override {
     const char* group = "World model and sensor levels";
-    control::WorldModelSettings& world_model = options.world_model_settings;
+    contract::WorldModelSettings& world_model = options.world_model_settings;
     app.add_flag("--world-model", options.world_model,
                  "Give every simulated robot a world-model sensor (docs/multilevel.md): its own\n"
                  "pose, the balls, goal posts, side poles, field landmarks and the other robots,\n"

@@ -5,6 +5,7 @@
 #include "bus/latency_timer_files.h"
 #include "camera/camera_config.h"
 #include "eeprom_state.h"
+#include "robot_names.h"
 #include "robot_runtime.h"
 
 namespace doppel::gateway {
@@ -22,7 +23,7 @@ std::unique_ptr<RobotRuntime> RobotBuilder::runtime(const RobotConfig& config, s
 }
 
 std::string RobotBuilder::camera_name(std::size_t robot, const std::string& name) {
-  return robot == 0 ? name : "robot" + std::to_string(robot) + "-" + name;
+  return robot_camera_name(robot, name);
 }
 
 std::vector<CameraSetup> RobotBuilder::cameras(std::size_t robot, std::vector<CameraSetup> cameras) {
@@ -42,9 +43,9 @@ truth::RobotBinding RobotBuilder::truth_binding(const RobotConfig& config, std::
   return binding;
 }
 
-control::RobotAdded RobotBuilder::listing(std::size_t robot, const RobotConfig& config, RobotRuntime& runtime,
+contract::RobotAdded RobotBuilder::listing(std::size_t robot, const RobotConfig& config, RobotRuntime& runtime,
                                           const std::vector<std::string>& camera_names, const Topics& topics) {
-  control::RobotAdded added{static_cast<uint32_t>(robot), config.name, {}};
+  contract::RobotAdded added{static_cast<uint32_t>(robot), config.name, {}};
   for (std::size_t b = 0; b < runtime.bus_count(); ++b) {
     const std::string link = runtime.bus(b).link();
     const std::string bus_name = "ttyDXL" + std::to_string(b);

@@ -2,7 +2,7 @@
 // How one robot is built into a running doppel, for the robots it starts with (Gateway) and those
 // added while it runs (LiveRobots): its runtime (body, buses, devices, ports), the names its
 // cameras stream under, how the world-model sensor follows it, and the listing of where its links,
-// streams and topics are (control::RobotAdded). One place, so the two paths cannot drift apart.
+// streams and topics are (contract::RobotAdded). One place, so the two paths cannot drift apart.
 
 #include <cstddef>
 #include <memory>
@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "eeprom_state.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -53,7 +53,7 @@ class RobotBuilder {
     bool world_model = false;
     bool sensor_levels = false;
   };
-  static control::RobotAdded listing(std::size_t robot, const RobotConfig& config, RobotRuntime& runtime,
+  static contract::RobotAdded listing(std::size_t robot, const RobotConfig& config, RobotRuntime& runtime,
                                      const std::vector<std::string>& camera_names, const Topics& topics);
 
  private:

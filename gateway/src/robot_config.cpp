@@ -12,6 +12,7 @@
 #include "camera/pixel_format.h"
 #include "dynamixel/models.h"
 #include "dynamixel/protocol2_models.h"
+#include "physics/carpet.h"
 #include "physics/field.h"
 #include "physics/robot_model.h"
 #include "physics/world.h"
@@ -391,8 +392,8 @@ SessionConfig check_session(const proto::SessionFile& file) {
     if (!ball.has_position_m()) file.fail(session, "ball", b, "missing position_m (the ball's x, y in the field frame)");
     const proto::Vector3& p = ball.position_m();
     if (!finite(p)) file.fail(ball, "position_m", -1, "must be finite");
-    const double half_length = 0.5 * field.field_length_m + field.border_strip_width_m;
-    const double half_width = 0.5 * field.field_width_m + field.border_strip_width_m;
+    const double half_length = physics::carpet_half_length_m(field);
+    const double half_width = physics::carpet_half_width_m(field);
     if (std::abs(p.x()) > half_length || std::abs(p.y()) > half_width) {
       file.fail(ball, "position_m", -1, "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
                                             ") is off the carpet (|x| <= " + std::to_string(half_length) +

@@ -484,13 +484,13 @@ void BusRuntime::publish_servo_table() noexcept {
   servo_table_.publish();
 }
 
-control::BusTable BusRuntime::servo_table() {
+contract::BusTable BusRuntime::servo_table() {
   BusServoTable table;
   {
     std::lock_guard<std::mutex> lock(servo_table_mutex_);
     servo_table_.read(table);
   }
-  control::BusTable out;
+  contract::BusTable out;
   out.bus = bus_index_;
   out.link = port_->link_path();
   const bus::BusDiagnostics d = server_->diagnostics();  // lock-free
@@ -499,7 +499,7 @@ control::BusTable BusRuntime::servo_table() {
   for (std::size_t i = 0; i < servo_columns_.size(); ++i) {
     const ServoRegisters& r = table.servos[i];
     const DeviceConfig& device = config_.devices[servo_columns_[i].device_index];
-    control::ServoRow row;
+    contract::ServoRow row;
     row.id = r.id;
     row.name = device.name;
     row.model = device.model;
@@ -721,8 +721,8 @@ bool RobotRuntime::sensor_levels(levels::SensorLevels& out) {
   return true;
 }
 
-std::vector<control::BusTable> RobotRuntime::servo_tables() {
-  std::vector<control::BusTable> out;
+std::vector<contract::BusTable> RobotRuntime::servo_tables() {
+  std::vector<contract::BusTable> out;
   for (auto& bus : buses_) out.push_back(bus->servo_table());
   return out;
 }

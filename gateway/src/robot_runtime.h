@@ -21,7 +21,7 @@
 #include "body/sensor_levels.h"
 #include "body/simulated_body.h"
 #include "concurrency/snapshot.h"
-#include "control/sim_control.h"
+#include "contract/simulation.h"
 #include "dynamixel/built_device.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/darwin_boards.h"
@@ -149,7 +149,7 @@ class BusRuntime final : public bus::DeviceSync {
   std::vector<uint16_t> model_numbers() const;
   // The servo table (ID, name, model, registers) the bus thread published last. Any thread but
   // the bus thread (one at a time: a mutex on the reading side only).
-  control::BusTable servo_table();
+  contract::BusTable servo_table();
 
   // Sensor levels (body/sensor_levels.h; Options::sensor_levels_hz > 0, else none). The levels
   // thread only: takes the newest sample the bus thread published (true when it is new), and the
@@ -295,7 +295,7 @@ class RobotRuntime {
   // message, fills `out` (cleared first) with every bus' newest one and returns true. Not rt-safe (protobuf allocates).
   bool sensor_levels(levels::SensorLevels& out);
   // Every bus' servo table (robot fields left to the caller). Any thread but the bus threads.
-  std::vector<control::BusTable> servo_tables();
+  std::vector<contract::BusTable> servo_tables();
   std::size_t bus_count() const noexcept { return buses_.size(); }
   BusRuntime& bus(std::size_t index) noexcept { return *buses_[index]; }
   const BusRuntime& bus(std::size_t index) const noexcept { return *buses_[index]; }

@@ -7,6 +7,7 @@
 #include "camera/lens.h"
 #include "fault_board.h"
 #include "field_services.h"
+#include "robot_names.h"
 #include "robot_runtime.h"
 #include "truth/truth_service.h"
 
@@ -42,8 +43,7 @@ void SimController::add_devices(std::size_t r) {
   }
   for (const CameraSetup& setup : config.cameras) {
     Camera camera;
-    // The name CameraFeed streams it under (gateway.cpp): robots after the first get a prefix.
-    camera.name = r > 0 ? "robot" + std::to_string(r) + "-" + setup.config.name : setup.config.name;
+    camera.name = robot_camera_name(r, setup.config.name);  // the name CameraFeed streams it under
     camera.body = setup.body;
     camera.config = setup.config;
     const camera::Lens lens(setup.config.lens, setup.config.width_px, setup.config.height_px);
@@ -138,8 +138,8 @@ const char* object_kind(physics::ObjectKind kind) {
 
 }  // namespace
 
-control::Scene SimController::scene() {
-  control::Scene out;
+contract::Scene SimController::scene() {
+  contract::Scene out;
   if (scene_ == nullptr) return out;
   physics::SceneView view;
   {
@@ -149,7 +149,7 @@ control::Scene SimController::scene() {
   out.sim_time_s = view.sim_time_s;
   out.shapes.reserve(view.shapes.size());
   for (const physics::VisualShape& shape : view.shapes) {
-    control::SceneShape s;
+    contract::SceneShape s;
     s.type = shape_type(shape.type);
     s.kind = object_kind(shape.kind);
     s.object_id = shape.object_id;
@@ -182,7 +182,7 @@ Eigen::Isometry3d SimController::camera_pose(std::size_t r, std::size_t i) const
   return camera::camera_pose_W(camera.config.mount, world_->body_pose(*robots_[r].in_world, camera.body));
 }
 
-control::CameraStill SimController::camera_still(const std::string& name) {
+contract::Result<contract::CameraStill> SimController::camera_still(const std::string& name) {
   std::lock_guard<std::mutex> lock(stills_mutex_);  // HTTP threads only: one still rendered at a time
   Still* still = nullptr;
   for (Still& s : stills_) {
@@ -191,10 +191,10 @@ control::CameraStill SimController::camera_still(const std::string& name) {
   if (still == nullptr) {
     std::string names;
     for (const Still& s : stills_) names += (names.empty() ? "" : ", ") + cameras_[s.robot][s.camera].name;
-    return {404, "no camera '" + name + "' (robot cameras: " + (names.empty() ? "none" : names) + ")", "", 0.0};
+    return contract::Error{contract::ErrorKind::kNotFound, "no camera '" + name + "' (robot cameras: " + (names.empty() ? "none" : names) + ")"};
   }
   const auto now = std::chrono::steady_clock::now();
-  if (!still->png.empty() && now - still->taken < kStillPeriod) return {200, "", still->png, still->sim_time_s};
+  if (!still->png.empty() && now - still->taken < kStillPeriod) return contract::CameraStill{still->png, still->sim_time_s};
   ScenePublication publication;
   {
     std::lock_guard<std::mutex> scene_lock(scene_mutex_);
@@ -202,7 +202,7 @@ control::CameraStill SimController::camera_still(const std::string& name) {
   }
   if (!still->png.empty() && publication.view.sim_time_s == still->sim_time_s) {
     still->taken = now;  // paused: the same scene, the same picture
-    return {200, "", still->png, still->sim_time_s};
+    return contract::CameraStill{still->png, still->sim_time_s};
   }
   const camera::CameraConfig& config = cameras_[still->robot][still->camera].config;
   if (still->renderer == nullptr) {
@@ -216,15 +216,15 @@ control::CameraStill SimController::camera_still(const std::string& name) {
   still->png = camera::encode_png_rgb(still->rgb.data(), config.width_px, config.height_px);
   still->sim_time_s = publication.view.sim_time_s;
   still->taken = now;
-  return {200, "", still->png, still->sim_time_s};
+  return contract::CameraStill{still->png, still->sim_time_s};
 }
 
-std::vector<control::BusTable> SimController::buses() {
-  std::vector<control::BusTable> out;
+std::vector<contract::BusTable> SimController::buses() {
+  std::vector<contract::BusTable> out;
   std::lock_guard<std::mutex> lock(robots_mutex_);
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     if (!shown_[r]) continue;
-    for (control::BusTable& table : robots_[r].runtime->servo_tables()) {
+    for (contract::BusTable& table : robots_[r].runtime->servo_tables()) {
       table.robot = r;
       table.robot_name = robots_[r].name;
       out.push_back(std::move(table));
@@ -233,13 +233,13 @@ std::vector<control::BusTable> SimController::buses() {
   return out;
 }
 
-control::SimState SimController::state() {
+contract::SimState SimController::state() {
   Sample sample;
   {
     std::lock_guard<std::mutex> lock(read_mutex_);
     samples_.read(sample);
   }
-  control::SimState state;
+  contract::SimState state;
   state.sim_time_s = static_cast<double>(sample.sim_time_ns) * 1e-9;
   state.paused = sample.paused;
   state.steps_left = sample.steps_left;
@@ -253,7 +253,7 @@ control::SimState SimController::state() {
   }
   for (std::size_t r = 0; r < count; ++r) {
     const RobotSample& s = sample.robots[r];
-    control::RobotState robot;
+    contract::RobotState robot;
     if (!shown_[r]) {
       state.robots.push_back(std::move(robot));
       continue;
@@ -266,7 +266,7 @@ control::SimState SimController::state() {
       robot.z_m = s.z;
       robot.yaw_rad = s.yaw;
       robot.tilt_rad = s.tilt;
-      robot.fallen = s.tilt > control::kFallenTiltRad;
+      robot.fallen = s.tilt > contract::kFallenTiltRad;
       robot.held = s.held;
       for (std::size_t j = 0; j < joint_names_[r].size(); ++j) robot.joints.push_back({joint_names_[r][j], s.joints[j]});
       for (std::size_t i = 0; i < imus_[r].size(); ++i) {
@@ -289,65 +289,70 @@ control::SimState SimController::state() {
   return state;
 }
 
-control::Outcome SimController::submit(Request request, std::chrono::milliseconds timeout) {
+contract::Outcome SimController::submit(Request request, std::chrono::milliseconds timeout) {
   std::lock_guard<std::mutex> lock(submit_mutex_);
   request.sequence = ++next_sequence_;
   if (!requests_.try_push(request)) {
-    return control::Outcome::fail(503, "the simulation has not taken the previous requests yet; try again");
+    return contract::Outcome::fail(contract::ErrorKind::kUnavailable, "the simulation has not taken the previous requests yet; try again");
   }
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (finished_.load(std::memory_order_acquire) < request.sequence) {
     if (std::chrono::steady_clock::now() > deadline) {
-      return control::Outcome::fail(503, "the simulation thread did not carry the request out within " +
+      return contract::Outcome::fail(contract::ErrorKind::kUnavailable, "the simulation thread did not carry the request out within " +
                                              std::to_string(timeout.count()) + " ms (it is applied when it gets to it)");
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  const int status = finished_status_.load(std::memory_order_acquire);
-  if (status == 409) return control::Outcome::fail(409, "step needs a paused simulation: pause first");
-  return control::Outcome::done();
+  if (finished_refused_.load(std::memory_order_acquire)) {
+    return contract::Outcome::fail(contract::ErrorKind::kConflict, "step needs a paused simulation: pause first");
+  }
+  return contract::Outcome::done();
 }
 
-control::Outcome SimController::pause() { return submit({Kind::kPause}, kAnswerTimeout); }
+contract::Outcome SimController::pause() { return submit({Kind::kPause}, kAnswerTimeout); }
 
-control::Outcome SimController::resume() { return submit({Kind::kResume}, kAnswerTimeout); }
+contract::Outcome SimController::resume() { return submit({Kind::kResume}, kAnswerTimeout); }
 
-control::Outcome SimController::step(uint32_t steps) {
+contract::Outcome SimController::step(uint32_t steps) {
   Request request{Kind::kStep};
   request.steps = steps;
   return submit(request, kAnswerTimeout + std::chrono::milliseconds(2 * static_cast<int64_t>(steps)));
 }
 
-control::Outcome SimController::reset() { return submit({Kind::kReset}, kAnswerTimeout); }
+contract::Outcome SimController::reset() { return submit({Kind::kReset}, kAnswerTimeout); }
 
-control::Outcome SimController::place(std::size_t robot, double x_m, double y_m, double yaw_rad) {
+contract::Outcome SimController::place(std::size_t robot, double x_m, double y_m, double yaw_rad) {
   return submit({Kind::kPlace, 0, robot, x_m, y_m, yaw_rad}, kAnswerTimeout);
 }
 
-control::Outcome SimController::push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) {
+contract::Outcome SimController::push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) {
   return submit({Kind::kPush, 0, robot, fx_n, fy_n, fz_n, steps}, kAnswerTimeout);
 }
 
-control::Outcome SimController::ball(double x_m, double y_m) {
+contract::Outcome SimController::ball(double x_m, double y_m) {
   return submit({Kind::kBall, 0, 0, x_m, y_m}, kAnswerTimeout);
 }
 
-control::WorldModelAnswer SimController::world_model(std::size_t robot) {
-  if (truth_ == nullptr) return control::SimControl::world_model(robot);
-  const std::optional<control::WorldModelSettings> settings = truth_->settings(robot);
-  if (!settings) return {404, "robot " + std::to_string(robot) + " has no world-model sensor (no body in the world)", {}};
-  return {200, "", *settings};
+contract::Result<contract::WorldModelSettings> SimController::world_model(std::size_t robot) {
+  const std::optional<contract::WorldModelSettings> settings = truth_->settings(robot);
+  if (!settings) {
+    return contract::Error{contract::ErrorKind::kNotFound, "robot " + std::to_string(robot) + " has no world-model sensor (no body in the world)"};
+  }
+  return *settings;
 }
 
-control::WorldModelAnswer SimController::set_world_model(std::size_t robot, const control::WorldModelSettings& settings) {
-  const control::WorldModelAnswer now = world_model(robot);
-  if (now.status != 200) return now;
-  if (const std::string problem = truth_->set_settings(robot, settings); !problem.empty()) return {400, problem, now.settings};
-  return {200, "", settings};
+contract::Result<contract::WorldModelSettings> SimController::set_world_model(std::size_t robot,
+                                                                              const contract::WorldModelSettings& settings) {
+  const contract::Result<contract::WorldModelSettings> now = world_model(robot);
+  if (!now.ok()) return now;
+  if (const std::string problem = truth_->set_settings(robot, settings); !problem.empty()) {
+    return contract::Error{contract::ErrorKind::kInvalid, problem};
+  }
+  return settings;
 }
 
-void SimController::finish(uint64_t sequence, int status) noexcept {
-  finished_status_.store(status, std::memory_order_release);
+void SimController::finish(uint64_t sequence, bool refused) noexcept {
+  finished_refused_.store(refused, std::memory_order_release);
   finished_.store(sequence, std::memory_order_release);
 }
 
@@ -355,7 +360,7 @@ void SimController::apply(const Request& request) noexcept {
   const bool has_body = request.robot < robots_.size() && present_[request.robot] && world_ != nullptr &&
                         robots_[request.robot].in_world.has_value();
   const std::size_t body = has_body ? *robots_[request.robot].in_world : 0;
-  int status = 200;
+  bool refused = false;
   switch (request.kind) {
     case Kind::kPause:
       paused_ = true;
@@ -365,7 +370,7 @@ void SimController::apply(const Request& request) noexcept {
       break;
     case Kind::kStep:
       if (!paused_) {
-        status = 409;
+        refused = true;
         break;
       }
       steps_left_ = request.steps;
@@ -393,7 +398,7 @@ void SimController::apply(const Request& request) noexcept {
       break;
   }
   pending_sequence_ = request.sequence;
-  pending_status_ = status;
+  pending_refused_ = refused;
 }
 
 bool SimController::begin_tick() noexcept {
@@ -463,55 +468,58 @@ void SimController::end_tick(int64_t sim_time_ns, uint64_t missed_ticks) noexcep
     scene_->publish();
   }
   if (pending_sequence_ != 0) {
-    finish(pending_sequence_, pending_status_);
+    finish(pending_sequence_, pending_refused_);
     pending_sequence_ = 0;
   }
-  if (step_done) finish(step_sequence_, 200);
+  if (step_done) finish(step_sequence_, false);
 }
 
-std::optional<control::GameStatus> SimController::game() {
-  if (field_ == nullptr) return std::nullopt;
+contract::GameStatus SimController::game() {
   return field_->game_status();
 }
 
-control::Outcome SimController::game_command(const control::GameCommand& command) {
-  if (field_ == nullptr) return control::SimControl::game_command(command);
+contract::Outcome SimController::game_command(const contract::GameCommand& command) {
   return field_->game_command(command);
 }
 
-std::optional<control::TeamcommStatus> SimController::teamcomm() {
-  if (field_ == nullptr) return std::nullopt;
+std::optional<contract::TeamcommStatus> SimController::teamcomm() {
   return field_->teamcomm_status();
 }
 
-control::Outcome SimController::teamcomm_add(const control::TeamcommRobot& robot) {
-  if (field_ == nullptr) return control::SimControl::teamcomm_add(robot);
+contract::Outcome SimController::teamcomm_add(const contract::TeamcommRobot& robot) {
   return field_->teamcomm_add(robot);
 }
 
-std::optional<control::FaultList> SimController::faults() {
-  if (faults_ == nullptr) return control::SimControl::faults();
+contract::FaultList SimController::faults() {
   return faults_->list();
 }
 
-control::FaultAnswer SimController::add_fault(const faults::FaultSpec& spec) {
-  if (faults_ == nullptr) return control::SimControl::add_fault(spec);
+contract::Result<uint32_t> SimController::add_fault(const faults::FaultSpec& spec) {
   return faults_->add(spec);
 }
 
-control::Outcome SimController::clear_fault(uint32_t number) {
-  if (faults_ == nullptr) return control::SimControl::clear_fault(number);
+contract::Outcome SimController::clear_fault(uint32_t number) {
   return faults_->clear(number);
 }
 
-control::Outcome SimController::clear_faults() {
-  if (faults_ == nullptr) return control::SimControl::clear_faults();
+contract::Outcome SimController::clear_faults() {
   return faults_->clear_all();
 }
 
-control::Outcome SimController::teamcomm_remove(int team, int player) {
-  if (field_ == nullptr) return control::SimControl::teamcomm_remove(team, player);
+contract::Outcome SimController::teamcomm_remove(int team, int player) {
   return field_->teamcomm_remove(team, player);
+}
+
+contract::Facets SimController::facets() noexcept {
+  contract::Facets facets;
+  facets.simulation = this;
+  if (truth_ != nullptr) facets.world_model = this;
+  if (field_ != nullptr) {
+    facets.game = this;
+    facets.teamcomm = this;
+  }
+  if (faults_ != nullptr) facets.faults = this;
+  return facets;
 }
 
 void SimController::attach(std::size_t index, Robot robot) {

@@ -1,6 +1,6 @@
 #pragma once
-// Simulation control inside doppel (control::SimControl): requests from the HTTP API's threads
-// cross to the simulation thread through a lock-free queue and are applied there between two
+// Simulation control inside doppel (the contract's facets, contract/host.h): requests from the HTTP
+// API's threads cross to the simulation thread through a lock-free queue and are applied there between two
 // steps; the simulation thread publishes the state every 10 ms through a snapshot. The request side
 // takes a mutex (HTTP threads only: one request in flight, the next waits); the simulation thread
 // never waits for anyone.
@@ -19,7 +19,7 @@
 #include "camera/renderer.h"
 #include "concurrency/snapshot.h"
 #include "concurrency/spsc_queue.h"
-#include "control/sim_control.h"
+#include "contract/host.h"
 #include "gateway/robot_config.h"
 #include "physics/scene_view.h"
 #include "physics/world.h"
@@ -74,7 +74,11 @@ struct SimSample {
   std::array<double, 3> ball{};
 };
 
-class SimController final : public control::SimControl {
+class SimController final : public contract::Simulation,
+                            public contract::WorldModel,
+                            public contract::Game,
+                            public contract::Teamcomm,
+                            public contract::Faults {
  public:
   static constexpr std::size_t kMaxRobots = kSimMaxRobots;
   static constexpr std::size_t kMaxJoints = kSimMaxJoints;
@@ -102,40 +106,44 @@ class SimController final : public control::SimControl {
   void hide(std::size_t index);
   void detach(std::size_t index) noexcept;
 
-  // control::SimControl, from any thread but the simulation thread.
-  control::SimState state() override;
-  control::Outcome pause() override;
-  control::Outcome resume() override;
-  control::Outcome step(uint32_t steps) override;
-  control::Outcome reset() override;
-  control::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
-  control::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
-  control::Outcome ball(double x_m, double y_m) override;
-  control::Scene scene() override;
-  std::vector<control::BusTable> buses() override;
+  // contract::Simulation, from any thread but the simulation thread.
+  contract::SimState state() override;
+  contract::Outcome pause() override;
+  contract::Outcome resume() override;
+  contract::Outcome step(uint32_t steps) override;
+  contract::Outcome reset() override;
+  contract::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
+  contract::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
+  contract::Outcome ball(double x_m, double y_m) override;
+  contract::Scene scene() override;
+  std::vector<contract::BusTable> buses() override;
   // Renders the camera's view of the newest published scene on the calling (HTTP) thread, at most
   // once per kStillPeriod per camera (the same still otherwise), and encodes it as PNG.
-  control::CameraStill camera_still(const std::string& name) override;
+  contract::Result<contract::CameraStill> camera_still(const std::string& name) override;
   static constexpr std::chrono::milliseconds kStillPeriod{250};
-  // The world-model sensors (truth/), served by world_model() and set_world_model(); null: none.
-  // Setup, before the control API starts.
+  // The world-model sensors (truth/), served by world_model() and set_world_model(); null: none
+  // (facets() then offers no world model). Setup, before the control API starts.
   void set_world_model(truth::TruthService* truth) noexcept { truth_ = truth; }
-  control::WorldModelAnswer world_model(std::size_t robot) override;
-  control::WorldModelAnswer set_world_model(std::size_t robot, const control::WorldModelSettings& settings) override;
+  contract::Result<contract::WorldModelSettings> world_model(std::size_t robot) override;
+  contract::Result<contract::WorldModelSettings> set_world_model(std::size_t robot,
+                                                                 const contract::WorldModelSettings& settings) override;
   // The GameController and the hub (field_services.h) answer the game and teamcomm requests;
-  // `field` outlives the controller. Setup, before the API serves.
+  // `field` outlives the controller; null: facets() offers neither. Setup, before the API serves.
   void set_field_services(FieldServices* field) noexcept { field_ = field; }
-  std::optional<control::GameStatus> game() override;
-  control::Outcome game_command(const control::GameCommand& command) override;
-  std::optional<control::TeamcommStatus> teamcomm() override;
-  control::Outcome teamcomm_add(const control::TeamcommRobot& robot) override;
-  control::Outcome teamcomm_remove(int team, int player) override;
-  // Faults on demand (fault_board.h); `board` outlives the controller. Setup, before the API serves.
+  contract::GameStatus game() override;
+  contract::Outcome game_command(const contract::GameCommand& command) override;
+  std::optional<contract::TeamcommStatus> teamcomm() override;
+  contract::Outcome teamcomm_add(const contract::TeamcommRobot& robot) override;
+  contract::Outcome teamcomm_remove(int team, int player) override;
+  // Faults on demand (fault_board.h); `board` outlives the controller; null: facets() offers none.
+  // Setup, before the API serves.
   void set_fault_board(FaultBoard* board) noexcept { faults_ = board; }
-  std::optional<control::FaultList> faults() override;
-  control::FaultAnswer add_fault(const faults::FaultSpec& spec) override;
-  control::Outcome clear_fault(uint32_t number) override;
-  control::Outcome clear_faults() override;
+  contract::FaultList faults() override;
+  contract::Result<uint32_t> add_fault(const faults::FaultSpec& spec) override;
+  contract::Outcome clear_fault(uint32_t number) override;
+  contract::Outcome clear_faults() override;
+  // What the control API serves: the simulation, and each facet whose service was set above.
+  contract::Facets facets() noexcept;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -155,9 +163,9 @@ class SimController final : public control::SimControl {
   Eigen::Isometry3d camera_pose(std::size_t r, std::size_t i) const noexcept;
   // Setup: finds robot r's links, IMUs, foot boards (by its file's devices) and cameras in the world.
   void add_devices(std::size_t r);
-  control::Outcome submit(Request request, std::chrono::milliseconds timeout);
+  contract::Outcome submit(Request request, std::chrono::milliseconds timeout);
   void apply(const Request& request) noexcept;
-  void finish(uint64_t sequence, int status) noexcept;
+  void finish(uint64_t sequence, bool refused) noexcept;
   // Fills and publishes the state sample (simulation thread, or the constructor before it runs).
   void publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept;
 
@@ -196,7 +204,7 @@ class SimController final : public control::SimControl {
   uint64_t next_sequence_ = 0;
   concurrency::SpscQueue<Request, 4> requests_;
   std::atomic<uint64_t> finished_{0};  // sequence of the last request carried out
-  std::atomic<int> finished_status_{200};
+  std::atomic<bool> finished_refused_{false};  // the last request carried out was refused (step while running)
 
   std::mutex read_mutex_;  // request side only: the snapshot has one reader
   concurrency::Snapshot<Sample> samples_;
@@ -227,7 +235,7 @@ class SimController final : public control::SimControl {
   uint64_t steps_left_ = 0;
   uint64_t step_sequence_ = 0;  // the step request to finish when steps_left_ reaches 0
   uint64_t pending_sequence_ = 0;  // a request applied in this tick, answered once its state is out
-  int pending_status_ = 200;
+  bool pending_refused_ = false;
   bool advancing_ = true;       // the world advances in this tick
   int ticks_ = 0;
   int scene_ticks_ = 0;

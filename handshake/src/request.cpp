@@ -12,11 +12,11 @@ namespace {
 
 // The first problem found, with its field path; checks stop at the first.
 struct Checker {
-  std::optional<control::Refusal> refusal;
+  std::optional<contract::Refusal> refusal;
 
   bool fail(std::string field, std::string message) {
     if (!refusal) {
-      refusal = control::Refusal{std::move(field), std::move(message)};
+      refusal = contract::Refusal{std::move(field), std::move(message)};
     }
     return false;
   }
@@ -79,8 +79,8 @@ bool camera_name_ok(std::string_view name) {
   return true;
 }
 
-control::CameraRequest check_camera(Checker& c, const wire::CameraRequest& m, const std::string& at) {
-  control::CameraRequest r;
+contract::CameraRequest check_camera(Checker& c, const wire::CameraRequest& m, const std::string& at) {
+  contract::CameraRequest r;
   if (!camera_name_ok(m.name())) {
     c.fail(at + ".name", m.name().empty() ? "must name a camera mount of the robot file"
                                           : "must have 1..63 characters of A-Z a-z 0-9 _ . / -");
@@ -140,9 +140,9 @@ control::CameraRequest check_camera(Checker& c, const wire::CameraRequest& m, co
   return r;
 }
 
-control::WorldModelSettings check_world_model(Checker& c, const wire::WorldModelRequest& m) {
+contract::WorldModelSettings check_world_model(Checker& c, const wire::WorldModelRequest& m) {
   const std::string at = "add_robot.world_model";
-  control::WorldModelSettings s;
+  contract::WorldModelSettings s;
   s.enabled = true;
   if (m.has_rate_hz()) {
     in_range(c, at + ".rate_hz", m.rate_hz(), 0.0, 1000.0, true, false);
@@ -185,9 +185,9 @@ control::WorldModelSettings check_world_model(Checker& c, const wire::WorldModel
 
 }  // namespace
 
-std::variant<control::RobotRequest, control::Refusal> check_add_robot(const wire::AddRobot& m) {
+std::variant<contract::RobotRequest, contract::Refusal> check_add_robot(const wire::AddRobot& m) {
   Checker c;
-  control::RobotRequest r;
+  contract::RobotRequest r;
   if (m.robot().empty() == m.description().empty()) {
     c.fail("add_robot.robot", m.robot().empty() ? "name a robot (or a robot file), or give a description"
                                                 : "give a robot or a description, not both");
@@ -262,11 +262,11 @@ std::string proto_field_path(std::string_view host_field) {
   return out;
 }
 
-wire::Robot to_wire(const control::RobotAdded& robot) {
+wire::Robot to_wire(const contract::RobotAdded& robot) {
   wire::Robot out;
   out.set_robot(robot.robot);
   out.set_name(robot.name);
-  for (const control::Link& link : robot.links) {
+  for (const contract::Link& link : robot.links) {
     wire::Link* l = out.add_link();
     l->set_kind(link.kind);
     l->set_name(link.name);

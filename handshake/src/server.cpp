@@ -20,7 +20,7 @@
 #include <thread>
 #include <variant>
 
-#include "control/access.h"
+#include "contract/access_token.h"
 #include "handshake/request.h"
 
 namespace doppel::handshake {
@@ -78,16 +78,16 @@ wire::ServerMessage Sessions::handle(const wire::ClientMessage& request) {
 
 wire::ServerMessage Sessions::add(const wire::AddRobot& message) {
   auto checked = check_add_robot(message);
-  if (const auto* refusal = std::get_if<control::Refusal>(&checked)) {
+  if (const auto* refusal = std::get_if<contract::Refusal>(&checked)) {
     return error_reply(refusal->field, refusal->message);
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  control::AddResult result = host_.add_robot(std::get<control::RobotRequest>(checked));
-  if (const auto* refusal = std::get_if<control::Refusal>(&result)) {
+  contract::AddResult result = host_.add_robot(std::get<contract::RobotRequest>(checked));
+  if (const auto* refusal = std::get_if<contract::Refusal>(&result)) {
     return error_reply(proto_field_path(refusal->field), refusal->message);
   }
-  const auto& added = std::get<control::RobotAdded>(result);
-  std::string token = control::new_access_token();  // a capability, not a counter a neighbour could guess
+  const auto& added = std::get<contract::RobotAdded>(result);
+  std::string token = contract::new_access_token();  // a capability, not a counter a neighbour could guess
   tokens_[token] = Owned{added.robot, added.name};
   wire::ServerMessage reply;
   *reply.mutable_robot_added() = to_wire(added);
@@ -97,7 +97,7 @@ wire::ServerMessage Sessions::add(const wire::AddRobot& message) {
 
 wire::ServerMessage Sessions::remove(const wire::RemoveRobot& message) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (std::optional<control::Refusal> refusal = host_.remove_robot(message.robot())) {
+  if (std::optional<contract::Refusal> refusal = host_.remove_robot(message.robot())) {
     return error_reply("remove_robot.robot", refusal->message);
   }
   std::erase_if(tokens_, [&](const auto& entry) { return entry.second.robot == message.robot(); });
@@ -115,7 +115,7 @@ wire::ServerMessage Sessions::reattach(const wire::Reattach& message) {
   if (found == tokens_.end()) {
     return error_reply("reattach.token", "no robot has this token (removed, or added in another doppel run)");
   }
-  for (const control::RobotAdded& robot : host_.robots()) {
+  for (const contract::RobotAdded& robot : host_.robots()) {
     if (robot.robot == found->second.robot && robot.name == found->second.name) {
       wire::ServerMessage reply;
       *reply.mutable_reattached() = to_wire(robot);
@@ -133,7 +133,7 @@ wire::ServerMessage Sessions::list() {
   std::lock_guard<std::mutex> lock(mutex_);
   wire::ServerMessage reply;
   wire::RobotList* list = reply.mutable_robot_list();
-  for (const control::RobotAdded& robot : host_.robots()) {
+  for (const contract::RobotAdded& robot : host_.robots()) {
     *list->add_robot() = to_wire(robot);
   }
   return reply;
@@ -147,7 +147,7 @@ struct Server::Impl {
     std::atomic<bool> done{false};
   };
 
-  Impl(control::RobotHost& host, ServerOptions o) : options(std::move(o)), sessions(host) {}
+  Impl(contract::RobotHost& host, ServerOptions o) : options(std::move(o)), sessions(host) {}
 
   ServerOptions options;
   Sessions sessions;
@@ -396,7 +396,7 @@ void Server::Impl::serve(Connection& c) noexcept {
           return;
         }
         decoder.next();
-        if (c.tcp && !options.tcp_token.empty() && !control::same_token(request.access_token(), options.tcp_token)) {
+        if (c.tcp && !options.tcp_token.empty() && !contract::same_token(request.access_token(), options.tcp_token)) {
           send_message(c.fd, error_reply("access_token", request.access_token().empty()
                                                              ? "this doppel needs its access token over TCP (the "
                                                                "file LINK_DIR/token-PORT; docs/security.md); closing"
@@ -450,7 +450,7 @@ void Server::Impl::close_all() noexcept {
   }
 }
 
-Server::Server(control::RobotHost& host, ServerOptions options) : impl_(std::make_unique<Impl>(host, std::move(options))) {
+Server::Server(contract::RobotHost& host, ServerOptions options) : impl_(std::make_unique<Impl>(host, std::move(options))) {
   Impl& s = *impl_;
   if (s.options.max_frame_bytes == 0 || s.options.max_clients < 1) {
     throw std::invalid_argument("handshake: max_frame_bytes and max_clients must be positive");

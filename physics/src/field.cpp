@@ -6,6 +6,8 @@
 #include <numbers>
 #include <stdexcept>
 
+#include "physics/carpet.h"
+
 namespace doppel::physics {
 namespace {
 
@@ -62,8 +64,7 @@ std::vector<VisualShape> field_shapes(const FieldSpec& spec) {
 
   // Carpet, its top face at z = 0.
   shapes.push_back(make_box(ObjectKind::kCarpet, kCarpetObjectId, {0.0, 0.0, -0.005},
-                            {spec.field_length_m + 2.0 * spec.border_strip_width_m,
-                             spec.field_width_m + 2.0 * spec.border_strip_width_m, 0.01},
+                            {2.0 * carpet_half_length_m(spec), 2.0 * carpet_half_width_m(spec), 0.01},
                             kCarpetGreen));
 
   // Lines: positions are line centres; lengths reach the outer edge of the lines they meet.

@@ -35,7 +35,7 @@ recording::Vector3 vector3(double x, double y, double z) {
   return v;
 }
 
-recording::WorldState world_state(const control::SimState& state) {
+recording::WorldState world_state(const contract::SimState& state) {
   recording::WorldState out;
   out.set_sim_time_s(state.sim_time_s);
   out.set_paused(state.paused);
@@ -43,7 +43,7 @@ recording::WorldState world_state(const control::SimState& state) {
   if (state.ball_m && state.ball_m->size() == 3) {
     *out.mutable_ball() = vector3((*state.ball_m)[0], (*state.ball_m)[1], (*state.ball_m)[2]);
   }
-  for (const control::RobotState& robot : state.robots) {
+  for (const contract::RobotState& robot : state.robots) {
     recording::RobotState* r = out.add_robots();
     r->set_name(robot.name);
     r->set_x_m(robot.x_m);
@@ -53,12 +53,12 @@ recording::WorldState world_state(const control::SimState& state) {
     r->set_tilt_rad(robot.tilt_rad);
     r->set_fallen(robot.fallen);
     r->set_held(robot.held);
-    for (const control::JointState& joint : robot.joints) {
+    for (const contract::JointState& joint : robot.joints) {
       recording::Joint* j = r->add_joints();
       j->set_name(joint.name);
       j->set_position_rad(joint.position_rad);
     }
-    for (const control::ImuReading& imu : robot.imus) {
+    for (const contract::ImuReading& imu : robot.imus) {
       recording::Imu* i = r->add_imus();
       i->set_name(imu.name);
       i->set_bus(imu.bus);
@@ -67,7 +67,7 @@ recording::WorldState world_state(const control::SimState& state) {
       i->set_pitch_rad(imu.pitch_rad);
       *i->mutable_gyro_rad_s() = vector3(imu.gyro_rad_s[0], imu.gyro_rad_s[1], imu.gyro_rad_s[2]);
     }
-    for (const control::FootReading& foot : robot.feet) {
+    for (const contract::FootReading& foot : robot.feet) {
       recording::Foot* f = r->add_feet();
       f->set_name(foot.name);
       f->set_bus(foot.bus);
@@ -78,16 +78,16 @@ recording::WorldState world_state(const control::SimState& state) {
   return out;
 }
 
-recording::ServoTables servo_tables(double sim_time_s, const std::vector<control::BusTable>& tables) {
+recording::ServoTables servo_tables(double sim_time_s, const std::vector<contract::BusTable>& tables) {
   recording::ServoTables out;
   out.set_sim_time_s(sim_time_s);
-  for (const control::BusTable& table : tables) {
+  for (const contract::BusTable& table : tables) {
     recording::ServoTable* t = out.add_buses();
     t->set_robot(static_cast<uint32_t>(table.robot));
     t->set_robot_name(table.robot_name);
     t->set_bus(static_cast<uint32_t>(table.bus));
     t->set_link(table.link);
-    for (const control::ServoRow& row : table.servos) {
+    for (const contract::ServoRow& row : table.servos) {
       recording::ServoRow* s = t->add_servos();
       s->set_id(row.id);
       s->set_name(row.name);
@@ -105,10 +105,10 @@ recording::ServoTables servo_tables(double sim_time_s, const std::vector<control
   return out;
 }
 
-recording::Scene scene_shapes(const control::Scene& scene) {
+recording::Scene scene_shapes(const contract::Scene& scene) {
   recording::Scene out;
   out.set_sim_time_s(scene.sim_time_s);
-  for (const control::SceneShape& shape : scene.shapes) {
+  for (const contract::SceneShape& shape : scene.shapes) {
     recording::Shape* s = out.add_shapes();
     s->set_type(shape.type);
     s->set_kind(shape.kind);
@@ -127,10 +127,10 @@ recording::Scene scene_shapes(const control::Scene& scene) {
   return out;
 }
 
-recording::ScenePoses scene_poses(const control::Scene& scene) {
+recording::ScenePoses scene_poses(const contract::Scene& scene) {
   recording::ScenePoses out;
   out.set_sim_time_s(scene.sim_time_s);
-  for (const control::SceneShape& shape : scene.shapes) {
+  for (const contract::SceneShape& shape : scene.shapes) {
     *out.add_positions() = vector3(shape.position[0], shape.position[1], shape.position[2]);
     recording::Quaternion* q = out.add_orientations();
     q->set_x(shape.quaternion[0]);
@@ -142,9 +142,9 @@ recording::ScenePoses scene_poses(const control::Scene& scene) {
 }
 
 // What identifies a scene's set of shapes: when it changes, the whole geometry is written again.
-std::string scene_signature(const control::Scene& scene) {
+std::string scene_signature(const contract::Scene& scene) {
   std::string out;
-  for (const control::SceneShape& shape : scene.shapes) {
+  for (const contract::SceneShape& shape : scene.shapes) {
     out += shape.type;
     out += shape.kind;
     out += std::to_string(shape.object_id) + ":" + std::to_string(shape.vertices.size()) + ";";
@@ -165,7 +165,7 @@ struct Recorder::Impl {
   RecorderOptions options;
   recording::RunInfo run;
   std::vector<RecordedBus> buses;
-  control::SimControl* control = nullptr;
+  contract::Facets control;  // simulation null: no world state
   std::ostream* progress_out = nullptr;
   std::unique_ptr<mcap::Writer> writer;
   std::vector<BusTranscriber> transcribers;
@@ -231,7 +231,7 @@ struct Recorder::Impl {
   }
 
   void sample_world(int64_t now_ns) {
-    const control::SimState state = control->state();
+    const contract::SimState state = control.simulation->state();
     if (state.sim_time_s == last_world_time_s) return;  // nothing new since the last sample
     last_world_time_s = state.sim_time_s;
     write("/doppel/world", world_state(state), now_ns);
@@ -239,12 +239,12 @@ struct Recorder::Impl {
 
   // /doppel/faults: the whole list whenever a fault was added or cleared, or started or ended.
   void sample_faults(int64_t now_ns, bool force = false) {
-    const std::optional<control::FaultList> list = control->faults();
-    if (!list) return;
+    if (control.faults == nullptr) return;
+    const contract::FaultList list = control.faults->faults();
     std::string signature;
     recording::FaultList message;
-    message.set_sim_time_s(list->sim_time_s);
-    for (const control::FaultEntry& entry : list->faults) {
+    message.set_sim_time_s(list.sim_time_s);
+    for (const contract::FaultEntry& entry : list.faults) {
       const faults::Fault& f = entry.fault;
       const faults::FaultKindInfo& info = faults::info(f.spec.kind);
       signature += std::to_string(f.number) + ":" + std::to_string(f.end_ns) + (entry.active ? "+" : "-") + ",";
@@ -263,13 +263,13 @@ struct Recorder::Impl {
       out->set_seed(f.spec.seed);
       out->set_active(entry.active);
     }
-    if (list->faults.empty() || (!force && signature == fault_signature)) return;
+    if (list.faults.empty() || (!force && signature == fault_signature)) return;
     fault_signature = signature;
     write("/doppel/faults", message, now_ns);
   }
 
   void sample_scene(int64_t now_ns) {
-    const control::Scene scene = control->scene();
+    const contract::Scene scene = control.simulation->scene();
     if (scene.shapes.empty()) return;
     const std::string signature = record::scene_signature(scene);
     if (signature != scene_signature) {
@@ -280,11 +280,12 @@ struct Recorder::Impl {
   }
 
   void sample_cameras(int64_t now_ns) {
-    const control::SimState state = control->state();
-    for (const control::RobotState& robot : state.robots) {
-      for (const control::CameraView& camera : robot.cameras) {
-        const control::CameraStill still = control->camera_still(camera.name);
-        if (still.status != 200) continue;
+    const contract::SimState state = control.simulation->state();
+    for (const contract::RobotState& robot : state.robots) {
+      for (const contract::CameraView& camera : robot.cameras) {
+        const contract::Result<contract::CameraStill> answer = control.simulation->camera_still(camera.name);
+        if (!answer.ok()) continue;
+        const contract::CameraStill& still = answer.value();
         recording::CameraImage image;
         image.set_sim_time_s(still.sim_time_s);
         image.set_camera(camera.name);
@@ -314,11 +315,11 @@ struct Recorder::Impl {
       drain_taps();
       const Clock::time_point now = Clock::now();
       const int64_t now_ns = monotonic_now_ns();
-      if (control != nullptr) {
+      if (control.simulation != nullptr) {
         sample_world(now_ns);  // every state the simulation publishes (100 Hz of simulation time)
         sample_faults(now_ns);
         if (options.servo_hz > 0 && now >= next_servo) {
-          write("/doppel/servos", servo_tables(last_world_time_s, control->buses()), now_ns);
+          write("/doppel/servos", servo_tables(last_world_time_s, control.simulation->buses()), now_ns);
           next_servo = std::max(next_servo + period(options.servo_hz), now);
         }
         if (options.scene_hz > 0 && now >= next_scene) {
@@ -350,7 +351,7 @@ struct Recorder::Impl {
 };
 
 Recorder::Recorder(const RecorderOptions& options, recording::RunInfo run, std::vector<RecordedBus> buses,
-                   control::SimControl* control, std::ostream* progress_out)
+                   contract::Facets control, std::ostream* progress_out)
     : impl_(std::make_unique<Impl>()) {
   Impl& d = *impl_;
   d.options = options;
@@ -404,7 +405,7 @@ void Recorder::stop() {
   if (d.thread.joinable()) d.thread.join();
   d.drain_taps();
   for (BusTranscriber& transcriber : d.transcribers) transcriber.finish();
-  if (d.control != nullptr) d.sample_faults(monotonic_now_ns(), true);  // every fault's end as it stands
+  if (d.control.simulation != nullptr) d.sample_faults(monotonic_now_ns(), true);  // every fault's end as it stands
   recording::RecordingSummary summary;
   summary.set_messages(d.messages.load() + 1);
   summary.set_dropped_bus_events(d.dropped_bus_events());

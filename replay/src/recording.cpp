@@ -63,7 +63,7 @@ namespace {
 
 // Running counters of one bus while the transactions are folded in.
 struct CounterState {
-  control::BusCounters counters;
+  contract::BusCounters counters;
   int64_t window_start_ns = 0;
 };
 
@@ -175,7 +175,7 @@ Recording::Recording(const std::string& path) : path_(path) {
           break;
         }
         CounterState& state = counter_states[route->second.bus];
-        control::BusCounters& c = state.counters;
+        contract::BusCounters& c = state.counters;
         ++c.packets;
         c.bytes_in += transaction.instruction().size();
         if (!transaction.checksum_ok()) ++c.bad_checksums;

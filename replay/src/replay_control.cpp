@@ -20,15 +20,15 @@ int64_t monotonic_ns() {
 
 double seconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
 
-control::SimState decode_world(std::string_view bytes, bool& ok) {
+contract::SimState decode_world(std::string_view bytes, bool& ok) {
   recording::WorldState world;
   ok = world.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()));
-  control::SimState state;
+  contract::SimState state;
   state.sim_time_s = world.sim_time_s();
   state.missed_ticks = world.missed_ticks();
   if (world.has_ball()) state.ball_m = std::vector<double>{world.ball().x(), world.ball().y(), world.ball().z()};
   for (const recording::RobotState& r : world.robots()) {
-    control::RobotState robot;
+    contract::RobotState robot;
     robot.name = r.name();
     robot.simulated = true;  // the recorder writes the robots of the world
     robot.x_m = r.x_m();
@@ -44,7 +44,7 @@ control::SimState decode_world(std::string_view bytes, bool& ok) {
                             {i.gyro_rad_s().x(), i.gyro_rad_s().y(), i.gyro_rad_s().z()}});
     }
     for (const recording::Foot& f : r.feet()) {
-      control::FootReading foot{f.name(), f.bus(), static_cast<uint8_t>(f.id()), {}};
+      contract::FootReading foot{f.name(), f.bus(), static_cast<uint8_t>(f.id()), {}};
       for (int k = 0; k < std::min(4, f.force_n_size()); ++k) foot.force_n[k] = f.force_n(k);
       robot.feet.push_back(foot);
     }
@@ -77,7 +77,7 @@ int64_t ReplayControl::position_locked() { return playback_.position_ns(now_ns()
 
 const char* ReplayControl::intern(const std::string& text) { return strings_.insert(text).first->c_str(); }
 
-control::SimState ReplayControl::state() {
+contract::SimState ReplayControl::state() {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t position = position_locked();
   const std::optional<std::size_t> index = recording_.world().at_or_before(position);
@@ -89,50 +89,50 @@ control::SimState ReplayControl::state() {
     }
     world_index_ = index;
   }
-  control::SimState state = world_;
+  contract::SimState state = world_;
   state.paused = !playback_.playing(now_ns());
   state.carpet_half_length_m = carpet_half_length_m_;
   state.carpet_half_width_m = carpet_half_width_m_;
   return state;
 }
 
-control::Outcome ReplayControl::pause() {
+contract::Outcome ReplayControl::pause() {
   std::lock_guard<std::mutex> lock(mutex_);
   playback_.pause(now_ns());
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome ReplayControl::resume() {
+contract::Outcome ReplayControl::resume() {
   std::lock_guard<std::mutex> lock(mutex_);
   playback_.play(now_ns());
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome ReplayControl::step(uint32_t steps) {
+contract::Outcome ReplayControl::step(uint32_t steps) {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = now_ns();
-  if (playback_.playing(now)) return control::Outcome::fail(409, "the replay is playing: pause first");
+  if (playback_.playing(now)) return contract::Outcome::fail(contract::ErrorKind::kConflict, "the replay is playing: pause first");
   playback_.seek(playback_.position_ns(now) + static_cast<int64_t>(steps) * 1'000'000, now);
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome ReplayControl::reset() {
+contract::Outcome ReplayControl::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   playback_.seek(playback_.start_ns(), now_ns());
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
-control::Outcome ReplayControl::place(std::size_t, double, double, double) {
-  return control::Outcome::fail(409, kReplayCannotChangeWorld);
+contract::Outcome ReplayControl::place(std::size_t, double, double, double) {
+  return contract::Outcome::fail(contract::ErrorKind::kConflict, kReplayCannotChangeWorld);
 }
 
-control::Outcome ReplayControl::push(std::size_t, double, double, double, uint32_t) {
-  return control::Outcome::fail(409, kReplayCannotChangeWorld);
+contract::Outcome ReplayControl::push(std::size_t, double, double, double, uint32_t) {
+  return contract::Outcome::fail(contract::ErrorKind::kConflict, kReplayCannotChangeWorld);
 }
 
-control::Outcome ReplayControl::ball(double, double) { return control::Outcome::fail(409, kReplayCannotChangeWorld); }
+contract::Outcome ReplayControl::ball(double, double) { return contract::Outcome::fail(contract::ErrorKind::kConflict, kReplayCannotChangeWorld); }
 
-control::Scene ReplayControl::scene() {
+contract::Scene ReplayControl::scene() {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t position = position_locked();
   const std::optional<std::size_t> index = recording_.scene().at_or_before(position);
@@ -143,7 +143,7 @@ control::Scene ReplayControl::scene() {
     if (index && scene.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
       scene_.sim_time_s = scene.sim_time_s();
       for (const recording::Shape& s : scene.shapes()) {
-        control::SceneShape shape;
+        contract::SceneShape shape;
         shape.type = intern(s.type());
         shape.kind = intern(s.kind());
         shape.object_id = static_cast<uint16_t>(s.object_id());
@@ -159,7 +159,7 @@ control::Scene ReplayControl::scene() {
     }
     scene_index_ = index;
   }
-  control::Scene out = scene_;
+  contract::Scene out = scene_;
   // The poses recorded after this scene, when they are for the same shapes (same count).
   const std::optional<std::size_t> poses = recording_.scene_poses().at_or_before(position);
   if (poses && index && recording_.scene_poses().time_ns(*poses) >= recording_.scene().time_ns(*index)) {
@@ -182,7 +182,7 @@ control::Scene ReplayControl::scene() {
   return out;
 }
 
-std::vector<control::BusTable> ReplayControl::buses() {
+std::vector<contract::BusTable> ReplayControl::buses() {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t position = position_locked();
   const std::optional<std::size_t> index = recording_.servos().at_or_before(position);
@@ -192,7 +192,7 @@ std::vector<control::BusTable> ReplayControl::buses() {
     const std::string_view bytes = index ? recording_.servos().bytes(*index) : std::string_view();
     if (index && tables.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
       for (const recording::ServoTable& t : tables.buses()) {
-        control::BusTable table;
+        contract::BusTable table;
         table.robot = t.robot();
         table.robot_name = t.robot_name();
         table.bus = t.bus();
@@ -207,8 +207,8 @@ std::vector<control::BusTable> ReplayControl::buses() {
     }
     servos_index_ = index;
   }
-  std::vector<control::BusTable> out = servos_;
-  for (control::BusTable& table : out) {
+  std::vector<contract::BusTable> out = servos_;
+  for (contract::BusTable& table : out) {
     const auto points = recording_.bus_counters().find({static_cast<uint32_t>(table.robot), static_cast<uint32_t>(table.bus)});
     if (points == recording_.bus_counters().end()) continue;
     const auto after = std::upper_bound(points->second.begin(), points->second.end(), position,
@@ -218,12 +218,13 @@ std::vector<control::BusTable> ReplayControl::buses() {
   return out;
 }
 
-control::CameraStill ReplayControl::camera_still(const std::string& name) {
+contract::Result<contract::CameraStill> ReplayControl::camera_still(const std::string& name) {
   const auto track = recording_.cameras().find(name);
   if (track == recording_.cameras().end()) {
     std::string names;
     for (const auto& [camera, t] : recording_.cameras()) names += (names.empty() ? "" : ", ") + camera;
-    return {404, "no camera '" + name + "' in the recording (recorded: " + (names.empty() ? "none" : names) + ")", "", 0.0};
+    return contract::Error{contract::ErrorKind::kNotFound,
+                           "no camera '" + name + "' in the recording (recorded: " + (names.empty() ? "none" : names) + ")"};
   }
   int64_t position = 0;
   {
@@ -231,18 +232,20 @@ control::CameraStill ReplayControl::camera_still(const std::string& name) {
     position = position_locked();
   }
   const std::optional<std::size_t> index = track->second.at_or_before(position);
-  if (!index) return {503, "camera '" + name + "' has no recorded still before this moment", "", 0.0};
+  if (!index) {
+    return contract::Error{contract::ErrorKind::kUnavailable, "camera '" + name + "' has no recorded still before this moment"};
+  }
   recording::CameraImage image;
   const std::string_view bytes = track->second.bytes(*index);
   if (!image.ParseFromArray(bytes.data(), static_cast<int>(bytes.size()))) {
-    return {503, "the recorded still of camera '" + name + "' is corrupt", "", 0.0};
+    return contract::Error{contract::ErrorKind::kUnavailable, "the recorded still of camera '" + name + "' is corrupt"};
   }
-  return {200, "", image.data(), image.sim_time_s()};
+  return contract::CameraStill{image.data(), image.sim_time_s()};
 }
 
-std::optional<control::ReplayStatus> ReplayControl::replay() {
+contract::ReplayStatus ReplayControl::replay() {
   std::lock_guard<std::mutex> lock(mutex_);
-  control::ReplayStatus status;
+  contract::ReplayStatus status;
   const int64_t now = now_ns();
   status.start_s = seconds(playback_.start_ns());
   status.end_s = seconds(playback_.end_ns());
@@ -253,7 +256,7 @@ std::optional<control::ReplayStatus> ReplayControl::replay() {
   return status;
 }
 
-control::Outcome ReplayControl::change_replay(const control::ReplayChange& change) {
+contract::Outcome ReplayControl::change_replay(const contract::ReplayChange& change) {
   std::lock_guard<std::mutex> lock(mutex_);
   const int64_t now = now_ns();
   if (change.speed) playback_.set_speed(*change.speed, now);
@@ -261,7 +264,7 @@ control::Outcome ReplayControl::change_replay(const control::ReplayChange& chang
   if (change.playing) {
     if (*change.playing) playback_.play(now); else playback_.pause(now);
   }
-  return control::Outcome::done();
+  return contract::Outcome::done();
 }
 
 std::optional<std::string> ReplayControl::bus_analysis() {

@@ -19,6 +19,7 @@
 
 #include "base/command_line.h"
 #include "bus/link_directory.h"
+#include "contract/access_token.h"
 #include "control/access.h"
 #include "control/http_api.h"
 #include "replay/bus_replay.h"
@@ -110,7 +111,7 @@ int serve(const Options& options) {
   for (const std::string& warning : recording.warnings()) std::fprintf(stderr, "doppel-replay: warning: %s\n", warning.c_str());
   if (!recording.recovery_note().empty()) std::fprintf(stderr, "doppel-replay: %s\n", recording.recovery_note().c_str());
   replay::ReplayControl control(recording);
-  control::ReplayChange change;
+  contract::ReplayChange change;
   change.speed = options.speed;
   if (options.start_s >= 0.0) {
     if (options.start_s > recording.end_ns() * 1e-9) {
@@ -120,24 +121,26 @@ int serve(const Options& options) {
     change.position_s = std::max(options.start_s, recording.start_ns() * 1e-9);
   }
   change.playing = !options.paused;
-  control.change_replay(change);
+  if (const contract::Outcome started = control.change_replay(change); !started.ok()) {
+    throw std::runtime_error(started.error().message);
+  }
   control::StaticFiles files = control::default_static_files();
   if (!options.viewer_dir.empty()) files.viewer_dir = options.viewer_dir;
   // The same access rules as doppel's (control/access.h, docs/security.md): a recording can hold
   // camera images and everything the robots did.
   std::string token;
   if (options.token) {
-    token = control::new_access_token();
+    token = contract::new_access_token();
   } else {
     std::fprintf(stderr, "doppel-replay: warning: --no-token: every local user and program can use the viewer's API "
                          "(docs/security.md)\n");
   }
-  control::HttpApi api(control, options.viewer_address, options.viewer_port, files, token);
+  control::HttpApi api(control.facets(), options.viewer_address, options.viewer_port, files, token);
   std::unique_ptr<bus::LinkDirectory> link_dir;
-  std::unique_ptr<control::TokenFile> token_file;
+  std::unique_ptr<contract::TokenFile> token_file;
   if (!token.empty()) {
     link_dir = std::make_unique<bus::LinkDirectory>(options.link_dir, false, std::cerr);
-    token_file = std::make_unique<control::TokenFile>(control::token_file_path(link_dir->path(), api.port()), token);
+    token_file = std::make_unique<contract::TokenFile>(contract::token_file_path(link_dir->path(), api.port()), token);
   }
   api.start();
   std::printf("doppel-replay: %s, %.3f s; viewer on http://%s:%u/%s (Ctrl-C stops)\n", options.file.c_str(),
@@ -305,7 +308,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no-token{false}", options.token, "serve the API without an access token (docs/security.md)");
   app.add_option("--speed", options.speed, "playback speed (viewer: 0.1..10; --bus: the recorded pace times this)")
-      ->capture_default_str()->transform(number_in<double>(control::kMinReplaySpeed, control::kMaxReplaySpeed));
+      ->capture_default_str()->transform(number_in<double>(contract::kMinReplaySpeed, contract::kMaxReplaySpeed));
   app.add_option("--start", options.start_s, "start at this many seconds into the recording")->transform(number_in<double>(0.0, 1e9));
   app.add_flag("--paused", options.paused, "start paused");
   // --bus alone switches the mode; --bus B (a number) also names the bus. "--bus FILE" is the mode and the file.

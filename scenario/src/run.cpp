@@ -200,8 +200,8 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   for (const FaultEvent& fault : scenario.faults) {
     faults::FaultSpec spec = fault.spec;
     if (fault.seed_from_run) spec.seed = seed;
-    const control::FaultAnswer answer = gateway.add_fault(spec);
-    if (answer.status != 200) throw std::invalid_argument(fault.location + ": " + answer.error);
+    const contract::Result<uint32_t> added = gateway.add_fault(spec);
+    if (!added.ok()) throw std::invalid_argument(fault.location + ": " + added.error().message);
   }
   ScenarioObserver observer(scenario, schedule(scenario, seed), duration_ns, std::move(motors));
   gateway.set_step_observer(&observer);

@@ -1,5 +1,6 @@
 // Who may use the HTTP API (control/access.h): the Host, Origin, Content-Type and token checks as
 // pure functions, the token file and the token itself.
+#include "contract/access_token.h"
 #include "control/access.h"
 
 #include <sys/stat.h>
@@ -37,7 +38,7 @@ RequestHeaders post(const std::string& path) {
 TEST(AccessToken, Has128RandomBitsAsHexAndDiffersEachTime) {
   std::set<std::string> seen;
   for (int i = 0; i < 100; ++i) {
-    const std::string token = new_access_token();
+    const std::string token = contract::new_access_token();
     EXPECT_EQ(token.size(), 32u);
     EXPECT_EQ(token.find_first_not_of("0123456789abcdef"), std::string::npos) << token;
     seen.insert(token);
@@ -46,11 +47,11 @@ TEST(AccessToken, Has128RandomBitsAsHexAndDiffersEachTime) {
 }
 
 TEST(AccessToken, ComparedWhole) {
-  EXPECT_TRUE(same_token(kToken, kToken));
-  EXPECT_FALSE(same_token(kToken, "00112233445566778899aabbccddeefe"));
-  EXPECT_FALSE(same_token(kToken, "00112233445566778899aabbccddeeff0"));  // longer
-  EXPECT_FALSE(same_token(kToken, "0011"));                               // a prefix
-  EXPECT_FALSE(same_token("", ""));                                       // no token is never a match
+  EXPECT_TRUE(contract::same_token(kToken, kToken));
+  EXPECT_FALSE(contract::same_token(kToken, "00112233445566778899aabbccddeefe"));
+  EXPECT_FALSE(contract::same_token(kToken, "00112233445566778899aabbccddeeff0"));  // longer
+  EXPECT_FALSE(contract::same_token(kToken, "0011"));                               // a prefix
+  EXPECT_FALSE(contract::same_token("", ""));                                       // no token is never a match
 }
 
 TEST(AccessPolicy, TheHostMustNameThisServer) {
@@ -178,29 +179,29 @@ TEST(AccessPolicy, GarbageHeadersAreRefusedNotACrash) {
 TEST(TokenFile, PrivateToTheUserReadAsClientsReadItAndRemovedAtTheEnd) {
   char pattern[] = "/tmp/doppel-access-test-XXXXXX";
   const std::string dir = ::mkdtemp(pattern);
-  const std::string path = token_file_path(dir, 7580);
+  const std::string path = contract::token_file_path(dir, 7580);
   EXPECT_EQ(path, dir + "/token-7580");
   ::unsetenv("DOPPEL_TOKEN");
-  EXPECT_FALSE(find_access_token(dir, 7580).has_value());
+  EXPECT_FALSE(contract::find_access_token(dir, 7580).has_value());
   std::filesystem::create_symlink("/tmp/elsewhere-" + std::to_string(::getpid()), path);  // replaced, not followed
   {
-    const TokenFile file(path, kToken);
+    const contract::TokenFile file(path, kToken);
     struct stat st{};
     ASSERT_EQ(::lstat(path.c_str(), &st), 0);
     EXPECT_TRUE(S_ISREG(st.st_mode));
     EXPECT_EQ(st.st_mode & 0777, 0600u);
     EXPECT_EQ(st.st_uid, ::geteuid());
-    EXPECT_EQ(find_access_token(dir, 7580), std::optional<std::string>(kToken));
-    EXPECT_FALSE(find_access_token(dir, 7581).has_value());
+    EXPECT_EQ(contract::find_access_token(dir, 7580), std::optional<std::string>(kToken));
+    EXPECT_FALSE(contract::find_access_token(dir, 7581).has_value());
     ::setenv("DOPPEL_TOKEN", "from-the-environment", 1);
-    EXPECT_EQ(find_access_token(dir, 7580), std::optional<std::string>("from-the-environment"));
+    EXPECT_EQ(contract::find_access_token(dir, 7580), std::optional<std::string>("from-the-environment"));
     ::unsetenv("DOPPEL_TOKEN");
   }
   EXPECT_FALSE(std::filesystem::exists(std::filesystem::symlink_status(path)));
   EXPECT_FALSE(std::filesystem::exists("/tmp/elsewhere-" + std::to_string(::getpid())));
   // A file somebody put in its place after the start is not removed.
   {
-    const TokenFile file(path, kToken);
+    const contract::TokenFile file(path, kToken);
     std::filesystem::remove(path);
     std::ofstream(path) << "another\n";
   }

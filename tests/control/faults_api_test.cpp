@@ -1,4 +1,4 @@
-// /api/faults (control/http_api.h) against a recording SimControl: a good request reaches
+// /api/faults (control/http_api.h) against a recording simulation with faults: a good request reaches
 // add_fault with every field as given, a bad one gets 400 naming its field and reaches nothing,
 // DELETE clears one or all, and a simulation without faults (a replay) answers 404.
 #include <gtest/gtest.h>
@@ -13,46 +13,57 @@ namespace {
 
 using nlohmann::json;
 
-class FaultControl final : public SimControl {
+class FaultControl final : public contract::Simulation, public contract::Faults {
  public:
-  SimState state() override {
-    SimState s;
+  contract::SimState state() override {
+    contract::SimState s;
     s.sim_time_s = 2.0;
-    RobotState a;
+    contract::RobotState a;
     a.name = "fumanoid-2011";
     a.simulated = true;
     s.robots = {a};
     return s;
   }
-  Outcome pause() override { return {}; }
-  Outcome resume() override { return {}; }
-  Outcome step(uint32_t) override { return {}; }
-  Outcome reset() override { return {}; }
-  Outcome place(std::size_t, double, double, double) override { return {}; }
-  Outcome push(std::size_t, double, double, double, uint32_t) override { return {}; }
-  Outcome ball(double, double) override { return {}; }
+  contract::Outcome pause() override { return {}; }
+  contract::Outcome resume() override { return {}; }
+  contract::Outcome step(uint32_t) override { return {}; }
+  contract::Outcome reset() override { return {}; }
+  contract::Outcome place(std::size_t, double, double, double) override { return {}; }
+  contract::Outcome push(std::size_t, double, double, double, uint32_t) override { return {}; }
+  contract::Outcome ball(double, double) override { return {}; }
+  contract::Scene scene() override { return {}; }
+  std::vector<contract::BusTable> buses() override { return {}; }
+  contract::Result<contract::CameraStill> camera_still(const std::string&) override {
+    return contract::Error{contract::ErrorKind::kNotFound, "no camera"};
+  }
+  // A replay offers no faults (serves = false).
+  contract::Facets facets() {
+    contract::Facets facets;
+    facets.simulation = this;
+    if (serves) facets.faults = this;
+    return facets;
+  }
 
-  std::optional<FaultList> faults() override {
-    if (!serves) return std::nullopt;
-    FaultList list;
+  contract::FaultList faults() override {
+    contract::FaultList list;
     list.sim_time_s = 2.0;
     for (const faults::Fault& f : added) list.faults.push_back({f, f.active_at(2'000'000'000), f.end_ns <= 2'000'000'000});
     return list;
   }
-  FaultAnswer add_fault(const faults::FaultSpec& spec) override {
+  contract::Result<uint32_t> add_fault(const faults::FaultSpec& spec) override {
     faults::Fault f;
     f.number = static_cast<uint32_t>(added.size() + 1);
     f.spec = spec;
     f.start_ns = spec.start_ns == faults::kNow ? 2'000'000'000 : spec.start_ns;
     f.end_ns = spec.duration_ns == 0 ? INT64_MAX : f.start_ns + spec.duration_ns;
     added.push_back(f);
-    return {200, "", f.number};
+    return f.number;
   }
-  Outcome clear_fault(uint32_t number) override {
+  contract::Outcome clear_fault(uint32_t number) override {
     cleared.push_back(number);
     return {};
   }
-  Outcome clear_faults() override {
+  contract::Outcome clear_faults() override {
     cleared.push_back(0);
     return {};
   }
@@ -64,7 +75,7 @@ class FaultControl final : public SimControl {
 
 TEST(FaultsApi, AServoFaultReachesTheSimulationWithEveryFieldAndIsListed) {
   FaultControl control;
-  const Answer answer = handle(control, "POST", "/api/faults",
+  const Answer answer = handle(control.facets(), "POST", "/api/faults",
                                R"({"kind": "overheat", "robot": "fumanoid-2011", "bus": 0, "id": 14,
                                    "rise_c_per_s": 5, "start_s": 12, "duration_s": 0.3, "seed": 7})");
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
@@ -92,7 +103,7 @@ TEST(FaultsApi, AServoFaultReachesTheSimulationWithEveryFieldAndIsListed) {
 
 TEST(FaultsApi, WithoutStartItStartsNowAndWithoutDurationItLastsUntilCleared) {
   FaultControl control;
-  const Answer answer = handle(control, "POST", "/api/faults", R"({"kind": "drop", "robot": 0, "bus": 0, "rate": 0.01})");
+  const Answer answer = handle(control.facets(), "POST", "/api/faults", R"({"kind": "drop", "robot": 0, "bus": 0, "rate": 0.01})");
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   EXPECT_EQ(control.added[0].spec.start_ns, faults::kNow);
   EXPECT_EQ(control.added[0].spec.duration_ns, faults::kForever);
@@ -137,33 +148,33 @@ TEST(FaultsApi, ABadRequestNamesItsFieldAndAddsNothing) {
       {R"({"kind": )", 400, "not JSON"},
   };
   for (const Case& c : cases) {
-    const Answer answer = handle(control, "POST", "/api/faults", c.body);
+    const Answer answer = handle(control.facets(), "POST", "/api/faults", c.body);
     EXPECT_EQ(answer.status, c.status) << c.body << " -> " << answer.body.dump();
     ASSERT_TRUE(answer.body.contains("error")) << c.body;
     EXPECT_NE(answer.body["error"].get<std::string>().find(c.names), std::string::npos)
         << c.body << " -> " << answer.body["error"];
   }
   EXPECT_TRUE(control.added.empty()) << "a refused fault reaches nothing";
-  EXPECT_EQ(handle(control, "GET", "/api/faults", "").body["faults"].size(), 0u);
+  EXPECT_EQ(handle(control.facets(), "GET", "/api/faults", "").body["faults"].size(), 0u);
 }
 
 TEST(FaultsApi, DeleteClearsOneOrAll) {
   FaultControl control;
-  ASSERT_EQ(handle(control, "POST", "/api/faults", R"({"kind": "silent", "robot": 0, "bus": 0})").status, 200);
-  EXPECT_EQ(handle(control, "DELETE", "/api/faults/1", "").status, 200);
-  EXPECT_EQ(handle(control, "DELETE", "/api/faults", "").status, 200);
+  ASSERT_EQ(handle(control.facets(), "POST", "/api/faults", R"({"kind": "silent", "robot": 0, "bus": 0})").status, 200);
+  EXPECT_EQ(handle(control.facets(), "DELETE", "/api/faults/1", "").status, 200);
+  EXPECT_EQ(handle(control.facets(), "DELETE", "/api/faults", "").status, 200);
   EXPECT_EQ(control.cleared, (std::vector<uint32_t>{1, 0}));
-  EXPECT_EQ(handle(control, "DELETE", "/api/faults/x1", "").status, 404);
-  EXPECT_EQ(handle(control, "POST", "/api/faults/1", "").status, 405);
-  EXPECT_EQ(handle(control, "PUT", "/api/faults", "{}").status, 405);
+  EXPECT_EQ(handle(control.facets(), "DELETE", "/api/faults/x1", "").status, 404);
+  EXPECT_EQ(handle(control.facets(), "POST", "/api/faults/1", "").status, 405);
+  EXPECT_EQ(handle(control.facets(), "PUT", "/api/faults", "{}").status, 405);
   EXPECT_EQ(control.cleared.size(), 2u);
 }
 
 TEST(FaultsApi, ASimulationWithoutFaultsAnswers404) {
   FaultControl control;
   control.serves = false;
-  EXPECT_EQ(handle(control, "GET", "/api/faults", "").status, 404);
-  EXPECT_EQ(handle(control, "POST", "/api/faults", R"({"kind": "silent", "robot": 0, "bus": 0})").status, 404);
+  EXPECT_EQ(handle(control.facets(), "GET", "/api/faults", "").status, 404);
+  EXPECT_EQ(handle(control.facets(), "POST", "/api/faults", R"({"kind": "silent", "robot": 0, "bus": 0})").status, 404);
   EXPECT_TRUE(control.added.empty());
 }
 

@@ -1,4 +1,4 @@
-// The simulation-control API's checks (control/http_api.h) against a recording SimControl: what a
+// The simulation-control API's checks (control/http_api.h) against a recording simulation: what a
 // request must look like, that a refused one reaches nothing, and one round trip over a socket.
 #include <httplib.h>
 #include <unistd.h>
@@ -11,6 +11,8 @@
 #include <fstream>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "control/http_api.h"
@@ -18,44 +20,54 @@
 namespace doppel::control {
 namespace {
 
-class RecordingControl final : public SimControl {
+// The facets `fake` implements, offered as a host offers them.
+template <typename Fake>
+contract::Facets host(Fake& fake) {
+  contract::Facets facets;
+  facets.simulation = &fake;
+  if constexpr (std::is_base_of_v<contract::Game, Fake>) facets.game = &fake;
+  if constexpr (std::is_base_of_v<contract::Teamcomm, Fake>) facets.teamcomm = &fake;
+  return facets;
+}
+
+class RecordingControl : public contract::Simulation {
  public:
-  SimState state() override {
-    SimState s;
+  contract::SimState state() override {
+    contract::SimState s;
     s.sim_time_s = 1.5;
     s.missed_ticks = 7;
     s.carpet_half_length_m = 5.2;
     s.carpet_half_width_m = 3.7;
     s.ball_m = std::vector<double>{0.0, 0.0, 0.0335};
-    RobotState a;
+    contract::RobotState a;
     a.name = "fumanoid-2011";
     a.simulated = true;
     a.joints = {{"neck", 0.25}};
     a.imus = {{"IMU", 0, 200, 0.1, -0.2, {0.5, -0.6, 0.7}}};
     a.feet = {{"FOOT_LEFT", 0, 111, {1.0, 2.0, 3.0, 4.5}}};
     a.cameras = {{"head", {0.1, 0.0, 0.4}, {0.0, 0.0, 0.0, 1.0}, {{{-0.5, -0.4, 0.77}, {0.5, -0.4, 0.77}, {0.5, 0.4, 0.77}, {-0.5, 0.4, 0.77}}}}};
-    RobotState b = a;
+    contract::RobotState b = a;
     b.name = "darwin-op";
     b.simulated = false;
     s.robots = {a, b};
     return s;
   }
-  Outcome pause() override { return record("pause"); }
-  Outcome resume() override { return record("resume"); }
-  Outcome step(uint32_t steps) override { return record("step " + std::to_string(steps)); }
-  Outcome reset() override { return record("reset"); }
-  Outcome place(std::size_t robot, double x, double y, double yaw) override {
+  contract::Outcome pause() override { return record("pause"); }
+  contract::Outcome resume() override { return record("resume"); }
+  contract::Outcome step(uint32_t steps) override { return record("step " + std::to_string(steps)); }
+  contract::Outcome reset() override { return record("reset"); }
+  contract::Outcome place(std::size_t robot, double x, double y, double yaw) override {
     return record("place " + std::to_string(robot) + " " + std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(yaw));
   }
-  Outcome push(std::size_t robot, double fx, double fy, double fz, uint32_t steps) override {
+  contract::Outcome push(std::size_t robot, double fx, double fy, double fz, uint32_t steps) override {
     return record("push " + std::to_string(robot) + " " + std::to_string(fx) + " " + std::to_string(fy) + " " +
                   std::to_string(fz) + " " + std::to_string(steps));
   }
-  Outcome ball(double x, double y) override { return record("ball " + std::to_string(x) + " " + std::to_string(y)); }
-  Scene scene() override {
-    Scene s;
+  contract::Outcome ball(double x, double y) override { return record("ball " + std::to_string(x) + " " + std::to_string(y)); }
+  contract::Scene scene() override {
+    contract::Scene s;
     s.sim_time_s = 2.25;
-    SceneShape trunk;
+    contract::SceneShape trunk;
     trunk.type = "box";
     trunk.kind = "robot";
     trunk.object_id = 100;
@@ -66,35 +78,35 @@ class RecordingControl final : public SimControl {
     s.shapes = {trunk};
     return s;
   }
-  std::vector<BusTable> buses() override {
-    BusTable bus;
+  std::vector<contract::BusTable> buses() override {
+    contract::BusTable bus;
     bus.robot = 0;
     bus.robot_name = "fumanoid-2011";
     bus.bus = 0;
     bus.link = "/tmp/links/ttyDXL0";
-    ServoRow p1{1, "HEAD_PITCH", "RX-28", true, 600, 598, 12, 40, 31, 148, -1};
-    ServoRow p2{7, "HIP_PITCH", "XM430-W350", false, 2048, 2047, 0, -3, 35, 120, 0x20};
+    contract::ServoRow p1{1, "HEAD_PITCH", "RX-28", true, 600, 598, 12, 40, 31, 148, -1};
+    contract::ServoRow p2{7, "HIP_PITCH", "XM430-W350", false, 2048, 2047, 0, -3, 35, 120, 0x20};
     bus.servos = {p1, p2};
     bus.counters = {1200, 3, 1150, 2, 1, 4, 5, 250'000, 9600, 7200, true};
     return {bus};
   }
-  CameraStill camera_still(const std::string& name) override {
-    if (name == "jpeg") return {200, "", std::string("\xFF\xD8\xFF\xE0", 4) + "jfif", 1.0};  // a replay's recorded JPEG
-    if (name != "head") return {404, "no camera '" + name + "' (robot cameras: head)", "", 0.0};
-    return {200, "", std::string("\x89PNG\r\n\x1a\n", 8) + "pixels", 2.25};
+  contract::Result<contract::CameraStill> camera_still(const std::string& name) override {
+    if (name == "jpeg") return contract::CameraStill{std::string("\xFF\xD8\xFF\xE0", 4) + "jfif", 1.0};  // a replay's recorded JPEG
+    if (name != "head") return contract::Error{contract::ErrorKind::kNotFound, "no camera '" + name + "' (robot cameras: head)"};
+    return contract::CameraStill{std::string("\x89PNG\r\n\x1a\n", 8) + "pixels", 2.25};
   }
   std::vector<std::string> calls;
 
  private:
-  Outcome record(const std::string& call) {
+  contract::Outcome record(const std::string& call) {
     calls.push_back(call);
-    return Outcome::done();
+    return contract::Outcome::done();
   }
 };
 
 TEST(HttpApi, StateCarriesTimeRobotsJointsAndBall) {
   RecordingControl control;
-  const Answer answer = handle(control, "GET", "/api/state", "");
+  const Answer answer = handle(host(control), "GET", "/api/state", "");
   ASSERT_EQ(answer.status, 200);
   EXPECT_DOUBLE_EQ(answer.body["sim_time_s"].get<double>(), 1.5);
   EXPECT_EQ(answer.body["paused"], false);
@@ -126,13 +138,13 @@ TEST(HttpApi, StateCarriesTimeRobotsJointsAndBall) {
 
 TEST(HttpApi, GoodRequestsReachTheSimulationWithTheirValues) {
   RecordingControl control;
-  EXPECT_EQ(handle(control, "POST", "/api/pause", "").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/step", R"({"ms": 250})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/place", R"({"robot": "fumanoid-2011", "x": 1, "y": -0.5, "yaw": 1.5})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/push", R"({"robot": 0, "fx": 20, "fy": 0, "fz": 0, "ms": 100})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/ball", R"({"x": 0.5, "y": 0})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/reset", "{}").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/resume", "").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/pause", "").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/step", R"({"ms": 250})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/place", R"({"robot": "fumanoid-2011", "x": 1, "y": -0.5, "yaw": 1.5})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/push", R"({"robot": 0, "fx": 20, "fy": 0, "fz": 0, "ms": 100})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/ball", R"({"x": 0.5, "y": 0})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/reset", "{}").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/resume", "").status, 200);
   EXPECT_EQ(control.calls, (std::vector<std::string>{"pause", "step 250", "place 0 1.000000 -0.500000 1.500000",
                                                      "push 0 20.000000 0.000000 0.000000 100", "ball 0.500000 0.000000",
                                                      "reset", "resume"}));
@@ -170,7 +182,7 @@ TEST(HttpApi, BadRequestsAreRefusedWithTheReasonAndReachNothing) {
   };
   for (const Refusal& refusal : refusals) {
     RecordingControl control;
-    const Answer answer = handle(control, refusal.method, refusal.path, refusal.body);
+    const Answer answer = handle(host(control), refusal.method, refusal.path, refusal.body);
     EXPECT_EQ(answer.status, refusal.status) << refusal.path << " " << refusal.body;
     ASSERT_TRUE(answer.body.contains("error")) << refusal.path << " " << refusal.body;
     EXPECT_NE(answer.body["error"].get<std::string>().find(refusal.reason), std::string::npos)
@@ -182,7 +194,7 @@ TEST(HttpApi, BadRequestsAreRefusedWithTheReasonAndReachNothing) {
 TEST(HttpApi, ALiveSimulationIsNoReplay) {
   RecordingControl control;
   for (const char* method : {"GET", "POST"}) {
-    const Answer answer = handle(control, method, "/api/replay", R"({"playing": true})");
+    const Answer answer = handle(host(control), method, "/api/replay", R"({"playing": true})");
     EXPECT_EQ(answer.status, 404) << method;
     EXPECT_NE(answer.body["error"].get<std::string>().find("not a replay"), std::string::npos) << answer.body.dump();
   }
@@ -191,43 +203,78 @@ TEST(HttpApi, ALiveSimulationIsNoReplay) {
 
 TEST(HttpApi, ALiveSimulationHasNoBusAnalysis) {
   RecordingControl control;
-  const Answer answer = handle(control, "GET", "/api/analysis", "");
+  const Answer answer = handle(host(control), "GET", "/api/analysis", "");
   EXPECT_EQ(answer.status, 404);
   EXPECT_NE(answer.body["error"].get<std::string>().find("doppel-replay"), std::string::npos) << answer.body.dump();
   EXPECT_TRUE(control.calls.empty());
 }
 
-TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
-  class Twins final : public SimControl {
+// The host refuses in the contract's terms; the API alone turns them into HTTP statuses.
+TEST(HttpApi, EachKindOfRefusalHasItsStatusAndKeepsItsMessage) {
+  class Refusing final : public RecordingControl {
    public:
-    SimState state() override {
-      SimState s = inner.state();
+    contract::Outcome pause() override { return contract::Outcome::fail(kind, "refused as asked"); }
+    contract::ErrorKind kind = contract::ErrorKind::kInvalid;
+  } refusing;
+  const std::pair<contract::ErrorKind, int> kinds[] = {{contract::ErrorKind::kInvalid, 400},
+                                                       {contract::ErrorKind::kNotFound, 404},
+                                                       {contract::ErrorKind::kConflict, 409},
+                                                       {contract::ErrorKind::kUnavailable, 503}};
+  for (const auto& [kind, status] : kinds) {
+    EXPECT_EQ(http_status(kind), status);
+    refusing.kind = kind;
+    const Answer answer = handle(host(refusing), "POST", "/api/pause", "");
+    EXPECT_EQ(answer.status, status);
+    EXPECT_EQ(answer.body, (nlohmann::json{{"error", "refused as asked"}}));
+  }
+}
+
+// Paths the routes' patterns do not take whole get 404 naming the path, before any facet is asked.
+TEST(HttpApi, APathOutsideTheRoutesIsNotFound) {
+  RecordingControl control;
+  for (const char* path : {"/api/robots/1234567/world_model", "/api/robots/x/world_model", "/api/faults/1/2",
+                           "/api/teamcomm/robots/7", "/api/teamcomm/robotsX", "/state", "/api"}) {
+    const Answer answer = handle(host(control), "DELETE", path, "");
+    EXPECT_EQ(answer.status, 404) << path;
+    EXPECT_TRUE(answer.body.contains("error")) << path;
+  }
+  EXPECT_TRUE(control.calls.empty());
+}
+
+TEST(HttpApi, TwoRobotsOfOneNameAreAddressedByIndex) {
+  class Twins final : public contract::Simulation {
+   public:
+    contract::SimState state() override {
+      contract::SimState s = inner.state();
       s.robots[1] = s.robots[0];
       return s;
     }
-    Outcome pause() override { return inner.pause(); }
-    Outcome resume() override { return inner.resume(); }
-    Outcome step(uint32_t n) override { return inner.step(n); }
-    Outcome reset() override { return inner.reset(); }
-    Outcome place(std::size_t r, double x, double y, double yaw) override { return inner.place(r, x, y, yaw); }
-    Outcome push(std::size_t r, double a, double b, double c, uint32_t n) override { return inner.push(r, a, b, c, n); }
-    Outcome ball(double x, double y) override { return inner.ball(x, y); }
+    contract::Outcome pause() override { return inner.pause(); }
+    contract::Outcome resume() override { return inner.resume(); }
+    contract::Outcome step(uint32_t n) override { return inner.step(n); }
+    contract::Outcome reset() override { return inner.reset(); }
+    contract::Outcome place(std::size_t r, double x, double y, double yaw) override { return inner.place(r, x, y, yaw); }
+    contract::Outcome push(std::size_t r, double a, double b, double c, uint32_t n) override { return inner.push(r, a, b, c, n); }
+    contract::Outcome ball(double x, double y) override { return inner.ball(x, y); }
+    contract::Scene scene() override { return inner.scene(); }
+    std::vector<contract::BusTable> buses() override { return inner.buses(); }
+    contract::Result<contract::CameraStill> camera_still(const std::string& name) override { return inner.camera_still(name); }
     RecordingControl inner;
   } twins;
-  const Answer by_name = handle(twins, "POST", "/api/place", R"({"robot": "fumanoid-2011", "x": 0, "y": 0, "yaw": 0})");
+  const Answer by_name = handle(host(twins), "POST", "/api/place", R"({"robot": "fumanoid-2011", "x": 0, "y": 0, "yaw": 0})");
   EXPECT_EQ(by_name.status, 400);
   EXPECT_NE(by_name.body["error"].get<std::string>().find("give its index"), std::string::npos);
-  EXPECT_EQ(handle(twins, "POST", "/api/place", R"({"robot": 1, "x": 0, "y": 0, "yaw": 0})").status, 200);
+  EXPECT_EQ(handle(host(twins), "POST", "/api/place", R"({"robot": 1, "x": 0, "y": 0, "yaw": 0})").status, 200);
 }
 
 // A URDF mesh's hull goes to the page as its vertices and triangles, which the viewer draws.
 TEST(HttpApi, AConvexHullCarriesItsVerticesAndTriangles) {
-  Scene scene;
-  SceneShape hull;
+  contract::Scene scene;
+  contract::SceneShape hull;
   hull.type = "convex";
   hull.vertices = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
   hull.triangles = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
-  scene.shapes = {hull, SceneShape{}};
+  scene.shapes = {hull, contract::SceneShape{}};
   const nlohmann::json json = scene_json(scene);
   EXPECT_EQ(json["shapes"][0]["type"], "convex");
   EXPECT_EQ(json["shapes"][0]["vertices"].size(), 12u);
@@ -237,7 +284,7 @@ TEST(HttpApi, AConvexHullCarriesItsVerticesAndTriangles) {
 
 TEST(HttpApi, SceneCarriesEveryShapeWithPoseSizeAndColour) {
   RecordingControl control;
-  const Answer answer = handle(control, "GET", "/api/scene", "");
+  const Answer answer = handle(host(control), "GET", "/api/scene", "");
   ASSERT_EQ(answer.status, 200);
   EXPECT_DOUBLE_EQ(answer.body["sim_time_s"].get<double>(), 2.25);
   ASSERT_EQ(answer.body["shapes"].size(), 1u);
@@ -249,13 +296,13 @@ TEST(HttpApi, SceneCarriesEveryShapeWithPoseSizeAndColour) {
   EXPECT_DOUBLE_EQ(shape["q"][3].get<double>(), 0.7071067811865476);  // x, y, z, w: w last
   EXPECT_EQ(shape["size"], (std::vector<double>{0.1, 0.16, 0.2}));
   EXPECT_EQ(shape["rgb"], (std::vector<int>{60, 60, 60}));
-  EXPECT_EQ(handle(control, "POST", "/api/scene", "").status, 405);
+  EXPECT_EQ(handle(host(control), "POST", "/api/scene", "").status, 405);
   EXPECT_TRUE(control.calls.empty());
 }
 
 TEST(HttpApi, BusesCarryEveryServosRegistersAndNoErrorRegisterAsNull) {
   RecordingControl control;
-  const Answer answer = handle(control, "GET", "/api/buses", "");
+  const Answer answer = handle(host(control), "GET", "/api/buses", "");
   ASSERT_EQ(answer.status, 200);
   ASSERT_EQ(answer.body.size(), 1u);
   const auto& bus = answer.body[0];
@@ -288,7 +335,7 @@ TEST(HttpApi, BusesCarryEveryServosRegistersAndNoErrorRegisterAsNull) {
   EXPECT_EQ(counters["bytes_in"], 9600);
   EXPECT_EQ(counters["bytes_out"], 7200);
   EXPECT_EQ(counters["connected"], true);
-  EXPECT_EQ(handle(control, "POST", "/api/buses", "").status, 405);
+  EXPECT_EQ(handle(host(control), "POST", "/api/buses", "").status, 405);
 }
 
 // A folder under the test's temporary directory holding `files` (name -> content).
@@ -304,7 +351,7 @@ TEST(HttpApi, ServesTheViewerPageAndThreeJsBesideTheApi) {
   const StaticFiles files{folder_with("viewer", {{"index.html", "<title>viewer page</title>"}, {"viewer.js", "let x = 1;"}}),
                           folder_with("three", {{"three.min.js", "var THREE = {};"}})};
   ASSERT_EQ(static_files_problem(files), "");
-  HttpApi api(control, "127.0.0.1", 0, files);
+  HttpApi api(host(control), "127.0.0.1", 0, files);
   api.start();
   httplib::Client client("127.0.0.1", api.port());
   const httplib::Result page = client.Get("/");
@@ -336,7 +383,7 @@ TEST(HttpApi, AViewerFolderWithoutItsFilesIsNamed) {
   EXPECT_NE(problem.find("index.html"), std::string::npos) << problem;
   const std::string no_three = static_files_problem({"", empty});
   EXPECT_NE(no_three.find("libjs-three"), std::string::npos) << no_three;
-  EXPECT_THROW(HttpApi(control, "127.0.0.1", 0, {empty, ""}), std::runtime_error);
+  EXPECT_THROW(HttpApi(host(control), "127.0.0.1", 0, {empty, ""}), std::runtime_error);
   std::filesystem::remove_all(std::filesystem::path(empty).parent_path());
 }
 
@@ -357,7 +404,7 @@ TEST(HttpApi, TheDefaultViewerFolderIsTheSourceTreesUnlessTheEnvironmentNamesOne
 
 TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {
   RecordingControl control;
-  HttpApi api(control, "127.0.0.1", 0);
+  HttpApi api(host(control), "127.0.0.1", 0);
   ASSERT_GT(api.port(), 0);
   api.start();
   httplib::Client client("127.0.0.1", api.port());
@@ -370,7 +417,7 @@ TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {
   EXPECT_EQ(bad->status, 400);
 
   try {
-    HttpApi second(control, "127.0.0.1", api.port());
+    HttpApi second(host(control), "127.0.0.1", api.port());
     FAIL() << "a second server on the same port was accepted";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("127.0.0.1:" + std::to_string(api.port())), std::string::npos) << e.what();
@@ -381,7 +428,7 @@ TEST(HttpApi, ServesOverLoopbackAndRefusesAPortInUse) {
 
 TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
   RecordingControl control;
-  HttpApi api(control, "127.0.0.1", 0);
+  HttpApi api(host(control), "127.0.0.1", 0);
   api.start();
   httplib::Client client("127.0.0.1", api.port());
   const httplib::Result still = client.Get("/api/camera/head");
@@ -405,8 +452,8 @@ TEST(HttpApi, ACamerasStillIsServedAsPngAndAnUnknownCameraIsNamed) {
 // without the token gets, and that none of it reaches the simulation.
 TEST(HttpApi, RefusesForeignHostsOriginsPlainTextAndMissingTokensBeforeAnythingRuns) {
   RecordingControl control;
-  const std::string token = new_access_token();
-  HttpApi api(control, "127.0.0.1", 0, {}, token);
+  const std::string token = contract::new_access_token();
+  HttpApi api(host(control), "127.0.0.1", 0, {}, token);
   api.start();
   const std::string self = "127.0.0.1:" + std::to_string(api.port());
   auto send = [&](const std::string& method, const std::string& path, httplib::Headers headers, const std::string& type,
@@ -495,19 +542,24 @@ TEST(HttpApi, RefusesForeignHostsOriginsPlainTextAndMissingTokensBeforeAnythingR
 namespace doppel::control {
 namespace {
 
-// A GameController and a hub as SimControl reports them, recording what reaches them.
-class GameControl final : public SimControl {
+// A GameController and a hub as their facets report them, recording what reaches them.
+class GameControl final : public contract::Simulation, public contract::Game, public contract::Teamcomm {
  public:
-  SimState state() override { return {}; }
-  Outcome pause() override { return Outcome::done(); }
-  Outcome resume() override { return Outcome::done(); }
-  Outcome step(uint32_t) override { return Outcome::done(); }
-  Outcome reset() override { return Outcome::done(); }
-  Outcome place(std::size_t, double, double, double) override { return Outcome::done(); }
-  Outcome push(std::size_t, double, double, double, uint32_t) override { return Outcome::done(); }
-  Outcome ball(double, double) override { return Outcome::done(); }
-  std::optional<GameStatus> game() override {
-    GameStatus s;
+  contract::SimState state() override { return {}; }
+  contract::Outcome pause() override { return contract::Outcome::done(); }
+  contract::Outcome resume() override { return contract::Outcome::done(); }
+  contract::Outcome step(uint32_t) override { return contract::Outcome::done(); }
+  contract::Outcome reset() override { return contract::Outcome::done(); }
+  contract::Outcome place(std::size_t, double, double, double) override { return contract::Outcome::done(); }
+  contract::Outcome push(std::size_t, double, double, double, uint32_t) override { return contract::Outcome::done(); }
+  contract::Outcome ball(double, double) override { return contract::Outcome::done(); }
+  contract::Scene scene() override { return {}; }
+  std::vector<contract::BusTable> buses() override { return {}; }
+  contract::Result<contract::CameraStill> camera_still(const std::string&) override {
+    return contract::Error{contract::ErrorKind::kNotFound, "no camera"};
+  }
+  contract::GameStatus game() override {
+    contract::GameStatus s;
     s.on = true;
     s.sending = true;
     s.state = "ready";
@@ -518,34 +570,36 @@ class GameControl final : public SimControl {
     s.returns = {{12, 1, "alive", 9, 0.25}};
     return s;
   }
-  Outcome game_command(const GameCommand& c) override {
+  contract::Outcome game_command(const contract::GameCommand& c) override {
     calls.push_back(c.command + " " + c.state + " team " + std::to_string(c.team) + " player " + std::to_string(c.player) +
                     " seconds " + std::to_string(c.seconds) + " penalty " + std::to_string(c.penalty) + " score " +
                     std::to_string(c.score) + " " + c.set_play + " mode " + std::to_string(c.mode));
-    if (c.command == "state" && c.state == "set") return Outcome::fail(409, "set is not allowed in INITIAL");
-    return Outcome::done();
+    if (c.command == "state" && c.state == "set") {
+      return contract::Outcome::fail(contract::ErrorKind::kConflict, "set is not allowed in INITIAL");
+    }
+    return contract::Outcome::done();
   }
-  std::optional<TeamcommStatus> teamcomm() override {
-    TeamcommStatus s;
+  std::optional<contract::TeamcommStatus> teamcomm() override {
+    contract::TeamcommStatus s;
     s.listen = "127.0.0.1:3737";
     s.robots = {{7, 1, 44001}};
     return s;
   }
-  Outcome teamcomm_add(const TeamcommRobot& r) override {
+  contract::Outcome teamcomm_add(const contract::TeamcommRobot& r) override {
     calls.push_back("add " + std::to_string(r.team) + ":" + std::to_string(r.player) + ":" + std::to_string(r.port));
-    return Outcome::done();
+    return contract::Outcome::done();
   }
-  Outcome teamcomm_remove(int team, int player) override {
+  contract::Outcome teamcomm_remove(int team, int player) override {
     calls.push_back("remove " + std::to_string(team) + ":" + std::to_string(player));
-    if (team == 9) return Outcome::fail(404, "no robot 9:1 is registered");
-    return Outcome::done();
+    if (team == 9) return contract::Outcome::fail(contract::ErrorKind::kNotFound, "no robot 9:1 is registered");
+    return contract::Outcome::done();
   }
   std::vector<std::string> calls;
 };
 
 TEST(HttpApiGame, StatusCarriesScoresPenaltiesAndReturns) {
   GameControl control;
-  const Answer answer = handle(control, "GET", "/api/game", "");
+  const Answer answer = handle(host(control), "GET", "/api/game", "");
   ASSERT_EQ(answer.status, 200);
   EXPECT_EQ(answer.body["state"], "ready");
   EXPECT_EQ(answer.body["teams"][0]["number"], 12);
@@ -560,20 +614,20 @@ TEST(HttpApiGame, StatusCarriesScoresPenaltiesAndReturns) {
 
 TEST(HttpApiGame, GoodCommandsReachTheGameWithTheirValues) {
   GameControl control;
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "state", "state": "ready"})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "goal", "team": "B"})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "score", "team": 12, "score": 5})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "kickoff", "team": "drop_ball"})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/game",
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "state", "state": "ready"})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "goal", "team": "B"})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "score", "team": 12, "score": 5})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "kickoff", "team": "drop_ball"})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game",
                    R"({"command": "penalize", "team": "A", "player": 2, "seconds": 45, "reason": "physical_contact"})")
                 .status,
             200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "unpenalize", "team": 34, "player": 11})").status, 200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "set_play", "kind": "corner_kick", "team": "A", "mode": 1})").status,
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "unpenalize", "team": 34, "player": 11})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "set_play", "kind": "corner_kick", "team": "A", "mode": 1})").status,
             200);
-  EXPECT_EQ(handle(control, "POST", "/api/game", R"({"command": "off"})").status, 200);
+  EXPECT_EQ(handle(host(control), "POST", "/api/game", R"({"command": "off"})").status, 200);
   // The game's own refusal comes back as it said it.
-  const Answer refused = handle(control, "POST", "/api/game", R"({"command": "state", "state": "set"})");
+  const Answer refused = handle(host(control), "POST", "/api/game", R"({"command": "state", "state": "set"})");
   EXPECT_EQ(refused.status, 409);
   EXPECT_EQ(refused.body["error"], "set is not allowed in INITIAL");
   EXPECT_EQ(control.calls, (std::vector<std::string>{
@@ -608,32 +662,32 @@ TEST(HttpApiGame, BadCommandsNameTheFieldAndReachNothing) {
       {R"([1, 2])", "JSON object"},
   };
   for (const auto& [body, field] : bad) {
-    const Answer answer = handle(control, "POST", "/api/game", body);
+    const Answer answer = handle(host(control), "POST", "/api/game", body);
     EXPECT_EQ(answer.status, 400) << body;
     EXPECT_NE(answer.body["error"].get<std::string>().find(field), std::string::npos) << body << " -> " << answer.body;
   }
   EXPECT_TRUE(control.calls.empty());
-  EXPECT_EQ(handle(control, "DELETE", "/api/game", "").status, 405);
+  EXPECT_EQ(handle(host(control), "DELETE", "/api/game", "").status, 405);
 }
 
 TEST(HttpApiGame, WithoutAGameControllerTheApiSaysSo) {
-  RecordingControl control;  // a SimControl that has none (the default)
-  const Answer answer = handle(control, "GET", "/api/game", "");
+  RecordingControl control;  // a simulation that offers neither
+  const Answer answer = handle(host(control), "GET", "/api/game", "");
   EXPECT_EQ(answer.status, 404);
   EXPECT_NE(answer.body["error"].get<std::string>().find("no GameController"), std::string::npos);
-  EXPECT_EQ(handle(control, "GET", "/api/teamcomm", "").status, 404);
-  EXPECT_EQ(handle(control, "POST", "/api/teamcomm/robots", R"({"team": 1, "player": 1, "port": 4000})").status, 404);
+  EXPECT_EQ(handle(host(control), "GET", "/api/teamcomm", "").status, 404);
+  EXPECT_EQ(handle(host(control), "POST", "/api/teamcomm/robots", R"({"team": 1, "player": 1, "port": 4000})").status, 404);
 }
 
 TEST(HttpApiTeamcomm, RobotsAreRegisteredAndRemovedAndBadOnesNameTheField) {
   GameControl control;
-  const Answer status = handle(control, "GET", "/api/teamcomm", "");
+  const Answer status = handle(host(control), "GET", "/api/teamcomm", "");
   ASSERT_EQ(status.status, 200);
   EXPECT_EQ(status.body["listen"], "127.0.0.1:3737");
-  EXPECT_EQ(handle(control, "GET", "/api/teamcomm/robots", "").body[0]["port"], 44001);
-  EXPECT_EQ(handle(control, "POST", "/api/teamcomm/robots", R"({"team": 7, "player": 2, "port": 44002})").status, 200);
-  EXPECT_EQ(handle(control, "DELETE", "/api/teamcomm/robots/7/2", "").status, 200);
-  const Answer missing = handle(control, "DELETE", "/api/teamcomm/robots/9/1", "");
+  EXPECT_EQ(handle(host(control), "GET", "/api/teamcomm/robots", "").body[0]["port"], 44001);
+  EXPECT_EQ(handle(host(control), "POST", "/api/teamcomm/robots", R"({"team": 7, "player": 2, "port": 44002})").status, 200);
+  EXPECT_EQ(handle(host(control), "DELETE", "/api/teamcomm/robots/7/2", "").status, 200);
+  const Answer missing = handle(host(control), "DELETE", "/api/teamcomm/robots/9/1", "");
   EXPECT_EQ(missing.status, 404);
   EXPECT_EQ(missing.body["error"], "no robot 9:1 is registered");
   EXPECT_EQ(control.calls, (std::vector<std::string>{"add 7:2:44002", "remove 7:2", "remove 9:1"}));
@@ -646,11 +700,11 @@ TEST(HttpApiTeamcomm, RobotsAreRegisteredAndRemovedAndBadOnesNameTheField) {
       {R"({"team": 7, "player": 2, "port": 4000, "address": "10.0.0.1"})", "unknown field 'address'"},
   };
   for (const auto& [body, field] : bad) {
-    const Answer answer = handle(control, "POST", "/api/teamcomm/robots", body);
+    const Answer answer = handle(host(control), "POST", "/api/teamcomm/robots", body);
     EXPECT_EQ(answer.status, 400) << body;
     EXPECT_NE(answer.body["error"].get<std::string>().find(field), std::string::npos) << body << " -> " << answer.body;
   }
-  const Answer bad_path = handle(control, "DELETE", "/api/teamcomm/robots/7/x", "");
+  const Answer bad_path = handle(host(control), "DELETE", "/api/teamcomm/robots/7/x", "");
   EXPECT_EQ(bad_path.status, 400);
   EXPECT_NE(bad_path.body["error"].get<std::string>().find("player 'x'"), std::string::npos) << bad_path.body;
   EXPECT_TRUE(control.calls.empty());

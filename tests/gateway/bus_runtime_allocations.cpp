@@ -35,7 +35,7 @@ TEST(BusRuntimeAllocations, PublishingTheServoTableAllocatesNothingAndListsTheSe
   std::atomic<int> reads{0};
   std::thread reader([&] {  // an HTTP thread polling /api/buses
     while (!done.load()) {
-      const control::BusTable table = sut.servo_table();
+      const contract::BusTable table = sut.servo_table();
       EXPECT_FALSE(table.servos.empty());
       reads.fetch_add(1);
     }
@@ -50,7 +50,7 @@ TEST(BusRuntimeAllocations, PublishingTheServoTableAllocatesNothingAndListsTheSe
   reader.join();
   EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 bus ticks";
 
-  const control::BusTable table = sut.servo_table();
+  const contract::BusTable table = sut.servo_table();
   EXPECT_EQ(table.link, (dir / "ttyDXL0").string());
   std::size_t row = 0;
   for (const DeviceConfig& device : robot.buses[0].devices) {
@@ -143,7 +143,7 @@ TEST(BusRuntimeAllocations, ApplyingEveryFaultAllocatesNothing) {
   EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 200 steps with every fault active";
   EXPECT_GT(answered, 0u);
   EXPECT_LT(answered, 200u) << "drop at 0.5 lost some";
-  const control::BusTable servo_table = sut.servo_table();
+  const contract::BusTable servo_table = sut.servo_table();
   EXPECT_GT(servo_table.servos[0].temperature, 25) << "ID 1 overheats";
   std::filesystem::remove_all(dir);
 }

@@ -1,4 +1,4 @@
-// Robots added to and removed from a running doppel through control::RobotHost (the contract the
+// Robots added to and removed from a running doppel through contract::RobotHost (the contract the
 // session handshake serves; docs/robots-at-run-time.md), in process: the new robot's bus answers
 // a Protocol 1.0 PING from the reference client and its simulation runs; removing it removes its
 // links; bad requests are refused naming the field and leave nothing behind; the robot doppel
@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "gateway/gateway.h"
 #include "proto/truth.pb.h"
 #include "reference_client.h"
@@ -30,9 +30,9 @@ namespace doppel::testing {
 namespace {
 
 namespace fs = std::filesystem;
-using control::Refusal;
-using control::RobotAdded;
-using control::RobotRequest;
+using contract::Refusal;
+using contract::RobotAdded;
+using contract::RobotRequest;
 
 constexpr uint8_t kPing = 0x01;
 
@@ -72,7 +72,7 @@ class LiveRobots : public ::testing::Test {
     fs::remove_all(dir_, ignored);
   }
 
-  control::RobotHost& host() { return gateway_->robot_host(); }
+  contract::RobotHost& host() { return gateway_->robot_host(); }
 
   nlohmann::json get(const std::string& path) {
     httplib::Client client("127.0.0.1", gateway_->control_port());
@@ -107,7 +107,7 @@ class LiveRobots : public ::testing::Test {
 
   // Refused, naming `field`; nothing of it is left: one robot, no robot1 link.
   void expect_refused(const RobotRequest& request, const std::string& field) {
-    const control::AddResult result = host().add_robot(request);
+    const contract::AddResult result = host().add_robot(request);
     ASSERT_TRUE(std::holds_alternative<Refusal>(result)) << field;
     const Refusal& refusal = std::get<Refusal>(result);
     EXPECT_EQ(refusal.field, field) << refusal.message;
@@ -128,8 +128,8 @@ RobotRequest named(const std::string& robot) {
   return request;
 }
 
-const control::Link* find_link(const RobotAdded& added, const std::string& kind, const std::string& name) {
-  for (const control::Link& link : added.links) {
+const contract::Link* find_link(const RobotAdded& added, const std::string& kind, const std::string& name) {
+  for (const contract::Link& link : added.links) {
     if (link.kind == kind && link.name == name) return &link;
   }
   return nullptr;
@@ -150,14 +150,14 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
   request.x_m = 1.0;
   request.y_m = 1.5;
   request.team = 1;
-  const control::AddResult result = host().add_robot(request);
+  const contract::AddResult result = host().add_robot(request);
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).field << ": "
                                                           << std::get<Refusal>(result).message;
   const RobotAdded& added = std::get<RobotAdded>(result);
   EXPECT_EQ(added.robot, 1u);
   EXPECT_EQ(added.name, "fumanoid-2011");
-  const control::Link* bus = find_link(added, "bus", "ttyDXL0");
-  const control::Link* timer = find_link(added, "latency_timer", "ttyDXL0");
+  const contract::Link* bus = find_link(added, "bus", "ttyDXL0");
+  const contract::Link* timer = find_link(added, "latency_timer", "ttyDXL0");
   ASSERT_NE(bus, nullptr);
   ASSERT_NE(timer, nullptr);
   EXPECT_EQ(bus->location, options_.link_dir + "/robot1/ttyDXL0");
@@ -205,7 +205,7 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
   expect_ping_answered(*first_, "the first robot after the refusals");
 
   // The slot is free again.
-  const control::AddResult back = host().add_robot(named("fumanoid-2011"));
+  const contract::AddResult back = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(back));
   EXPECT_EQ(std::get<RobotAdded>(back).robot, 1u);
   SerialClient second(options_.link_dir + "/robot1/ttyDXL0", 1000000);
@@ -240,7 +240,7 @@ TEST_F(LiveRobots, AnAddedRobotsLinkAppearsOnlyOnceItsBusIsServed) {
       std::this_thread::sleep_for(std::chrono::microseconds(100));
     }
   });
-  const control::AddResult result = host().add_robot(named("fumanoid-2011"));
+  const contract::AddResult result = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
   for (int i = 0; i < 100'000 && bus_threads_when_seen.load() < 0; ++i) {
     std::this_thread::sleep_for(std::chrono::microseconds(100));
@@ -256,7 +256,7 @@ TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
   std::ifstream file(std::string(DOPPEL_ROBOTS_DIR) + "/fumanoid-2011.textproto");
   RobotRequest request;
   request.description.assign(std::istreambuf_iterator<char>(file), std::istreambuf_iterator<char>());
-  const control::AddResult result = host().add_robot(request);
+  const contract::AddResult result = host().add_robot(request);
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
   SerialClient second(find_link(std::get<RobotAdded>(result), "bus", "ttyDXL0")->location, 1000000);
   expect_ping_answered(second, "the robot from its description");
@@ -267,7 +267,7 @@ TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
 TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
   fs::create_directories(options_.link_dir + "/robot1");
   std::ofstream(options_.link_dir + "/robot1/ttyDXL0") << "not a link\n";
-  const control::AddResult failed = host().add_robot(named("fumanoid-2011"));
+  const contract::AddResult failed = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<Refusal>(failed));
   EXPECT_EQ(std::get<Refusal>(failed).field, "robot");
   EXPECT_NE(std::get<Refusal>(failed).message.find("robot1/ttyDXL0"), std::string::npos) << std::get<Refusal>(failed).message;
@@ -277,7 +277,7 @@ TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
   EXPECT_EQ(robots_in_scene(now_s).size(), 1u) << "the failed robot's body was left in the world";
 
   fs::remove(options_.link_dir + "/robot1/ttyDXL0");
-  const control::AddResult added = host().add_robot(named("fumanoid-2011"));
+  const contract::AddResult added = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(added)) << std::get<Refusal>(added).message;
   EXPECT_EQ(robots_in_scene(state()["sim_time_s"].get<double>()).size(), 2u);
   expect_ping_answered(*first_, "the first robot");
@@ -306,7 +306,7 @@ TEST_F(LiveRobots, BadRequestsAreRefusedNamingTheFieldAndLeaveNothingBehind) {
   camera.cameras.emplace_back().name = "HEAD_CAMERA";
   expect_refused(camera, "cameras");  // this doppel runs with --no-camera
   RobotRequest world_model = named("fumanoid-2011");
-  world_model.world_model = control::WorldModelSettings{};
+  world_model.world_model = contract::WorldModelSettings{};
   expect_refused(world_model, "world_model");  // this doppel runs without --world-model: no truth transport
   RobotRequest levels = named("fumanoid-2011");
   levels.sensor_levels = true;
@@ -343,9 +343,9 @@ TEST(LiveRobotsWorldModel, AnAddedRobotsWorldModelArrivesWhereItsLinkSaysAndStop
   gateway->start();
 
   RobotRequest bad = named("fumanoid-2011");
-  bad.world_model = control::WorldModelSettings{};
+  bad.world_model = contract::WorldModelSettings{};
   bad.world_model->fov_deg = 200.0;
-  const control::AddResult refused = gateway->robot_host().add_robot(bad);
+  const contract::AddResult refused = gateway->robot_host().add_robot(bad);
   ASSERT_TRUE(std::holds_alternative<Refusal>(refused));
   EXPECT_EQ(std::get<Refusal>(refused).field, "world_model");
   EXPECT_NE(std::get<Refusal>(refused).message.find("fov_deg"), std::string::npos) << std::get<Refusal>(refused).message;
@@ -355,13 +355,13 @@ TEST(LiveRobotsWorldModel, AnAddedRobotsWorldModelArrivesWhereItsLinkSaysAndStop
   request.x_m = 1.5;
   request.y_m = -1.0;
   request.yaw_rad = 0.5;
-  request.world_model = control::WorldModelSettings{};
+  request.world_model = contract::WorldModelSettings{};
   request.world_model->rate_hz = 50.0;
-  const control::AddResult result = gateway->robot_host().add_robot(request);
+  const contract::AddResult result = gateway->robot_host().add_robot(request);
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).message;
   const RobotAdded& added = std::get<RobotAdded>(result);
   ASSERT_EQ(added.robot, 1u);
-  const control::Link* link = find_link(added, "world_model", "world_model");
+  const contract::Link* link = find_link(added, "world_model", "world_model");
   ASSERT_NE(link, nullptr);
   EXPECT_EQ(link->location, "udp:127.0.0.1:" + std::to_string(robot1->port()));
 
@@ -396,11 +396,11 @@ TEST_F(LiveRobots, ASeventhRobotIsRefused) {
   for (uint32_t r = 1; r < 6; ++r) {
     RobotRequest request = named("fumanoid-2011");
     request.cameras_off = true;
-    const control::AddResult result = host().add_robot(request);
+    const contract::AddResult result = host().add_robot(request);
     ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << r << ": " << std::get<Refusal>(result).message;
     EXPECT_EQ(std::get<RobotAdded>(result).robot, r);
   }
-  const control::AddResult seventh = host().add_robot(named("fumanoid-2011"));
+  const contract::AddResult seventh = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<Refusal>(seventh));
   EXPECT_EQ(std::get<Refusal>(seventh).field, "robot");
   EXPECT_EQ(host().robots().size(), 6u);

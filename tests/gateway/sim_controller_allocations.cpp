@@ -36,9 +36,9 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   std::atomic<int> reads{0};
   std::thread reader([&] {  // an HTTP thread polling /api/scene and rendering a camera's stills
     while (!done.load()) {
-      const control::Scene scene = sut.scene();
+      const contract::Scene scene = sut.scene();
       EXPECT_FALSE(scene.shapes.empty());
-      EXPECT_EQ(sut.camera_still(robot.cameras[0].config.name).status, 200);
+      EXPECT_TRUE(sut.camera_still(robot.cameras[0].config.name).ok());
       reads.fetch_add(1);
     }
   });
@@ -56,7 +56,7 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   EXPECT_EQ(doppel::testing::counted_allocations(), 0u) << "over 500 ticks";
 
   // The last publication was at tick 34 * 14 = 476: 476 ms of simulation time.
-  const control::Scene scene = sut.scene();
+  const contract::Scene scene = sut.scene();
   EXPECT_NEAR(scene.sim_time_s, 0.476, 1e-9);
   physics::SceneView now;
   world.fill_scene(now);
@@ -64,9 +64,9 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
 
   // The state of tick 500 carries what the IMU and foot boards measured in that step (the world's
   // readouts), and where the head camera is.
-  const control::SimState state = sut.state();
+  const contract::SimState state = sut.state();
   ASSERT_EQ(state.robots.size(), 1u);
-  const control::RobotState& r = state.robots[0];
+  const contract::RobotState& r = state.robots[0];
   std::size_t imus = 0, feet = 0;
   for (std::size_t b = 0; b < robot.buses.size(); ++b) {
     for (const DeviceConfig& device : robot.buses[b].devices) {
@@ -105,8 +105,9 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   // The still: a PNG of the camera's size showing the carpet (green above red and blue) below the
   // horizon; an unknown camera is refused with the names of those there are.
   std::this_thread::sleep_for(SimController::kStillPeriod);  // a new still, of the last scene
-  const control::CameraStill still = sut.camera_still(r.cameras[0].name);
-  ASSERT_EQ(still.status, 200) << still.error;
+  const contract::Result<contract::CameraStill> answer = sut.camera_still(r.cameras[0].name);
+  ASSERT_TRUE(answer.ok()) << answer.error().message;
+  const contract::CameraStill& still = answer.value();
   EXPECT_NEAR(still.sim_time_s, 0.476, 1e-9);
   const std::string path = ::testing::TempDir() + "/sim_controller_still.png";
   { std::ofstream(path, std::ios::binary) << still.png; }
@@ -121,9 +122,11 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
     green += g > red + 20 && g > blue + 20;
   }
   EXPECT_GT(green, width * height / 20) << "the carpet should fill part of the picture";
-  const control::CameraStill unknown = sut.camera_still("tail");
-  EXPECT_EQ(unknown.status, 404);
-  EXPECT_NE(unknown.error.find("no camera 'tail' (robot cameras: " + r.cameras[0].name + ")"), std::string::npos) << unknown.error;
+  const contract::Result<contract::CameraStill> unknown = sut.camera_still("tail");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_EQ(unknown.error().kind, contract::ErrorKind::kNotFound);
+  const std::string& message = unknown.error().message;
+  EXPECT_NE(message.find("no camera 'tail' (robot cameras: " + r.cameras[0].name + ")"), std::string::npos) << message;
   EXPECT_LT(r.cameras[0].corner_rays[0][0], 0.0) << "top-left: x left";
   EXPECT_LT(r.cameras[0].corner_rays[0][1], 0.0) << "top-left: y up";
   EXPECT_GT(r.cameras[0].corner_rays[2][0], 0.0) << "bottom-right: x right";

@@ -1,5 +1,5 @@
 #pragma once
-// A control::RobotHost that builds nothing: it records every call and request, serves robots as a
+// A contract::RobotHost that builds nothing: it records every call and request, serves robots as a
 // list, and refuses what the test tells it to. Robot 0 stands for the robot doppel was started
 // with; added robots get the next index (indices are not reused).
 
@@ -10,25 +10,25 @@
 #include <string>
 #include <vector>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 
 namespace doppel::handshake::testing {
 
-class FakeRobotHost : public control::RobotHost {
+class FakeRobotHost : public contract::RobotHost {
  public:
-  FakeRobotHost() { served_.push_back(control::RobotAdded{0, "fumanoid-2011", {{"bus", "ttyDXL0", "/links/ttyDXL0"}}}); }
+  FakeRobotHost() { served_.push_back(contract::RobotAdded{0, "fumanoid-2011", {{"bus", "ttyDXL0", "/links/ttyDXL0"}}}); }
 
-  control::AddResult add_robot(const control::RobotRequest& request) override {
+  contract::AddResult add_robot(const contract::RobotRequest& request) override {
     std::lock_guard<std::mutex> lock(mutex_);
     ++add_calls;
     requests_.push_back(request);
     if (refuse_next_add) {
-      control::Refusal refusal = *refuse_next_add;
+      contract::Refusal refusal = *refuse_next_add;
       refuse_next_add.reset();
       return refusal;
     }
     const uint32_t index = next_++;
-    control::RobotAdded added{index, request.robot.empty() ? "inline" : request.robot, {}};
+    contract::RobotAdded added{index, request.robot.empty() ? "inline" : request.robot, {}};
     if (links) {
       added.links = links(index);
     } else {
@@ -39,7 +39,7 @@ class FakeRobotHost : public control::RobotHost {
     return added;
   }
 
-  std::optional<control::Refusal> remove_robot(uint32_t robot) override {
+  std::optional<contract::Refusal> remove_robot(uint32_t robot) override {
     std::lock_guard<std::mutex> lock(mutex_);
     ++remove_calls;
     removed_.push_back(robot);
@@ -49,16 +49,16 @@ class FakeRobotHost : public control::RobotHost {
         return std::nullopt;
       }
     }
-    return control::Refusal{"", "there is no robot " + std::to_string(robot)};
+    return contract::Refusal{"", "there is no robot " + std::to_string(robot)};
   }
 
-  std::vector<control::RobotAdded> robots() override {
+  std::vector<contract::RobotAdded> robots() override {
     std::lock_guard<std::mutex> lock(mutex_);
     ++robots_calls;
     return served_;
   }
 
-  std::vector<control::RobotRequest> requests() {
+  std::vector<contract::RobotRequest> requests() {
     std::lock_guard<std::mutex> lock(mutex_);
     return requests_;
   }
@@ -70,14 +70,14 @@ class FakeRobotHost : public control::RobotHost {
   std::atomic<int> add_calls{0};
   std::atomic<int> remove_calls{0};
   std::atomic<int> robots_calls{0};
-  std::optional<control::Refusal> refuse_next_add;       // set before the request, under no race
-  std::function<std::vector<control::Link>(uint32_t)> links;  // the links of an added robot; unset = made-up paths
+  std::optional<contract::Refusal> refuse_next_add;       // set before the request, under no race
+  std::function<std::vector<contract::Link>(uint32_t)> links;  // the links of an added robot; unset = made-up paths
 
  private:
   std::mutex mutex_;
-  std::vector<control::RobotRequest> requests_;
+  std::vector<contract::RobotRequest> requests_;
   std::vector<uint32_t> removed_;
-  std::vector<control::RobotAdded> served_;
+  std::vector<contract::RobotAdded> served_;
   uint32_t next_ = 1;
 };
 

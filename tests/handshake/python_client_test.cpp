@@ -18,7 +18,7 @@
 #include <thread>
 
 #include "fake_robot_host.h"
-#include "control/access.h"
+#include "contract/access_token.h"
 #include "handshake/server.h"
 
 namespace doppel::handshake {
@@ -109,7 +109,7 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   PingingPty bus;
   testing::FakeRobotHost host;
   host.links = [&bus](uint32_t robot) {
-    return std::vector<control::Link>{{"bus", "ttyDXL0", bus.path()},
+    return std::vector<contract::Link>{{"bus", "ttyDXL0", bus.path()},
                                       {"camera", "head", "iceoryx:DoppelCamera/head" + std::to_string(robot) + "/frames"}};
   };
   char pattern[] = "/tmp/doppel-handshake-py-XXXXXX";
@@ -117,10 +117,10 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   ServerOptions options;
   options.unix_path = dir + "/handshake.sock";
   options.tcp_port = 0;
-  options.tcp_token = control::new_access_token();  // as doppel serves TCP: the client finds it in the link directory
+  options.tcp_token = contract::new_access_token();  // as doppel serves TCP: the client finds it in the link directory
   Server server(host, options);
-  std::optional<control::TokenFile> token_file;
-  token_file.emplace(control::token_file_path(dir, server.tcp_port()), options.tcp_token);
+  std::optional<contract::TokenFile> token_file;
+  token_file.emplace(contract::token_file_path(dir, server.tcp_port()), options.tcp_token);
   const ClientRun run = run_client(tcp ? "--tcp 127.0.0.1:" + std::to_string(server.tcp_port()) + " --link-dir " + dir
                                        : "--unix " + options.unix_path);
   server.stop();
@@ -136,7 +136,7 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   EXPECT_NE(run.output.find("removed: robot 1"), std::string::npos) << run.output;
   EXPECT_EQ(bus.pings(), 1);
   ASSERT_EQ(host.add_calls, 1);
-  const control::RobotRequest request = host.requests().at(0);
+  const contract::RobotRequest request = host.requests().at(0);
   EXPECT_EQ(request.robot, "op3");
   ASSERT_EQ(request.cameras.size(), 1u);
   EXPECT_EQ(request.cameras[0].name, "head");
@@ -146,7 +146,7 @@ TEST_P(PythonClient, AddsPingsReattachesAndRemoves) {
   ASSERT_TRUE(request.world_model);
   EXPECT_EQ(request.world_model->fov_deg, 90.0);
   EXPECT_EQ(request.world_model->position_sigma_m, 0.05);
-  EXPECT_EQ(request.world_model->rate_hz, control::WorldModelSettings{}.rate_hz);
+  EXPECT_EQ(request.world_model->rate_hz, contract::WorldModelSettings{}.rate_hz);
   EXPECT_TRUE(request.sensor_levels);
   EXPECT_EQ(host.removed(), std::vector<uint32_t>{1});
 }

@@ -1,4 +1,4 @@
-// check_add_robot: every field of an add_robot request reaches control::RobotRequest, and every bad
+// check_add_robot: every field of an add_robot request reaches contract::RobotRequest, and every bad
 // one is refused naming its proto field path (limits: camera/src/camera_config.cpp, camera/src/noise.cpp,
 // control/world_model_settings.h).
 #include "handshake/request.h"
@@ -19,10 +19,10 @@ wire::AddRobot parse(const std::string& text) {
   return m;
 }
 
-control::Refusal refusal(const std::string& text) {
+contract::Refusal refusal(const std::string& text) {
   auto checked = check_add_robot(parse(text));
-  EXPECT_TRUE(std::holds_alternative<control::Refusal>(checked)) << text;
-  return std::holds_alternative<control::Refusal>(checked) ? std::get<control::Refusal>(checked) : control::Refusal{};
+  EXPECT_TRUE(std::holds_alternative<contract::Refusal>(checked)) << text;
+  return std::holds_alternative<contract::Refusal>(checked) ? std::get<contract::Refusal>(checked) : contract::Refusal{};
 }
 
 TEST(HandshakeRequest, EveryFieldReachesTheHostRequest) {
@@ -34,8 +34,8 @@ TEST(HandshakeRequest, EveryFieldReachesTheHostRequest) {
       world_model { rate_hz: 10 fov_deg: 120 max_range_m: 6 nearest_ball_only: true position_sigma_m: 0.05
                     angle_sigma_rad: 0.02 dropout: 0.1 latency_s: 0.05 seed: 3 }
       sensor_levels: true)"));
-  ASSERT_TRUE(std::holds_alternative<control::RobotRequest>(checked));
-  const auto& r = std::get<control::RobotRequest>(checked);
+  ASSERT_TRUE(std::holds_alternative<contract::RobotRequest>(checked));
+  const auto& r = std::get<contract::RobotRequest>(checked);
   EXPECT_EQ(r.robot, "op3");
   EXPECT_TRUE(r.description.empty());
   EXPECT_EQ(r.x_m, 1.5);
@@ -43,7 +43,7 @@ TEST(HandshakeRequest, EveryFieldReachesTheHostRequest) {
   EXPECT_EQ(r.yaw_rad, 3.1);
   EXPECT_EQ(r.team, 1u);
   ASSERT_EQ(r.cameras.size(), 2u);
-  const control::CameraRequest& head = r.cameras[0];
+  const contract::CameraRequest& head = r.cameras[0];
   EXPECT_EQ(head.name, "head");
   EXPECT_EQ(head.width_px, 320u);
   EXPECT_EQ(head.height_px, 240u);
@@ -54,7 +54,7 @@ TEST(HandshakeRequest, EveryFieldReachesTheHostRequest) {
   EXPECT_EQ(head.noise_gaussian_sigma, 2.5);
   EXPECT_EQ(head.noise_salt_pepper_fraction, 0.01);
   EXPECT_EQ(head.noise_seed, 7u);
-  const control::CameraRequest& chest = r.cameras[1];
+  const contract::CameraRequest& chest = r.cameras[1];
   EXPECT_EQ(chest.name, "chest");
   EXPECT_FALSE(chest.width_px || chest.height_px || chest.fps || chest.format || chest.lens || chest.hfov_deg ||
                chest.noise_gaussian_sigma || chest.noise_salt_pepper_fraction || chest.noise_seed);
@@ -75,20 +75,20 @@ TEST(HandshakeRequest, EveryFieldReachesTheHostRequest) {
 
 TEST(HandshakeRequest, UnsetFieldsStayUnset) {
   const auto checked = check_add_robot(parse(R"(description: "name: \"x\"" world_model {})"));
-  ASSERT_TRUE(std::holds_alternative<control::RobotRequest>(checked));
-  const auto& r = std::get<control::RobotRequest>(checked);
+  ASSERT_TRUE(std::holds_alternative<contract::RobotRequest>(checked));
+  const auto& r = std::get<contract::RobotRequest>(checked);
   EXPECT_TRUE(r.robot.empty());
   EXPECT_EQ(r.description, "name: \"x\"");
   EXPECT_FALSE(r.x_m || r.y_m || r.yaw_rad || r.team);
   EXPECT_TRUE(r.cameras.empty());
   EXPECT_FALSE(r.sensor_levels);
   ASSERT_TRUE(r.world_model);  // present: the robot gets one, with the documented defaults
-  const control::WorldModelSettings defaults;
+  const contract::WorldModelSettings defaults;
   EXPECT_EQ(r.world_model->rate_hz, defaults.rate_hz);
   EXPECT_EQ(r.world_model->fov_deg, 0.0);
   const auto plain = check_add_robot(parse(R"(robot: "op3")"));
-  ASSERT_TRUE(std::holds_alternative<control::RobotRequest>(plain));
-  EXPECT_FALSE(std::get<control::RobotRequest>(plain).world_model);  // absent: no world-model sensor
+  ASSERT_TRUE(std::holds_alternative<contract::RobotRequest>(plain));
+  EXPECT_FALSE(std::get<contract::RobotRequest>(plain).world_model);  // absent: no world-model sensor
 }
 
 struct Bad {
@@ -100,7 +100,7 @@ struct Bad {
 class HandshakeBadRequest : public ::testing::TestWithParam<Bad> {};
 
 TEST_P(HandshakeBadRequest, IsRefusedNamingItsField) {
-  const control::Refusal r = refusal(GetParam().request);
+  const contract::Refusal r = refusal(GetParam().request);
   EXPECT_EQ(r.field, GetParam().field) << r.message;
   EXPECT_NE(r.message.find(GetParam().says), std::string::npos) << r.message;
 }
@@ -147,16 +147,16 @@ INSTANTIATE_TEST_SUITE_P(
     });
 
 TEST(HandshakeRequest, TheFirstBadFieldIsTheOneNamed) {
-  const control::Refusal r = refusal(R"(robot: "op3" team: 5 camera { name: "head" width_px: 1 })");
+  const contract::Refusal r = refusal(R"(robot: "op3" team: 5 camera { name: "head" width_px: 1 })");
   EXPECT_EQ(r.field, "add_robot.team");
 }
 
 TEST(HandshakeRequest, ARobotNameWithANulOrLongerThanAPathIsRefused) {
   wire::AddRobot m;
   m.set_robot(std::string("op3\0x", 5));
-  EXPECT_EQ(std::get<control::Refusal>(check_add_robot(m)).field, "add_robot.robot");
+  EXPECT_EQ(std::get<contract::Refusal>(check_add_robot(m)).field, "add_robot.robot");
   m.set_robot(std::string(4097, 'a'));
-  EXPECT_EQ(std::get<control::Refusal>(check_add_robot(m)).field, "add_robot.robot");
+  EXPECT_EQ(std::get<contract::Refusal>(check_add_robot(m)).field, "add_robot.robot");
 }
 
 TEST(HandshakeRequest, HostFieldNamesBecomeProtoPaths) {
@@ -173,7 +173,7 @@ TEST(HandshakeRequest, HostFieldNamesBecomeProtoPaths) {
 }
 
 TEST(HandshakeRequest, ToWireCarriesEveryLink) {
-  const wire::Robot r = to_wire(control::RobotAdded{
+  const wire::Robot r = to_wire(contract::RobotAdded{
       3, "op3", {{"bus", "ttyDXL0", "/run/doppel/robot3/ttyDXL0"}, {"world_model", "wm", "udp:127.0.0.1:7600"}}});
   EXPECT_EQ(r.robot(), 3u);
   EXPECT_EQ(r.name(), "op3");

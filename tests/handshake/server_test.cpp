@@ -92,7 +92,7 @@ TEST_P(HandshakeServer, AddsListsReattachesAndRemovesARobot) {
     EXPECT_EQ(added.robot_added().link(0).location(), "/links/robot1/ttyDXL0");
     EXPECT_EQ(added.robot_added().link(1).location(), "iceoryx:DoppelCamera/head1/frames");
     ASSERT_EQ(host_.add_calls, 1);
-    const control::RobotRequest r = host_.requests().at(0);
+    const contract::RobotRequest r = host_.requests().at(0);
     EXPECT_EQ(r.robot, "op3");
     EXPECT_EQ(r.x_m, 1.0);
     EXPECT_EQ(r.team, 1u);
@@ -146,7 +146,7 @@ TEST_P(HandshakeServer, ABadRequestNamesItsFieldCallsNothingAndKeepsTheConnectio
 }
 
 TEST_P(HandshakeServer, TheHostsRefusalNamesTheProtoField) {
-  host_.refuse_next_add = control::Refusal{"cameras[0].noise_gaussian_sigma", "the robot has no camera 'eye'"};
+  host_.refuse_next_add = contract::Refusal{"cameras[0].noise_gaussian_sigma", "the robot has no camera 'eye'"};
   TestClient c = connect();
   const wire::ServerMessage reply = c.call(request(R"(add_robot { robot: "op3" camera { name: "eye" } })"));
   ASSERT_TRUE(reply.has_error());

@@ -1,4 +1,4 @@
-// A recording served as a SimControl (replay/replay_control.h) and through the HTTP API's
+// A recording served as the simulation and replay facets (replay/replay_control.h) and through the HTTP API's
 // /api/replay: which recorded message each moment shows (latest-before), play / pause / seek /
 // speed against a clock the test drives, world changes refused, bad playback requests refused
 // without a half-applied change.
@@ -41,9 +41,9 @@ class ReplayControlTest : public ::testing::Test {
   static inline Recording* recording_ = nullptr;
 
   void seek(double position_s) {
-    control::ReplayChange change;
+    contract::ReplayChange change;
     change.position_s = position_s;
-    ASSERT_EQ(sut_.change_replay(change).status, 200);
+    ASSERT_TRUE(sut_.change_replay(change).ok());
   }
 };
 
@@ -58,17 +58,16 @@ TEST_F(ReplayControlTest, TheRecordingsTimesAreFromItsFirstMessage) {
   EXPECT_EQ(recording_->run().buses(0).robot_name(), "fumanoid-2011");
   EXPECT_TRUE(recording_->warnings().empty()) << recording_->warnings().front();
   const auto status = sut_.replay();
-  ASSERT_TRUE(status);
-  EXPECT_DOUBLE_EQ(status->start_s, 0.005);
-  EXPECT_DOUBLE_EQ(status->end_s, 2.0);
-  EXPECT_FALSE(status->playing);
-  EXPECT_EQ(status->cameras, std::vector<std::string>{"HEAD_CAMERA"});
+  EXPECT_DOUBLE_EQ(status.start_s, 0.005);
+  EXPECT_DOUBLE_EQ(status.end_s, 2.0);
+  EXPECT_FALSE(status.playing);
+  EXPECT_EQ(status.cameras, std::vector<std::string>{"HEAD_CAMERA"});
 }
 
 TEST_F(ReplayControlTest, StateIsTheLastWorldStateAtOrBeforeThePosition) {
   // World state k is at 5 + 10 k ms with x = 0.001 k: at 1.2049 s the latest is k = 119 (1.195 s).
   seek(1.2049);
-  control::SimState state = sut_.state();
+  contract::SimState state = sut_.state();
   ASSERT_EQ(state.robots.size(), 1u);
   EXPECT_DOUBLE_EQ(state.robots[0].x_m, testing::fixture_x_m(119));
   EXPECT_DOUBLE_EQ(state.sim_time_s, 0.005 + 0.01 * 119);
@@ -90,55 +89,56 @@ TEST_F(ReplayControlTest, StateIsTheLastWorldStateAtOrBeforeThePosition) {
 
 TEST_F(ReplayControlTest, PlayingMovesThePositionAtTheChosenSpeedAndStopsAtTheEnd) {
   seek(0.5);
-  control::ReplayChange change;
+  contract::ReplayChange change;
   change.speed = 2.0;
   change.playing = true;
-  ASSERT_EQ(sut_.change_replay(change).status, 200);
+  ASSERT_TRUE(sut_.change_replay(change).ok());
   wall_ns_ += 250'000'000;  // 0.25 s of wall time at 2x: 0.5 s of recording
-  EXPECT_NEAR(sut_.replay()->position_s, 1.0, 1e-9);
+  EXPECT_NEAR(sut_.replay().position_s, 1.0, 1e-9);
   EXPECT_FALSE(sut_.state().paused);
   // A speed change keeps the position reached.
   change = {};
   change.speed = 0.5;
-  ASSERT_EQ(sut_.change_replay(change).status, 200);
+  ASSERT_TRUE(sut_.change_replay(change).ok());
   wall_ns_ += 200'000'000;
-  EXPECT_NEAR(sut_.replay()->position_s, 1.1, 1e-9);
+  EXPECT_NEAR(sut_.replay().position_s, 1.1, 1e-9);
   // Pause holds it.
-  ASSERT_EQ(sut_.pause().status, 200);
+  ASSERT_TRUE(sut_.pause().ok());
   wall_ns_ += 1'000'000'000;
-  EXPECT_NEAR(sut_.replay()->position_s, 1.1, 1e-9);
+  EXPECT_NEAR(sut_.replay().position_s, 1.1, 1e-9);
   EXPECT_TRUE(sut_.state().paused);
   // Playing past the end stops there, paused.
-  ASSERT_EQ(sut_.resume().status, 200);
+  ASSERT_TRUE(sut_.resume().ok());
   wall_ns_ += 10'000'000'000;
   const auto status = sut_.replay();
-  EXPECT_DOUBLE_EQ(status->position_s, 2.0);
-  EXPECT_FALSE(status->playing);
+  EXPECT_DOUBLE_EQ(status.position_s, 2.0);
+  EXPECT_FALSE(status.playing);
   EXPECT_DOUBLE_EQ(sut_.state().robots[0].x_m, testing::fixture_x_m(199));
   // Play at the end starts over.
-  ASSERT_EQ(sut_.resume().status, 200);
-  EXPECT_DOUBLE_EQ(sut_.replay()->position_s, 0.005);
-  EXPECT_TRUE(sut_.replay()->playing);
+  ASSERT_TRUE(sut_.resume().ok());
+  EXPECT_DOUBLE_EQ(sut_.replay().position_s, 0.005);
+  EXPECT_TRUE(sut_.replay().playing);
 }
 
 TEST_F(ReplayControlTest, StepMovesAPausedReplayAndResetGoesBackToTheStart) {
   seek(1.0);
-  ASSERT_EQ(sut_.step(100).status, 200);
-  EXPECT_NEAR(sut_.replay()->position_s, 1.1, 1e-9);
-  ASSERT_EQ(sut_.step(60'000).status, 200);  // clamped at the end
-  EXPECT_DOUBLE_EQ(sut_.replay()->position_s, 2.0);
-  ASSERT_EQ(sut_.reset().status, 200);
-  EXPECT_DOUBLE_EQ(sut_.replay()->position_s, 0.005);
-  ASSERT_EQ(sut_.resume().status, 200);
-  const control::Outcome refused = sut_.step(100);
-  EXPECT_EQ(refused.status, 409);
-  EXPECT_NE(refused.error.find("pause first"), std::string::npos) << refused.error;
+  ASSERT_TRUE(sut_.step(100).ok());
+  EXPECT_NEAR(sut_.replay().position_s, 1.1, 1e-9);
+  ASSERT_TRUE(sut_.step(60'000).ok());  // clamped at the end
+  EXPECT_DOUBLE_EQ(sut_.replay().position_s, 2.0);
+  ASSERT_TRUE(sut_.reset().ok());
+  EXPECT_DOUBLE_EQ(sut_.replay().position_s, 0.005);
+  ASSERT_TRUE(sut_.resume().ok());
+  const contract::Outcome refused = sut_.step(100);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().kind, contract::ErrorKind::kConflict);
+  EXPECT_NE(refused.error().message.find("pause first"), std::string::npos) << refused.error().message;
 }
 
 TEST_F(ReplayControlTest, SceneIsTheRecordedShapesAtTheirLatestPoses) {
   // Poses k at k * 33.333 ms: at 1.0 s the latest is k = 30 (0.99999999 s... 30 * 33333333 ns).
   seek(1.0);
-  const control::Scene scene = sut_.scene();
+  const contract::Scene scene = sut_.scene();
   ASSERT_EQ(scene.shapes.size(), 5u);  // carpet, 2 lines, trunk, head
   EXPECT_STREQ(scene.shapes[0].kind, "carpet");
   EXPECT_STREQ(scene.shapes[3].kind, "robot");
@@ -159,7 +159,7 @@ TEST_F(ReplayControlTest, BusesShowTheLatestServoTableAndTheCountersUpToThePosit
   EXPECT_EQ(buses[0].servos[0].present_position, 7);  // table k = 7 at 700 ms
   EXPECT_EQ(buses[0].servos[0].model, "RX-28");
   // READs every 5 ms from 1 ms: 150 of them up to 746 ms; counters are kept every 10 ms at most.
-  const control::BusCounters& c = buses[0].counters;
+  const contract::BusCounters& c = buses[0].counters;
   EXPECT_LE(c.packets, 150u);
   EXPECT_GE(c.packets, 148u);
   EXPECT_EQ(c.replies, c.packets);
@@ -171,15 +171,17 @@ TEST_F(ReplayControlTest, BusesShowTheLatestServoTableAndTheCountersUpToThePosit
 
 TEST_F(ReplayControlTest, CameraStillIsTheLatestRecordedOne) {
   seek(0.8);  // stills at 250 ms, 750 ms, ...
-  control::CameraStill still = sut_.camera_still("HEAD_CAMERA");
-  EXPECT_EQ(still.status, 200);
-  EXPECT_EQ(still.png, "still 1");
+  contract::Result<contract::CameraStill> still = sut_.camera_still("HEAD_CAMERA");
+  ASSERT_TRUE(still.ok());
+  EXPECT_EQ(still.value().png, "still 1");
   seek(0.1);
   still = sut_.camera_still("HEAD_CAMERA");
-  EXPECT_EQ(still.status, 503);
+  ASSERT_FALSE(still.ok());
+  EXPECT_EQ(still.error().kind, contract::ErrorKind::kUnavailable);
   still = sut_.camera_still("TAIL");
-  EXPECT_EQ(still.status, 404);
-  EXPECT_NE(still.error.find("HEAD_CAMERA"), std::string::npos) << still.error;
+  ASSERT_FALSE(still.ok());
+  EXPECT_EQ(still.error().kind, contract::ErrorKind::kNotFound);
+  EXPECT_NE(still.error().message.find("HEAD_CAMERA"), std::string::npos) << still.error().message;
 }
 
 TEST_F(ReplayControlTest, TheApiRefusesWorldChangesWith409AfterTheUsualChecks) {
@@ -187,28 +189,28 @@ TEST_F(ReplayControlTest, TheApiRefusesWorldChangesWith409AfterTheUsualChecks) {
            {"/api/place", R"({"robot": 0, "x": 1.0, "y": 0.5, "yaw": 0})"},
            {"/api/push", R"({"robot": 0, "fx": 10, "fy": 0, "fz": 0, "ms": 100})"},
            {"/api/ball", R"({"x": 0.5, "y": 0})"}}) {
-    const control::Answer answer = control::handle(sut_, "POST", path, body);
+    const control::Answer answer = control::handle(sut_.facets(), "POST", path, body);
     EXPECT_EQ(answer.status, 409) << path;
     EXPECT_EQ(answer.body["error"], kReplayCannotChangeWorld) << path;
   }
   // A request that is wrong anyway is told what is wrong with it first.
-  EXPECT_EQ(control::handle(sut_, "POST", "/api/place", R"({"robot": 0, "x": 99, "y": 0, "yaw": 0})").status, 400);
-  EXPECT_EQ(control::handle(sut_, "POST", "/api/place", R"({"robot": 3, "x": 0, "y": 0, "yaw": 0})").status, 404);
+  EXPECT_EQ(control::handle(sut_.facets(), "POST", "/api/place", R"({"robot": 0, "x": 99, "y": 0, "yaw": 0})").status, 400);
+  EXPECT_EQ(control::handle(sut_.facets(), "POST", "/api/place", R"({"robot": 3, "x": 0, "y": 0, "yaw": 0})").status, 404);
 }
 
 TEST_F(ReplayControlTest, TheApiChangesPlaybackWithCheckedRequests) {
-  control::Answer answer = control::handle(sut_, "GET", "/api/replay", "");
+  control::Answer answer = control::handle(sut_.facets(), "GET", "/api/replay", "");
   ASSERT_EQ(answer.status, 200);
   EXPECT_EQ(answer.body["end_s"], 2.0);
   EXPECT_EQ(answer.body["playing"], false);
-  answer = control::handle(sut_, "POST", "/api/replay", R"({"position_s": 1.5, "speed": 4, "playing": true})");
+  answer = control::handle(sut_.facets(), "POST", "/api/replay", R"({"position_s": 1.5, "speed": 4, "playing": true})");
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   EXPECT_EQ(answer.body["position_s"], 1.5);
   EXPECT_EQ(answer.body["speed"], 4.0);
   EXPECT_EQ(answer.body["playing"], true);
   wall_ns_ += 100'000'000;
-  EXPECT_NEAR(control::handle(sut_, "GET", "/api/replay", "").body["position_s"].get<double>(), 1.9, 1e-9);
-  EXPECT_NEAR(control::handle(sut_, "GET", "/api/state", "").body["robots"][0]["pose"]["x"].get<double>(),
+  EXPECT_NEAR(control::handle(sut_.facets(), "GET", "/api/replay", "").body["position_s"].get<double>(), 1.9, 1e-9);
+  EXPECT_NEAR(control::handle(sut_.facets(), "GET", "/api/state", "").body["robots"][0]["pose"]["x"].get<double>(),
               testing::fixture_x_m(189), 1e-12);
 }
 
@@ -227,21 +229,21 @@ TEST_F(ReplayControlTest, ABadPlaybackRequestChangesNothing) {
       {R"([1, 2])", "object"},
   };
   for (const auto& [body, named] : bad) {
-    const control::Answer answer = control::handle(sut_, "POST", "/api/replay", body);
+    const control::Answer answer = control::handle(sut_.facets(), "POST", "/api/replay", body);
     EXPECT_EQ(answer.status, 400) << body;
     EXPECT_NE(answer.body["error"].get<std::string>().find(named), std::string::npos) << body << ": " << answer.body.dump();
   }
   const auto status = sut_.replay();
-  EXPECT_DOUBLE_EQ(status->position_s, 1.0);
-  EXPECT_DOUBLE_EQ(status->speed, 1.0);
-  EXPECT_FALSE(status->playing);
-  EXPECT_EQ(control::handle(sut_, "DELETE", "/api/replay", "").status, 405);
+  EXPECT_DOUBLE_EQ(status.position_s, 1.0);
+  EXPECT_DOUBLE_EQ(status.speed, 1.0);
+  EXPECT_FALSE(status.playing);
+  EXPECT_EQ(control::handle(sut_.facets(), "DELETE", "/api/replay", "").status, 405);
 }
 
 // The fixture's bus: a P1 READ of ID 1 (8 bytes) every 5 ms from 1 ms, answered with 8 bytes, at
 // 1 Mbps (10 bits a byte: 10 us), no firmware time, RDT or adapter latency recorded.
 TEST_F(ReplayControlTest, TheApiServesTheBusAnalysisOfTheRecording) {
-  const control::Answer answer = control::handle(sut_, "GET", "/api/analysis", "");
+  const control::Answer answer = control::handle(sut_.facets(), "GET", "/api/analysis", "");
   ASSERT_EQ(answer.status, 200) << answer.body.dump();
   ASSERT_EQ(answer.body["reports"].size(), 1u);
   const auto& report = answer.body["reports"][0];
@@ -266,7 +268,7 @@ TEST_F(ReplayControlTest, TheApiServesTheBusAnalysisOfTheRecording) {
   EXPECT_EQ(what_if[0]["scenario"], "recorded");
   EXPECT_EQ(what_if[1]["scenario"], "driver=recorded");
   EXPECT_NEAR(what_if[0]["rate_hz"].get<double>(), 6250.0, 6250.0 * 0.01);
-  EXPECT_EQ(control::handle(sut_, "POST", "/api/analysis", "{}").status, 405);
+  EXPECT_EQ(control::handle(sut_.facets(), "POST", "/api/analysis", "{}").status, 405);
 }
 
 TEST(ReplayAnalysis, ARecordingWithoutBusTrafficHasNoAnalysis) {
@@ -277,7 +279,7 @@ TEST(ReplayAnalysis, ARecordingWithoutBusTrafficHasNoAnalysis) {
   {
     const Recording recording(path);
     ReplayControl sut(recording);
-    const control::Answer answer = control::handle(sut, "GET", "/api/analysis", "");
+    const control::Answer answer = control::handle(sut.facets(), "GET", "/api/analysis", "");
     EXPECT_EQ(answer.status, 404);
     EXPECT_NE(answer.body["error"].get<std::string>().find("no bus analysis"), std::string::npos) << answer.body.dump();
   }

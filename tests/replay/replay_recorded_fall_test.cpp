@@ -10,7 +10,7 @@
 #include <string>
 #include <thread>
 
-#include "control/sim_control.h"
+#include "contract/simulation.h"
 #include "doppel_process.h"
 #include "replay/recording.h"
 #include "replay/replay_control.h"
@@ -18,9 +18,9 @@
 namespace doppel::replay {
 namespace {
 
-double robot_z_in_scene(control::SimControl& sut) {
+double robot_z_in_scene(contract::Simulation& sut) {
   double highest = -1e9;
-  for (const control::SceneShape& shape : sut.scene().shapes) {
+  for (const contract::SceneShape& shape : sut.scene().shapes) {
     if (std::string(shape.kind) == "robot") highest = std::max(highest, shape.position[2]);
   }
   return highest;
@@ -40,17 +40,17 @@ TEST(ReplayRecordedFall, TheRecordedRobotIsUprightAtTheStartAndFallenAtTheEnd) {
   int64_t wall_ns = 0;
   ReplayControl sut(recording, [&] { return wall_ns; });
   // Judged on the recording's simulation time: the run lasted long enough to fall.
-  control::ReplayChange to_end;
-  to_end.position_s = sut.replay()->end_s;
-  ASSERT_EQ(sut.change_replay(to_end).status, 200);
-  const control::SimState end = sut.state();
+  contract::ReplayChange to_end;
+  to_end.position_s = sut.replay().end_s;
+  ASSERT_TRUE(sut.change_replay(to_end).ok());
+  const contract::SimState end = sut.state();
   ASSERT_GE(end.sim_time_s, 1.5) << "doppel simulated only " << end.sim_time_s << " s in 3 s of wall time";
   ASSERT_EQ(end.robots.size(), 1u);
   EXPECT_TRUE(end.robots[0].fallen) << "tilt at the end " << end.robots[0].tilt_rad;
   const double z_end = robot_z_in_scene(sut);
 
-  ASSERT_EQ(sut.reset().status, 200);
-  const control::SimState start = sut.state();
+  ASSERT_TRUE(sut.reset().ok());
+  const contract::SimState start = sut.state();
   EXPECT_FALSE(start.robots[0].fallen) << "tilt at the start " << start.robots[0].tilt_rad;
   EXPECT_LT(start.robots[0].tilt_rad, 0.2);
   const double z_start = robot_z_in_scene(sut);
@@ -59,18 +59,18 @@ TEST(ReplayRecordedFall, TheRecordedRobotIsUprightAtTheStartAndFallenAtTheEnd) {
   // Stepping through it finds the moment of the fall; a seek there shows it again.
   double fell_s = -1.0;
   for (int i = 0; i < 100'000 && !sut.state().robots[0].fallen; ++i) {
-    ASSERT_EQ(sut.step(10).status, 200);
-    fell_s = sut.replay()->position_s;
+    ASSERT_TRUE(sut.step(10).ok());
+    fell_s = sut.replay().position_s;
   }
   ASSERT_GT(fell_s, start.sim_time_s);
-  control::ReplayChange back;
+  contract::ReplayChange back;
   back.position_s = fell_s - 0.05;
-  ASSERT_EQ(sut.change_replay(back).status, 200);
+  ASSERT_TRUE(sut.change_replay(back).ok());
   EXPECT_FALSE(sut.state().robots[0].fallen);
   back.position_s = fell_s;
-  ASSERT_EQ(sut.change_replay(back).status, 200);
+  ASSERT_TRUE(sut.change_replay(back).ok());
   EXPECT_TRUE(sut.state().robots[0].fallen);
-  std::printf("recorded fall: %.3f s of recording, fallen at %.3f s (sim time %.3f s)\n", sut.replay()->end_s, fell_s,
+  std::printf("recorded fall: %.3f s of recording, fallen at %.3f s (sim time %.3f s)\n", sut.replay().end_s, fell_s,
               sut.state().sim_time_s);
   std::filesystem::remove(path);
 }

@@ -15,7 +15,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "control/access.h"
+#include "contract/access_token.h"
 
 namespace doppel::testing {
 
@@ -134,7 +134,7 @@ std::string DoppelProcess::output() const {
 }
 
 std::string DoppelProcess::access_token(uint16_t port) const {
-  return control::find_access_token(link_dir_, port).value_or("");
+  return contract::find_access_token(link_dir_, port).value_or("");
 }
 
 }  // namespace doppel::testing

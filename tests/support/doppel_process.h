@@ -37,7 +37,7 @@ class DoppelProcess {
   std::string wait_for_output(const std::string& text) const;
   pid_t pid() const { return pid_; }
   // The run's access token for its TCP listener on `port` (the control API or the handshake), read
-  // as every client reads it (control::find_access_token: LINK_DIR/token-PORT); "" without one.
+  // as every client reads it (contract::find_access_token: LINK_DIR/token-PORT); "" without one.
   std::string access_token(uint16_t port) const;
 
  private:

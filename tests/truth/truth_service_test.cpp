@@ -63,7 +63,7 @@ TEST(TruthService, RobotsComeAndGoWhileItRunsEachOnItsOwnPort) {
   service.add_poller([&polls](Transport& transport) {
     if (++polls % 50 == 0) transport.send(0, "sensor_levels", "levels");
   });
-  control::WorldModelSettings settings;
+  contract::WorldModelSettings settings;
   settings.rate_hz = 100.0;
   ASSERT_EQ(service.add_robot(0, {0, 0, false, 0, Eigen::Isometry3d::Identity()}, settings), "");
   service.start();
@@ -108,7 +108,7 @@ TEST(TruthService, BadSettingsOrTransportAreRefusedAtSetup) {
   EXPECT_THROW(TruthService{options}, std::invalid_argument);
   options.transport.udp_address = "127.0.0.1";
   TruthService service(options);
-  control::WorldModelSettings settings;
+  contract::WorldModelSettings settings;
   settings.dropout = 1.0;
   EXPECT_NE(service.add_robot(0, {}, settings).find("dropout"), std::string::npos);
   EXPECT_FALSE(service.settings(0).has_value()) << "nothing half-added";

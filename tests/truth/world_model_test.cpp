@@ -13,7 +13,7 @@
 namespace doppel::truth {
 namespace {
 
-using control::WorldModelSettings;
+using contract::WorldModelSettings;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
 RobotSample robot_at(double x, double y, double yaw_rad, uint8_t team = 0) {

@@ -30,7 +30,7 @@ TruthService::~TruthService() {
 }
 
 std::string TruthService::add_robot(std::size_t robot, const RobotBinding& binding,
-                                    const control::WorldModelSettings& settings) {
+                                    const contract::WorldModelSettings& settings) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (std::string problem = topic_.set(robot, settings); !problem.empty()) return problem;
@@ -59,13 +59,13 @@ void TruthService::remove_robot(std::size_t robot) {
   update_enabled();
 }
 
-std::optional<control::WorldModelSettings> TruthService::settings(std::size_t robot) {
+std::optional<contract::WorldModelSettings> TruthService::settings(std::size_t robot) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const control::WorldModelSettings* s = topic_.settings(robot);
+  const contract::WorldModelSettings* s = topic_.settings(robot);
   return s != nullptr ? std::optional(*s) : std::nullopt;
 }
 
-std::string TruthService::set_settings(std::size_t robot, const control::WorldModelSettings& settings) {
+std::string TruthService::set_settings(std::size_t robot, const contract::WorldModelSettings& settings) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (topic_.settings(robot) == nullptr) return "robot " + std::to_string(robot) + " has no world-model sensor";
   std::string problem = topic_.set(robot, settings);

@@ -8,7 +8,7 @@
 namespace doppel::truth {
 namespace {
 
-using control::WorldModelSettings;
+using contract::WorldModelSettings;
 
 std::string number_text(double x) {
   std::ostringstream out;

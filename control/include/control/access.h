@@ -15,41 +15,9 @@
 #include <string_view>
 #include <vector>
 
+#include "contract/access_token.h"
+
 namespace doppel::control {
-
-// 32 lower-case hex digits: 128 bits from getrandom(2). Throws std::runtime_error when the kernel
-// gives no randomness (a predictable token would be worse than none).
-std::string new_access_token();
-
-// Equal without an early exit, so the time taken does not tell how much of a guess was right.
-bool same_token(std::string_view a, std::string_view b) noexcept;
-
-// Where the token of a doppel serving TCP port `port` is: LINK_DIR/token-PORT. Per port, so that a
-// doppel and a doppel-replay sharing the default link directory do not overwrite each other's.
-std::string token_file_path(const std::string& link_dir, uint16_t port);
-
-// The client's side, one rule for doppel-ctl, doppel-replay --bus, the tests and (in Python)
-// examples/handshake/doppel_session.py: $DOPPEL_TOKEN when set, else the first line of
-// token_file_path(link_dir, port); nullopt when neither is there (doppel runs with --no-token, or
-// in another link directory).
-std::optional<std::string> find_access_token(const std::string& link_dir, uint16_t port);
-
-// The token written to `path` with mode 0600 (a temporary file renamed over it, so a reader never
-// sees half a token; a symlink at `path` is replaced, not followed), removed again on destruction
-// if the file there is still this one. Throws std::runtime_error naming the path.
-class TokenFile {
- public:
-  TokenFile(std::string path, const std::string& token);
-  ~TokenFile();
-  TokenFile(const TokenFile&) = delete;
-  TokenFile& operator=(const TokenFile&) = delete;
-  const std::string& path() const noexcept { return path_; }
-
- private:
-  std::string path_;
-  std::string token_;
-  uint64_t device_ = 0, inode_ = 0;
-};
 
 // The name of the cookie that carries the token for the server on `port` (cookies are shared by
 // every port of a host, hence the port in the name).

@@ -1,7 +1,9 @@
 #pragma once
 // The simulation-control API over HTTP (JSON), served by doppel on loopback by default: what
-// doppel-ctl and the viewer talk to. Every request is checked completely before the SimControl
-// sees it, so a bad one changes nothing and gets a 4xx answer with {"error": "..."}.
+// doppel-ctl and the viewer talk to, over the host's facets (contract/host.h). Every request is
+// checked completely before a facet sees it, so a bad one changes nothing and gets a 4xx answer
+// with {"error": "..."}. This is the one place where the contract's errors become HTTP statuses
+// (http_status) and where paths are routed (cpp-httplib's patterns).
 //
 //   GET  /api/state                                   -> the state (state_json)
 //   POST /api/pause | /api/resume | /api/reset        -> the state afterwards
@@ -14,7 +16,7 @@
 //   GET  /api/camera/NAME                             -> robot camera NAME's latest still (image/png)
 //   GET  /api/replay                                  -> a replay's playback (replay_json); 404 when live
 //   POST /api/replay {"position_s": 3.5, "speed": 0.5, "playing": true}   any of the three
-//   GET  /api/analysis                                -> a replay's bus analysis (SimControl::bus_analysis); 404 when live
+//   GET  /api/analysis                                -> a replay's bus analysis (contract::Replay::bus_analysis); 404 when live
 //   GET  /api/robots/N/world_model                    -> robot N's world-model sensor settings
 //   PUT  /api/robots/N/world_model {"fov_deg": 90, "dropout": 0.1, ...}   the fields to change
 //   GET  /api/game                                    -> the GameController (game_json); 404 without one
@@ -37,7 +39,7 @@
 #include <nlohmann/json.hpp>
 
 #include "control/access.h"
-#include "control/sim_control.h"
+#include "contract/host.h"
 
 namespace httplib {
 class Server;
@@ -50,15 +52,19 @@ inline constexpr uint32_t kMaxStepMs = 60'000;
 inline constexpr uint32_t kMaxPushMs = 10'000;
 inline constexpr double kMaxPushForceN = 1000.0;
 
-nlohmann::json state_json(const SimState& state);
-nlohmann::json scene_json(const Scene& scene);
-nlohmann::json buses_json(const std::vector<BusTable>& buses);
-nlohmann::json replay_json(const ReplayStatus& status);
-nlohmann::json game_json(const GameStatus& status);
-nlohmann::json teamcomm_json(const TeamcommStatus& status);
-nlohmann::json fault_json(const FaultEntry& entry);
-nlohmann::json faults_json(const FaultList& list);
+nlohmann::json state_json(const contract::SimState& state);
+nlohmann::json scene_json(const contract::Scene& scene);
+nlohmann::json buses_json(const std::vector<contract::BusTable>& buses);
+nlohmann::json replay_json(const contract::ReplayStatus& status);
+nlohmann::json game_json(const contract::GameStatus& status);
+nlohmann::json teamcomm_json(const contract::TeamcommStatus& status);
+nlohmann::json fault_json(const contract::FaultEntry& entry);
+nlohmann::json faults_json(const contract::FaultList& list);
 inline constexpr uint32_t kMaxGamePlayers = 11;  // MAX_NUM_PLAYERS of the Humanoid GameController header
+
+// A refusal's HTTP status: kInvalid 400, kNotFound 404, kConflict 409, kUnavailable 503. The API's
+// own refusals add 405 (a method the path does not take) and 500 (a host's answer that is broken).
+int http_status(contract::ErrorKind kind) noexcept;
 
 // Where the viewer's files are: the page (index.html, viewer.js, viewer.css) and three.js (Debian's
 // libjs-three: three.min.js). Empty: not served.
@@ -79,7 +85,7 @@ struct Answer {
   int status = 200;
   nlohmann::json body;
 };
-Answer handle(SimControl& control, const std::string& method, const std::string& path, const std::string& body);
+Answer handle(const contract::Facets& host, const std::string& method, const std::string& path, const std::string& body);
 
 class HttpApi {
  public:
@@ -88,7 +94,8 @@ class HttpApi {
   // `files`: the viewer served at / (a folder that does not exist is an error naming it).
   // `token`: the access token every /api/ request must bring ("" = none: --no-token); the Host,
   // Origin and Content-Type checks apply either way (control/access.h).
-  HttpApi(SimControl& control, const std::string& address, uint16_t port, const StaticFiles& files = {},
+  // `host`: its simulation (required) and the facets it offers; each outlives the API.
+  HttpApi(const contract::Facets& host, const std::string& address, uint16_t port, const StaticFiles& files = {},
           std::string token = "");
   ~HttpApi();
   HttpApi(const HttpApi&) = delete;
@@ -100,7 +107,7 @@ class HttpApi {
   void stop();   // idempotent
 
  private:
-  SimControl& control_;
+  contract::Facets host_;
   std::string address_;
   uint16_t port_ = 0;
   AccessPolicy policy_;  // set once bound (the Host checks need the port); read by the server's threads

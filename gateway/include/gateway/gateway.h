@@ -18,7 +18,8 @@
 #include <thread>
 #include <vector>
 
-#include "control/sim_control.h"
+#include "contract/faults.h"
+#include "contract/robot_host.h"
 #include "gateway/lifecycle.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -35,8 +36,9 @@ class Fnv1a;
 
 namespace doppel::control {
 class HttpApi;
+}
+namespace doppel::contract {
 class TokenFile;
-class RobotHost;
 }
 namespace doppel::record {
 class Recorder;
@@ -99,9 +101,9 @@ class Gateway {
   // The components in the order they configure and start (they stop and release in reverse).
   std::vector<std::string> components() const { return lifecycle_.names(); }
 
-  // Adds and removes robots while doppel runs (control/robot_host.h; docs/robots-at-run-time.md).
+  // Adds and removes robots while doppel runs (contract/robot_host.h; docs/robots-at-run-time.md).
   // Any thread; valid for the gateway's lifetime.
-  control::RobotHost& robot_host() noexcept;
+  contract::RobotHost& robot_host() noexcept;
 
   std::string describe() const;  // the links and the devices behind them, for the user
   uint16_t control_port() const noexcept;  // where simulation control is served; 0 = not served
@@ -123,7 +125,7 @@ class Gateway {
   void set_step_observer(StepObserver* observer) noexcept { step_observer_ = observer; }
   // Faults on demand (docs/faults.md), as /api/faults adds them: a scenario adds its faults here
   // before start(). Any thread.
-  control::FaultAnswer add_fault(const faults::FaultSpec& spec);
+  contract::Result<uint32_t> add_fault(const faults::FaultSpec& spec);
   // Robot r's index in the physics world; nullopt when it moves kinematically.
   std::optional<std::size_t> world_index(std::size_t robot) const;
   // The physics world (setup: look-ups such as find_motor); null when no robot has a body.
@@ -156,12 +158,12 @@ class Gateway {
   void keep_state() noexcept;  // the state thread: saves a robot's EEPROM shortly after it changed
   // Writes the token for a TCP listener on `port` to LINK_DIR/token-PORT (0600; removed with the
   // returned file); null with --no-token. Throws std::runtime_error naming the file.
-  std::unique_ptr<control::TokenFile> publish_token(uint16_t port) const;
+  std::unique_ptr<contract::TokenFile> publish_token(uint16_t port) const;
 
   Options options_;
   SessionConfig session_;
   std::vector<RobotConfig> configs_;
-  std::string access_token_;  // control/access.h; "" with --no-token
+  std::string access_token_;  // contract/access_token.h; "" with --no-token
   std::unique_ptr<bus::LinkDirectory> links_;
   std::unique_ptr<physics::World> world_;  // the bodies of every robot that has one; null if none
   std::vector<std::optional<std::size_t>> in_world_;  // per robot: its index in world_
@@ -188,11 +190,11 @@ class Gateway {
   StepObserver* step_observer_ = nullptr;
   std::unique_ptr<LiveRobots> live_;  // robots added while running
   std::unique_ptr<control::HttpApi> control_api_;  // serves controller_; null with --no-viewer
-  std::unique_ptr<control::TokenFile> control_token_;
+  std::unique_ptr<contract::TokenFile> control_token_;
   bool viewer_page_ = false;  // control_api_ serves the viewer's page too
   std::atomic<bool> bus_stop_{false};  // tells the bus threads to stop
   std::unique_ptr<handshake::Server> handshake_;  // --no-handshake: null
-  std::unique_ptr<control::TokenFile> handshake_token_;
+  std::unique_ptr<contract::TokenFile> handshake_token_;
   Lifecycle lifecycle_;  // last: released (in its own order) before any member above goes
 };
 

@@ -1,12 +1,12 @@
 #pragma once
 // Wiring of the session handshake (handshake/, docs/handshake.md) into doppel: the server serves
-// whatever control::RobotHost the gateway hands it, on the endpoints the options name.
+// whatever contract::RobotHost the gateway hands it, on the endpoints the options name.
 
 #include <iosfwd>
 #include <memory>
 #include <string>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "gateway/options.h"
 #include "handshake/server.h"
 
@@ -20,7 +20,7 @@ handshake::ServerOptions handshake_options(const Options& options, const std::st
 // Starts serving `host` (which must outlive the server); null with --no-handshake. A port or socket
 // the user named must work (std::runtime_error naming the option otherwise); when the default TCP
 // port is taken doppel serves the Unix socket only and says so on `notes`.
-std::unique_ptr<handshake::Server> start_handshake(const Options& options, control::RobotHost& host,
+std::unique_ptr<handshake::Server> start_handshake(const Options& options, contract::RobotHost& host,
                                                    const std::string& token, std::ostream& notes);
 
 }  // namespace doppel::gateway

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "bus/link_directory.h"
-#include "control/world_model_settings.h"
+#include "contract/world_model_settings.h"
 #include "bus/wire_timing.h"
 #include "physics/engines.h"
 #include "physics/world.h"
@@ -55,7 +55,7 @@ struct Options {
   // --handshake-address ADDR; --no-handshake-tcp); --no-handshake: neither. On by default on the
   // command line (parse_options); off for a Gateway built in-process unless told.
   bool handshake = false;
-  // The run's access token (control/access.h, docs/security.md) for the HTTP API and the TCP
+  // The run's access token (contract/access_token.h, docs/security.md) for the HTTP API and the TCP
   // handshake, in LINK_DIR/token-PORT; --no-token: none (with a warning).
   bool token = true;
   std::string handshake_socket;
@@ -70,7 +70,7 @@ struct Options {
   // one with these settings (--world-model-rate, -fov, -range, --world-model-nearest-ball imply it);
   // published over iceoryx (unless --no-truth-iceoryx) and UDP to --truth-udp-address:BASE+N.
   bool world_model = false;
-  control::WorldModelSettings world_model_settings;
+  contract::WorldModelSettings world_model_settings;
   uint16_t truth_udp_port = 7600;                // --truth-udp-port BASE (truth::kDefaultUdpBasePort)
   std::string truth_udp_address = "127.0.0.1";   // --truth-udp-address ADDR
   bool truth_iceoryx = true;                     // --no-truth-iceoryx: UDP only (no RouDi needed)

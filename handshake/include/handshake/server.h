@@ -1,6 +1,6 @@
 #pragma once
 // The session handshake server (docs/handshake.md, proto/handshake.proto): control software connects
-// over a Unix socket or TCP, asks control::RobotHost for robots and gets back their links. One
+// over a Unix socket or TCP, asks contract::RobotHost for robots and gets back their links. One
 // listener thread accepts; each client has its own thread (at most max_clients), so a slow robot
 // build or a silent client never holds up the others. Host calls are serialized: one robot is
 // built or removed at a time.
@@ -19,7 +19,7 @@
 #include <optional>
 #include <string>
 
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "handshake/framing.h"
 #include "proto/handshake.pb.h"
 
@@ -46,7 +46,7 @@ struct ServerOptions {
 // robots' tokens. Thread-safe (host calls and tokens under one mutex).
 class Sessions {
  public:
-  explicit Sessions(control::RobotHost& host) : host_(host) {}
+  explicit Sessions(contract::RobotHost& host) : host_(host) {}
   wire::ServerMessage handle(const wire::ClientMessage& request);
 
  private:
@@ -55,7 +55,7 @@ class Sessions {
   wire::ServerMessage reattach(const wire::Reattach& request);
   wire::ServerMessage list();
 
-  control::RobotHost& host_;
+  contract::RobotHost& host_;
   std::mutex mutex_;
   struct Owned {
     uint32_t robot;
@@ -69,7 +69,7 @@ class Server {
   // Binds and starts listening (throws std::runtime_error naming the socket and why, e.g. another
   // doppel already serves the Unix socket, or the port is taken). A stale socket file nobody
   // listens on is replaced; the socket file is made private to the user (0600).
-  Server(control::RobotHost& host, ServerOptions options);
+  Server(contract::RobotHost& host, ServerOptions options);
   ~Server();  // stop()
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;

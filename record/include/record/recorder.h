@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "bus/traffic_tap.h"
-#include "control/sim_control.h"
+#include "contract/host.h"
 #include "mcap/mcap.h"
 #include "proto/recording.pb.h"
 
@@ -48,10 +48,11 @@ struct RecorderTotals {
 
 class Recorder {
  public:
-  // Opens `options.path` and writes the run information. `control` (may be null: no world state)
-  // and every tap must outlive the recorder. Throws std::runtime_error naming the file.
+  // Opens `options.path` and writes the run information. `control`'s simulation (null: no world
+  // state) and faults (null: none) and every tap must outlive the recorder. Throws
+  // std::runtime_error naming the file.
   Recorder(const RecorderOptions& options, recording::RunInfo run, std::vector<RecordedBus> buses,
-           control::SimControl* control, std::ostream* progress_out = nullptr);
+           contract::Facets control, std::ostream* progress_out = nullptr);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;

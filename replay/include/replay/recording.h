@@ -17,7 +17,7 @@
 #include <utility>
 #include <vector>
 
-#include "control/sim_control.h"
+#include "contract/simulation.h"
 #include "proto/recording.pb.h"
 
 namespace doppel::replay {
@@ -58,7 +58,7 @@ class Track {
 // A bus' counters as of `time_ns` (cumulative from the start of the recording).
 struct CounterPoint {
   int64_t time_ns = 0;
-  control::BusCounters counters;
+  contract::BusCounters counters;
 };
 
 // Counters are kept at most every kCounterPeriodNs (not per transaction): a 1 kHz control loop

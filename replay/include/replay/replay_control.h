@@ -1,8 +1,8 @@
 #pragma once
-// A recording served through the simulation-control interface (control::SimControl), so the web
-// viewer and doppel-ctl show a replay as they show a live doppel: state(), scene(), buses() and
-// camera_still() answer for the replay's current position, pause / resume / step / reset drive
-// the playback, and anything that would change the world (place, push, ball) is refused with 409.
+// A recording served through the simulation-control contract (contract::Simulation and
+// contract::Replay), so the web viewer and doppel-ctl show a replay as they show a live doppel:
+// state(), scene(), buses() and camera_still() answer for the replay's current position, pause / resume / step / reset drive
+// the playback, and anything that would change the world (place, push, ball) is refused (kConflict).
 // Each answer is the last recorded message at or before the position (latest-before, no
 // interpolation: world state at 100 Hz, scene poses at 30 Hz, servo tables at 10 Hz). Messages are
 // decoded when asked for; the last one of each kind is kept decoded, so a paused replay polled by
@@ -16,38 +16,45 @@
 #include <string>
 #include <vector>
 
-#include "control/sim_control.h"
+#include "contract/host.h"
 #include "replay/playback.h"
 #include "replay/recording.h"
 
 namespace doppel::replay {
 
-class ReplayControl final : public control::SimControl {
+class ReplayControl final : public contract::Simulation, public contract::Replay {
  public:
   // Wall clock in ns (CLOCK_MONOTONIC by default; tests pass their own). `recording` must outlive this.
   using Clock = std::function<int64_t()>;
   explicit ReplayControl(const Recording& recording, Clock clock = {});
 
-  control::SimState state() override;
-  control::Outcome pause() override;
-  control::Outcome resume() override;
-  // Only while paused (409 "pause first" otherwise, as live): moves the position on by `steps` ms
+  contract::SimState state() override;
+  contract::Outcome pause() override;
+  contract::Outcome resume() override;
+  // Only while paused (kConflict "pause first" otherwise, as live): moves the position on by `steps` ms
   // at once (a replay has nothing to simulate), stopping at the end.
-  control::Outcome step(uint32_t steps) override;
+  contract::Outcome step(uint32_t steps) override;
   // Back to the start of the recording; playing or paused as before.
-  control::Outcome reset() override;
-  control::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
-  control::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
-  control::Outcome ball(double x_m, double y_m) override;
-  control::Scene scene() override;
-  std::vector<control::BusTable> buses() override;
-  control::CameraStill camera_still(const std::string& name) override;
-  std::optional<control::ReplayStatus> replay() override;
-  control::Outcome change_replay(const control::ReplayChange& change) override;
+  contract::Outcome reset() override;
+  contract::Outcome place(std::size_t robot, double x_m, double y_m, double yaw_rad) override;
+  contract::Outcome push(std::size_t robot, double fx_n, double fy_n, double fz_n, uint32_t steps) override;
+  contract::Outcome ball(double x_m, double y_m) override;
+  contract::Scene scene() override;
+  std::vector<contract::BusTable> buses() override;
+  contract::Result<contract::CameraStill> camera_still(const std::string& name) override;
+  contract::ReplayStatus replay() override;
+  contract::Outcome change_replay(const contract::ReplayChange& change) override;
   // The analyzer's report of the recording's bus traffic (bus_analysis.h), made on the first
   // request (seconds for a long recording; the playback is not held up meanwhile) and kept. None
   // without bus transactions, or when the file cannot be read again (said once on stderr).
   std::optional<std::string> bus_analysis() override;
+  // The facets doppel-replay serves: the simulation and the replay.
+  contract::Facets facets() noexcept {
+    contract::Facets facets;
+    facets.simulation = this;
+    facets.replay = this;
+    return facets;
+  }
 
  private:
   int64_t now_ns() const { return clock_(); }
@@ -62,10 +69,10 @@ class ReplayControl final : public control::SimControl {
   std::set<std::string> strings_;
   // The last decoded message of each kind and its index in its track.
   std::optional<std::size_t> world_index_, scene_index_, poses_index_, servos_index_;
-  control::SimState world_;
-  control::Scene scene_;
+  contract::SimState world_;
+  contract::Scene scene_;
   recording::ScenePoses poses_;
-  std::vector<control::BusTable> servos_;
+  std::vector<contract::BusTable> servos_;
   // bus_analysis(): its own lock, so that state polling goes on while it is being made.
   std::mutex analysis_mutex_;
   bool analysis_made_ = false;

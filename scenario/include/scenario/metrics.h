@@ -9,7 +9,7 @@
 
 namespace doppel::scenario {
 
-// Tilt beyond which a robot counts as fallen: control::kFallenTiltRad (45 degrees), the viewer's
+// Tilt beyond which a robot counts as fallen: contract::kFallenTiltRad (45 degrees), the viewer's
 // and doppel-ctl's `fallen`.
 inline constexpr double kFallTiltRad = 0.7853981633974483;
 

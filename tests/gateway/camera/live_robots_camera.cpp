@@ -1,4 +1,4 @@
-// The cameras of a robot added while doppel runs (control::RobotHost; docs/robots-at-run-time.md):
+// The cameras of a robot added while doppel runs (contract::RobotHost; docs/robots-at-run-time.md):
 // they stream over iceoryx under the name the answer gives, with the settings asked for, and go
 // with the robot; bad camera requests are refused naming the field and leave nothing behind. In
 // process (a Gateway); its own executable: it starts RouDi, so it holds the `roudi` lock.
@@ -15,16 +15,16 @@
 #include "camera/client.h"
 #include "camera/pixel_format.h"
 #include "camera/streaming.h"
-#include "control/robot_host.h"
+#include "contract/robot_host.h"
 #include "gateway/gateway.h"
 
 namespace doppel::testing {
 namespace {
 
 namespace fs = std::filesystem;
-using control::Refusal;
-using control::RobotAdded;
-using control::RobotRequest;
+using contract::Refusal;
+using contract::RobotAdded;
+using contract::RobotRequest;
 
 class LiveRobotCameras : public ::testing::Test {
  protected:
@@ -49,7 +49,7 @@ class LiveRobotCameras : public ::testing::Test {
     fs::remove_all(dir_, ignored);
   }
 
-  control::RobotHost& host() { return gateway_->robot_host(); }
+  contract::RobotHost& host() { return gateway_->robot_host(); }
 
   static bool camera_listed(const std::string& name) {
     const auto cameras = camera::list_cameras(1.0);
@@ -67,7 +67,7 @@ class LiveRobotCameras : public ::testing::Test {
   }
 
   void expect_refused(const RobotRequest& request, const std::string& field) {
-    const control::AddResult result = host().add_robot(request);
+    const contract::AddResult result = host().add_robot(request);
     ASSERT_TRUE(std::holds_alternative<Refusal>(result)) << field;
     EXPECT_EQ(std::get<Refusal>(result).field, field) << std::get<Refusal>(result).message;
     EXPECT_EQ(host().robots().size(), 1u) << field;
@@ -80,33 +80,33 @@ class LiveRobotCameras : public ::testing::Test {
   std::unique_ptr<gateway::Gateway> gateway_;
 };
 
-RobotRequest with_camera(const control::CameraRequest& camera) {
+RobotRequest with_camera(const contract::CameraRequest& camera) {
   RobotRequest request;
   request.robot = "fumanoid-2011";
   request.cameras.push_back(camera);
   return request;
 }
 
-control::CameraRequest head_camera() {
-  control::CameraRequest camera;
+contract::CameraRequest head_camera() {
+  contract::CameraRequest camera;
   camera.name = "HEAD_CAMERA";
   return camera;
 }
 
 TEST_F(LiveRobotCameras, AnAddedRobotsCameraStreamsWithTheAskedSettingsAndGoesWithIt) {
-  control::CameraRequest camera = head_camera();
+  contract::CameraRequest camera = head_camera();
   camera.width_px = 320;
   camera.height_px = 240;
   camera.format = "bayer_rggb";
   camera.lens = "pinhole";
   camera.hfov_deg = 70.0;
   camera.fps = 30.0;
-  const control::AddResult result = host().add_robot(with_camera(camera));
+  const contract::AddResult result = host().add_robot(with_camera(camera));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(result)) << std::get<Refusal>(result).field << ": "
                                                           << std::get<Refusal>(result).message;
   const RobotAdded& added = std::get<RobotAdded>(result);
   const auto link = std::find_if(added.links.begin(), added.links.end(),
-                                 [](const control::Link& l) { return l.kind == "camera"; });
+                                 [](const contract::Link& l) { return l.kind == "camera"; });
   ASSERT_NE(link, added.links.end());
   EXPECT_EQ(link->name, "robot1-HEAD_CAMERA");
   EXPECT_EQ(link->location, "iceoryx:DoppelCamera/robot1-HEAD_CAMERA/frames");
@@ -125,7 +125,7 @@ TEST_F(LiveRobotCameras, AnAddedRobotsCameraStreamsWithTheAskedSettingsAndGoesWi
   EXPECT_TRUE(first_frame("HEAD_CAMERA").has_value()) << "the first robot's camera streams on";
 
   // Its name is free again: the same robot comes back with the file's camera.
-  const control::AddResult again = host().add_robot(with_camera(head_camera()));
+  const contract::AddResult again = host().add_robot(with_camera(head_camera()));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(again)) << std::get<Refusal>(again).message;
   const std::optional<camera::Frame> back = first_frame("robot1-HEAD_CAMERA");
   ASSERT_TRUE(back.has_value());
@@ -134,22 +134,22 @@ TEST_F(LiveRobotCameras, AnAddedRobotsCameraStreamsWithTheAskedSettingsAndGoesWi
 }
 
 TEST_F(LiveRobotCameras, BadCameraRequestsAreRefusedNamingTheFieldAndLeaveNothingBehind) {
-  control::CameraRequest unknown = head_camera();
+  contract::CameraRequest unknown = head_camera();
   unknown.name = "TAIL_CAMERA";
   expect_refused(with_camera(unknown), "cameras[0].name");
-  control::CameraRequest format = head_camera();
+  contract::CameraRequest format = head_camera();
   format.format = "rgb48";
   expect_refused(with_camera(format), "cameras[0].format");
-  control::CameraRequest odd = head_camera();
+  contract::CameraRequest odd = head_camera();
   odd.width_px = 321;
   expect_refused(with_camera(odd), "cameras[0].width_px");
-  control::CameraRequest lens = head_camera();
+  contract::CameraRequest lens = head_camera();
   lens.lens = "fishbowl";
   expect_refused(with_camera(lens), "cameras[0].lens");
-  control::CameraRequest hfov = head_camera();
+  contract::CameraRequest hfov = head_camera();
   hfov.hfov_deg = 200.0;
   expect_refused(with_camera(hfov), "cameras[0].hfov_deg");
-  control::CameraRequest noise = head_camera();
+  contract::CameraRequest noise = head_camera();
   noise.noise_gaussian_sigma = -1.0;
   expect_refused(with_camera(noise), "cameras[0].noise_gaussian_sigma");
   RobotRequest twice = with_camera(head_camera());
@@ -160,7 +160,7 @@ TEST_F(LiveRobotCameras, BadCameraRequestsAreRefusedNamingTheFieldAndLeaveNothin
   expect_refused(contradiction, "cameras");
   // Valid, but its frames (4096 x 4096 RGB, 48 MiB) do not fit the pools iceoryx was started with:
   // refused after the checks, when its stream is made; nothing of the robot is left.
-  control::CameraRequest huge = head_camera();
+  contract::CameraRequest huge = head_camera();
   huge.width_px = 4096;
   huge.height_px = 4096;
   huge.format = "rgb24";

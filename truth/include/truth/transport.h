@@ -21,7 +21,7 @@ namespace doppel::truth {
 inline constexpr const char kServiceId[] = "DoppelTruth";
 inline constexpr uint16_t kDefaultUdpBasePort = 7600;  // robot N: 7600 + N
 
-// ("DoppelTruth", "robot<N>", topic) as "iceoryx:DoppelTruth/robot<N>/<topic>" (control::Link's location).
+// ("DoppelTruth", "robot<N>", topic) as "iceoryx:DoppelTruth/robot<N>/<topic>" (contract::Link's location).
 std::string iceoryx_location(std::size_t robot, std::string_view topic);
 
 struct TransportOptions {
@@ -31,7 +31,7 @@ struct TransportOptions {
   std::string udp_address = "127.0.0.1";           // IPv4 address; another than loopback only when the user names it
 };
 
-// Where robot `robot`'s messages of `topic` can be received, as control::Link locations: its
+// Where robot `robot`'s messages of `topic` can be received, as contract::Link locations: its
 // iceoryx service (when `options.iceoryx`) and "udp:ADDRESS:PORT" (when `options.udp`; every topic
 // of a robot shares its port, each datagram a truth.Packet naming the topic).
 std::vector<std::string> topic_locations(const TransportOptions& options, std::size_t robot, std::string_view topic);

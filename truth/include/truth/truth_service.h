@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "concurrency/spsc_queue.h"
-#include "control/world_model_settings.h"
+#include "contract/world_model_settings.h"
 #include "physics/world.h"
 #include "truth/transport.h"
 #include "truth/world_model.h"
@@ -71,13 +71,13 @@ class TruthService {
   // Robot `robot` (the control API's index) gets a world-model sensor with `settings`. Returns ""
   // or the problem (settings_problem(), naming the field; an index beyond kMaxRobots); nothing
   // changes on a problem. Any thread but the simulation thread, before or after start().
-  std::string add_robot(std::size_t robot, const RobotBinding& binding, const control::WorldModelSettings& settings);
+  std::string add_robot(std::size_t robot, const RobotBinding& binding, const contract::WorldModelSettings& settings);
   // Its sensor stops and its services are withdrawn. Any thread but the simulation thread.
   void remove_robot(std::size_t robot);
-  std::optional<control::WorldModelSettings> settings(std::size_t robot);
+  std::optional<contract::WorldModelSettings> settings(std::size_t robot);
   // Changes the settings while running: "" or the problem naming the field ("no world-model sensor"
   // for a robot without one).
-  std::string set_settings(std::size_t robot, const control::WorldModelSettings& settings);
+  std::string set_settings(std::size_t robot, const contract::WorldModelSettings& settings);
 
   // Another topic on the same transport: `poll` runs on the doppel-truth thread every cycle (about
   // 1 ms) with the transport, to send what its own queue holds. Before start().

@@ -2,7 +2,7 @@
 // The world-model virtual sensor (thesis 4.2.1.5): from a sample of the world, the message a robot
 // gets: its own pose, the balls, goal posts, side poles, field landmarks and the other robots, each
 // in the field frame and relative to the robot, limited by a field of view, a range and "nearest
-// ball only", and degraded by Gaussian noise, dropout and latency (control::WorldModelSettings).
+// ball only", and degraded by Gaussian noise, dropout and latency (contract::WorldModelSettings).
 //
 // Pure computation, no threads: WorldSample is what the simulation thread captures (fixed size,
 // copied through a queue); WorldModelTopic keeps a history of samples for latency, decides which
@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "control/world_model_settings.h"
+#include "contract/world_model_settings.h"
 #include "physics/field.h"
 #include "proto/truth.pb.h"
 
@@ -46,7 +46,7 @@ struct WorldSample {
 
 // "" when `settings` can be used, else what is wrong, naming the field
 // ("fov_deg must be 0 (all around) or within (0, 180), got 200").
-std::string settings_problem(const control::WorldModelSettings& settings);
+std::string settings_problem(const contract::WorldModelSettings& settings);
 
 // The static objects of the field, from physics/field.h (field_shapes() and field_features()).
 struct FieldObjects {
@@ -73,12 +73,12 @@ FieldObjects field_objects(const physics::FieldSpec& spec = {});
 proto::truth::Relative relative_to(double robot_x_m, double robot_y_m, double robot_yaw_rad, double x_m, double y_m);
 
 // True when a point at (x, y) lies in the view of `robot` under `settings` (field of view and range).
-bool in_view(const RobotSample& robot, const control::WorldModelSettings& settings, double x_m, double y_m);
+bool in_view(const RobotSample& robot, const contract::WorldModelSettings& settings, double x_m, double y_m);
 
 // Robot `robot`'s message from `sample` (the world `settings.latency_s` ago) at `sim_time_ns`. `rng`
 // draws the noise and the dropout (per robot, seeded from settings.seed). `robot` must be present.
 proto::truth::WorldModel build_world_model(const WorldSample& sample, std::size_t robot,
-                                           const control::WorldModelSettings& settings, const FieldObjects& field,
+                                           const contract::WorldModelSettings& settings, const FieldObjects& field,
                                            std::mt19937_64& rng, int64_t sim_time_ns, uint64_t sequence);
 
 // The schedule and the history: which robot's message is due at each new sample, from which past
@@ -89,10 +89,10 @@ class WorldModelTopic {
   explicit WorldModelTopic(const physics::FieldSpec& spec = {}, double history_s = 1.1);
 
   // Adds (or replaces) robot `robot`'s sensor. Returns settings_problem(); nothing changes on a problem.
-  std::string set(std::size_t robot, const control::WorldModelSettings& settings);
+  std::string set(std::size_t robot, const contract::WorldModelSettings& settings);
   void remove(std::size_t robot);
   // Settings of robot `robot`, or nullptr when it has no sensor.
-  const control::WorldModelSettings* settings(std::size_t robot) const;
+  const contract::WorldModelSettings* settings(std::size_t robot) const;
   bool any_enabled() const;
 
   // The next sample (sim_time_ns increasing). For every enabled robot whose message is due
@@ -102,7 +102,7 @@ class WorldModelTopic {
 
  private:
   struct Sensor {
-    control::WorldModelSettings settings;
+    contract::WorldModelSettings settings;
     std::mt19937_64 rng;
     int64_t next_due_ns = -1;  // -1: at the next sample
     uint64_t sequence = 0;

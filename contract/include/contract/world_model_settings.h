@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-namespace doppel::control {
+namespace doppel::contract {
 
 struct WorldModelSettings {
   bool enabled = true;
@@ -24,4 +24,4 @@ struct WorldModelSettings {
   uint64_t seed = 0;                 // noise sequence
 };
 
-}  // namespace doppel::control
+}  // namespace doppel::contract

@@ -1,4 +1,5 @@
-// doppel: serves the Dynamixel buses of simulated robots on pseudo-terminals until SIGINT/SIGTERM.
+// doppel: serves the Dynamixel buses of simulated robots on pseudo-terminals until SIGINT/SIGTERM,
+// or runs a scenario (doppel scenario run FILE, scenario/).
 #include <pthread.h>
 #include <signal.h>
 

@@ -11,9 +11,9 @@
 #include <variant>
 #include <vector>
 
-#include "control/world_model_settings.h"
+#include "contract/world_model_settings.h"
 
-namespace doppel::control {
+namespace doppel::contract {
 
 // Settings of one camera of the robot's figure (a camera mount, by name); unset = the file's.
 struct CameraRequest {
@@ -77,4 +77,4 @@ class RobotHost {
   virtual std::vector<RobotAdded> robots() = 0;
 };
 
-}  // namespace doppel::control
+}  // namespace doppel::contract
