@@ -73,6 +73,16 @@ struct Buffer {
 static struct Buffer buffers[BUFFERS];
 static int frame_index = 0;
 
+// A capture buffer of MMAP memory, `index`, as the ioctls that take one want it.
+static struct v4l2_buffer mmap_buffer(unsigned index) {
+  struct v4l2_buffer b;
+  memset(&b, 0, sizeof b);
+  b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  b.memory = V4L2_MEMORY_MMAP;
+  b.index = index;
+  return b;
+}
+
 static int open_device(const char* device) {
   const int fd = open(device, O_RDWR);
   if (fd < 0) die("open");
@@ -110,11 +120,7 @@ static void map_buffers(int fd) {
     exit(1);
   }
   for (unsigned i = 0; i < BUFFERS; ++i) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof b);
-    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    b.memory = V4L2_MEMORY_MMAP;
-    b.index = i;
+    struct v4l2_buffer b = mmap_buffer(i);
     if (xioctl(fd, VIDIOC_QUERYBUF, &b) != 0) die("VIDIOC_QUERYBUF");
     buffers[i].length = b.length;
     buffers[i].start = mmap(NULL, b.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, b.m.offset);
@@ -124,11 +130,7 @@ static void map_buffers(int fd) {
 
 static void queue_all(int fd) {
   for (unsigned i = 0; i < BUFFERS; ++i) {
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof b);
-    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    b.memory = V4L2_MEMORY_MMAP;
-    b.index = i;
+    struct v4l2_buffer b = mmap_buffer(i);
     if (xioctl(fd, VIDIOC_QBUF, &b) != 0) die("VIDIOC_QBUF");
   }
 }
@@ -172,10 +174,7 @@ static void next_frame(int fd, const char* mode) {
       exit(1);
     }
   }
-  struct v4l2_buffer b;
-  memset(&b, 0, sizeof b);
-  b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  b.memory = V4L2_MEMORY_MMAP;
+  struct v4l2_buffer b = mmap_buffer(0);
   if (xioctl(fd, VIDIOC_DQBUF, &b) != 0) die("VIDIOC_DQBUF");
   const int64_t got_us = monotonic_us();
   const int64_t stamp_us = (int64_t)b.timestamp.tv_sec * 1000000 + b.timestamp.tv_usec;
@@ -229,10 +228,7 @@ int main(int argc, char** argv) {
   for (int i = 0; i < n; ++i) next_frame(fd, mode);
   if (strcmp(mode, "restart") == 0) {
     stream(fd, 0);
-    struct v4l2_buffer b;
-    memset(&b, 0, sizeof b);
-    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    b.memory = V4L2_MEMORY_MMAP;
+    struct v4l2_buffer b = mmap_buffer(0);
     const int r = xioctl(fd, VIDIOC_DQBUF, &b);
     printf("after_streamoff=%s\n", r == 0 ? "0" : strerror(errno));
     queue_all(fd);
