@@ -13,6 +13,8 @@
 //   every frame's sequence, timestamp and pixels.
 // MODE dqbuf: the same with a blocking DQBUF and no poll.
 // MODE select: the same with select() (the DARwIn-OP framework's LinuxCamera waits so).
+// MODE read: no buffers: N blocking read() calls of one whole frame each ("Read/Write" I/O).
+//   Prints "read I bytes=B got_us=G top=F bottom=F" per frame and the hash of the pixels.
 // MODE idle: STREAMON and never dequeue; sleep N/10 s (nanosleep), close without STREAMOFF.
 //   Prints "idle_end_us=T".
 // MODE restart: N frames with poll, STREAMOFF, a DQBUF (must fail with EINVAL), QBUF every
@@ -194,7 +196,7 @@ static void next_frame(int fd, const char* mode) {
 
 int main(int argc, char** argv) {
   if (argc != 4) {
-    fprintf(stderr, "usage: lockstep_vision poll|dqbuf|select|idle|restart|busy DEVICE N\n");
+    fprintf(stderr, "usage: lockstep_vision poll|dqbuf|select|read|idle|restart|busy DEVICE N\n");
     return 2;
   }
   const char* mode = argv[1];
@@ -213,6 +215,20 @@ int main(int argc, char** argv) {
     printf("second_reqbufs=%s\n", r == 0 ? "0" : strerror(errno));
     close(other);
     close(fd);
+    return 0;
+  }
+  if (strcmp(mode, "read") == 0) {
+    static uint8_t frame[WIDTH * HEIGHT * 2];
+    for (int i = 0; i < n; ++i) {
+      const ssize_t r = read(fd, frame, sizeof frame);
+      if (r < 0) die("read");
+      const int64_t got_us = monotonic_us();
+      hash_bytes(frame, (size_t)r);
+      printf("read %d bytes=%zd got_us=%lld top=%.4f bottom=%.4f\n", i, r, (long long)got_us,
+             green_fraction(frame, 0, HEIGHT / 2), green_fraction(frame, HEIGHT / 2, HEIGHT));
+    }
+    close(fd);
+    printf("frames=%d hash=%016llx\n", n, (unsigned long long)hash);
     return 0;
   }
   map_buffers(fd);

@@ -121,7 +121,7 @@ TEST_F(LockstepVision, AVisionLoopSeesTheSameFramesAtTheSameTimesTwice) {
   EXPECT_EQ(first.hashes, second.hashes);
 }
 
-TEST_F(LockstepVision, PollSelectAndABlockingDequeueSeeTheSameFrames) {
+TEST_F(LockstepVision, PollSelectABlockingDequeueAndReadSeeTheSameFrames) {
   const Run by_poll = run("poll /dev/video0 10");
   const Run by_select = run("select /dev/video0 10");
   const Run by_dqbuf = run("dqbuf /dev/video0 10");
@@ -131,6 +131,20 @@ TEST_F(LockstepVision, PollSelectAndABlockingDequeueSeeTheSameFrames) {
   expect_frames_at_their_times(frames_of(by_dqbuf.output), 10);
   EXPECT_EQ(by_poll.output, by_select.output);
   EXPECT_EQ(by_poll.output, by_dqbuf.output);
+  // read(): each call returns the next frame at its simulation time, the same pixels twice.
+  const Run by_read = run("read /dev/video0 10");
+  const Run by_read_again = run("read /dev/video0 10");
+  ASSERT_EQ(by_read.code, 0) << by_read.output << by_read.doppel_output;
+  EXPECT_EQ(by_read.output, by_read_again.output);
+  const std::regex line(R"(read (\d+) bytes=153600 got_us=(\d+) top=)");
+  int reads = 0;
+  for (const std::string& text : lines_of(by_read.output)) {
+    std::smatch m;
+    if (!std::regex_search(text, m, line)) continue;
+    EXPECT_EQ(std::stoll(m[2]), kMonotonicOffsetUs + due_us(std::stoi(m[1]))) << text;
+    ++reads;
+  }
+  EXPECT_EQ(reads, 10) << by_read.output;
 }
 
 TEST_F(LockstepVision, StreamoffAndRestartGiveAnErrorThenFramesFromSequenceZero) {
