@@ -3,7 +3,6 @@
 #include <pthread.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -12,6 +11,7 @@
 #include "camera/lens.h"
 #include "camera/noise.h"
 #include "camera/pixel_format.h"
+#include "lockstep/futex.h"
 #include "physics/field.h"
 
 namespace doppel::gateway {
@@ -64,7 +64,7 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
     mount.stream = std::make_unique<camera::CameraStream>(*host_, mount.config);
     fastest_fps = std::max(fastest_fps, mount.config.fps);
   }
-  offer_period_ns_ = static_cast<int64_t>(1e9 / fastest_fps);
+  offer_period_ns_ = 1e9 / fastest_fps;
   // Size every hand-over slot now, so that offer() never allocates.
   OfferedScene initial;
   initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());  // room for cameras added later
@@ -98,8 +98,23 @@ void CameraFeed::offer(const physics::World* world, int64_t sim_time_ns) noexcep
     }
   }
   offered.scene.sim_time_s = static_cast<double>(sim_time_ns) * 1e-9;
+  const uint32_t offer = offers_.load(std::memory_order_relaxed) + 1;
+  offered.offer = offer;
   handover_->publish();
-  next_offer_ns_ = sim_time_ns + offer_period_ns_;
+  offers_.store(offer, std::memory_order_release);
+  lockstep::futex_wake_all(offers_);
+  // The next grid time after this one: no drift from steps that land late on the grid.
+  const double k = std::floor(static_cast<double>(sim_time_ns) / offer_period_ns_ + 1e-9) + 1.0;
+  next_offer_ns_ = std::llround(k * offer_period_ns_);
+}
+
+void CameraFeed::wait_rendered() const noexcept {
+  const uint32_t offered = offers_.load(std::memory_order_acquire);
+  for (;;) {
+    const uint32_t rendered = rendered_.load(std::memory_order_acquire);
+    if (static_cast<int32_t>(offered - rendered) <= 0 || !running_.load(std::memory_order_acquire)) return;
+    lockstep::futex_wait(rendered_, rendered, 10'000'000);
+  }
 }
 
 void CameraFeed::start() {
@@ -122,8 +137,9 @@ void CameraFeed::stop() {
 
 void CameraFeed::run() {
   while (running_.load(std::memory_order_relaxed)) {
+    const uint32_t seen = offers_.load(std::memory_order_acquire);
     if (!handover_->update()) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      lockstep::futex_wait(offers_, seen, 1'000'000);  // woken by offer(); 1 ms to notice stop()
       continue;
     }
     // The reader's slot: the simulation thread does not touch it until the next update().
@@ -137,8 +153,11 @@ void CameraFeed::run() {
         continue;
       }
       mount.stream->render_and_publish(offered.scene, camera::camera_pose_W(mount.config.mount, offered.X_WB[i]), time_s);
-      mount.next_frame_s = time_s + 1.0 / mount.config.fps;
+      // Its next frame is due at the next k / fps (offers land on the first step at or after it).
+      mount.next_frame_s = (std::floor(time_s * mount.config.fps + 1e-6) + 1.0) / mount.config.fps;
     }
+    rendered_.store(offered.offer, std::memory_order_release);
+    lockstep::futex_wake_all(rendered_);
   }
 }
 
@@ -220,9 +239,9 @@ void CameraFeed::attach(std::size_t id, std::size_t robot, std::size_t body, dou
     initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());
     if (world != nullptr) world->fill_scene(initial.scene);
     handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial);
-    offer_period_ns_ = static_cast<int64_t>(1e9 / fps);
+    offer_period_ns_ = 1e9 / fps;
   }
-  offer_period_ns_ = std::min(offer_period_ns_, static_cast<int64_t>(1e9 / fps));
+  offer_period_ns_ = std::min(offer_period_ns_, 1e9 / fps);
   offered_[id] = Offered{true, false, robot, body};
   offered_end_ = std::max(offered_end_, id + 1);
 }

@@ -68,9 +68,17 @@ class CameraFeed {
   void release(std::size_t id);
 
   // Simulation thread, after every step (`world` as given to the constructor, `sim_time_ns` its
-  // time): hands over the scene when a frame is due. rt-safe: lock-free, wait-free, and it fills
+  // time): hands over the scene when a frame is due. Frames are due on a fixed grid of simulation
+  // time, k / fps of the fastest camera; a scene is offered at the first step at or after each
+  // grid time. rt-safe: lock-free, wait-free (one futex wake for the camera thread), and it fills
   // a hand-over slot sized in the constructor, so it allocates nothing.
   void offer(const physics::World* world, int64_t sim_time_ns) noexcept;
+  // Simulation thread under lockstep (docs/lockstep.md, "Cameras"), after offer(): blocks (wall
+  // time, on a futex) until the camera thread has rendered and published every frame due in the
+  // scenes offered so far, so that a frame is in its subscribers' queues before any controller
+  // thread sees its simulation time. Returns at once when the camera thread does not run. No lock,
+  // no allocation.
+  void wait_rendered() const noexcept;
 
   void start();
   void stop();
@@ -85,7 +93,7 @@ class CameraFeed {
     std::size_t body = 0;                                   // body the camera is mounted on (robot camera)
     camera::CameraConfig config;                            // resolution, lens, noise, X_BC or X_WC
     std::unique_ptr<camera::CameraStream> stream;           // its iceoryx publisher
-    double next_frame_s = 0.0;                              // simulation time of its next frame
+    double next_frame_s = 0.0;                              // simulation time of its next frame (k / fps)
     bool used = true;                                       // false: a free id
     bool shown = true;                                      // the camera thread renders it
     double from_s = -1.0;                                   // only in scenes taken after this time
@@ -101,6 +109,7 @@ class CameraFeed {
   struct OfferedScene {
     physics::SceneView scene;              // without a world: the static field, filled once
     std::vector<Eigen::Isometry3d> X_WB;   // per mount: pose of its body (identity when fixed)
+    uint32_t offer = 0;                    // offers_ when it was offered
   };
   void run();
 
@@ -114,8 +123,11 @@ class CameraFeed {
   // Simulation side.
   std::array<Offered, kMaxMounts> offered_{};
   std::size_t offered_end_ = 0;           // ids below this may be active
-  int64_t offer_period_ns_ = 50'000'000;  // the fastest camera's frame period
-  int64_t next_offer_ns_ = 0;             // simulation thread only
+  double offer_period_ns_ = 50'000'000.0;  // the fastest camera's frame period
+  int64_t next_offer_ns_ = 0;              // simulation thread only: the next grid time
+  // Futex words: scenes offered (simulation thread) and the last offer the camera thread finished.
+  std::atomic<uint32_t> offers_{0};
+  std::atomic<uint32_t> rendered_{0};
 
   // Simulation thread writes, camera thread reads; every slot sized in the constructor. Null
   // without cameras.

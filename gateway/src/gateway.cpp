@@ -685,6 +685,8 @@ void Gateway::simulate_lockstep() noexcept {
     stepped = true;
     if (controller_->begin_tick()) {
       step_world(sim_time_ns);
+      // A frame due now is published before any controller thread sees this time (docs/lockstep.md).
+      if (cameras_ != nullptr) cameras_->wait_rendered();
     }
     controller_->end_tick(sim_time_ns, 0);
     world_hash.add_i64(sim_time_ns);

@@ -98,6 +98,7 @@ pid_t g_pid = 0;
 pthread_key_t g_slot_key;
 thread_local ThreadSlot* t_slot = nullptr;
 thread_local uint64_t t_empty_read_event = UINT64_MAX;  // ClockFile::events at this thread's last empty bus read
+thread_local int t_bypass = 0;  // > 0: calls pass through (LockstepBypass; threads made meanwhile)
 
 // What each of this process's threads (by slot) is blocked on, so that the thread that signals or
 // posts it marks it running before it can wake (doppel must not advance time in between).
@@ -132,7 +133,7 @@ void say(const char* a, const char* b = "", const char* c = "") noexcept {
   errno = saved;
 }
 
-bool on() noexcept { return g_clock != nullptr && g_clock->open.load(std::memory_order_acquire) != 0; }
+bool on() noexcept { return g_clock != nullptr && t_bypass == 0 && g_clock->open.load(std::memory_order_acquire) != 0; }
 int64_t sim_now() noexcept { return g_clock->sim_ns.load(std::memory_order_acquire); }
 int64_t wall_now() noexcept {
   struct timespec ts {};
@@ -416,6 +417,11 @@ uint64_t expire(VirtualTimer& timer) noexcept {
 // answer for themselves, the rest is asked of the kernel without waiting. Lowers *wake_ns to the
 // earliest timer expiry.
 int poll_now(struct pollfd* fds, nfds_t n, int64_t* wake_ns) noexcept {
+  // A camera's descriptor is readable once the frames doppel published up to now are in its
+  // buffers: the program's thread moves them there itself, so readiness is simulation time's.
+  for (nfds_t i = 0; i < n; ++i) {
+    if (v4l2_fd(fds[i].fd)) v4l2_pump(fds[i].fd);
+  }
   // Only buses asked for input, each holding bytes this thread counted (a reply doppel delivered):
   // readable, without asking the kernel. Anything else (a bus with nothing, other events, other descriptors) is the kernel's.
   constexpr short kInput = POLLIN | POLLRDNORM;
@@ -669,11 +675,13 @@ struct ThreadStart {
   void* (*routine)(void*);
   void* argument;
   ThreadSlot* slot;
+  bool bypass;  // made while its creator bypassed: never registers
 };
 
 void* start_thread(void* p) {
   ThreadStart start = *static_cast<ThreadStart*>(p);
   free(p);
+  if (start.bypass) t_bypass = 1;
   t_slot = start.slot;
   if (t_slot != nullptr) {
     t_slot->tid.store(static_cast<int32_t>(::syscall(SYS_gettid)), std::memory_order_release);
@@ -787,6 +795,25 @@ void lockstep_closing(int fd) noexcept {
   int expected = fd;
   g_bus_fd[bus].compare_exchange_strong(expected, -1, std::memory_order_relaxed);
 }
+
+bool lockstep_clock() noexcept { return g_clock != nullptr; }
+bool lockstep_thread() noexcept { return on(); }
+int64_t lockstep_sim_ns() noexcept { return g_clock != nullptr ? sim_now() : 0; }
+int64_t lockstep_monotonic_offset_ns() noexcept { return lockstep::kMonotonicOffsetNs; }
+
+void lockstep_wait_event() noexcept {
+  ThreadSlot* slot = self();
+  if (slot == nullptr) {
+    const struct timespec millisecond {0, 1'000'000};
+    g_real.nanosleep(&millisecond, nullptr);  // more threads than slots: look again in wall time
+    return;
+  }
+  park(slot, lockstep::kNextEvent, kNever, Call::kCamera);
+}
+
+void lockstep_bypass_for_good() noexcept { ++t_bypass; }
+LockstepBypass::LockstepBypass() noexcept { ++t_bypass; }
+LockstepBypass::~LockstepBypass() { --t_bypass; }
 
 void lockstep_flushing(int fd, int queue, bool done) noexcept {
   if (queue == TCOFLUSH || g_clock == nullptr) return;
@@ -905,6 +932,7 @@ static int epoll_for(int epfd, struct epoll_event* events, int max, int timeout_
   // timerfd in the set never fires: docs/lockstep.md).
   ThreadSlot* slot = self();
   settle_all();
+  v4l2_pump(-1);  // every camera of the process: the set may hold any of them
   int r = g_real.epoll_wait(epfd, events, max, 0);
   if (r != 0 || timeout_ms == 0) return r;
   if (slot == nullptr) return g_real.epoll_wait(epfd, events, max, timeout_ms);
@@ -913,6 +941,7 @@ static int epoll_for(int epfd, struct epoll_event* events, int max, int timeout_
     park(slot, lockstep::kNextEvent | (deadline != kNever ? lockstep::kUntilTime : 0u), deadline, Call::kEpollWait);
     if (!on()) return g_real.epoll_wait(epfd, events, max, timeout_ms);
     settle_all();
+    v4l2_pump(-1);
     r = g_real.epoll_wait(epfd, events, max, 0);
     if (r != 0 || sim_now() >= deadline) return r;
   }
@@ -1077,11 +1106,12 @@ SHIM_EXPORT int timerfd_gettime(int fd, struct itimerspec* value) noexcept {
 
 SHIM_EXPORT int pthread_create(pthread_t* thread, const pthread_attr_t* attr, void* (*routine)(void*), void* argument) {
   NEED_REAL();
-  if (!on()) return g_real.pthread_create(thread, attr, routine, argument);
+  const bool bypassing = g_clock != nullptr && t_bypass > 0;
+  if (!on() && !bypassing) return g_real.pthread_create(thread, attr, routine, argument);
   auto* start = static_cast<ThreadStart*>(malloc(sizeof(ThreadStart)));
   if (start == nullptr) return EAGAIN;
   // The new thread runs (for doppel) from before it exists: time cannot pass before it first waits.
-  *start = {routine, argument, claim(0)};
+  *start = {routine, argument, bypassing ? nullptr : claim(0), bypassing};
   const int r = g_real.pthread_create(thread, attr, start_thread, start);
   if (r != 0) {
     release(start->slot);

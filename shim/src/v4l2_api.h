@@ -8,6 +8,7 @@
 // it stands for does; none throws.
 
 #include <stddef.h>
+#include <stdint.h>
 #include <sys/types.h>
 
 extern "C" {
@@ -24,6 +25,16 @@ struct DoppelV4l2Api {
   // A munmap of the program (any address): counts unmapped buffers for V4L2_BUF_FLAG_MAPPED.
   void (*unmapped)(void* addr, size_t length);
   ssize_t (*read)(int fd, void* buffer, size_t n);
+  // Lockstep (docs/lockstep.md, "Cameras"): called once, before the first open, when the program
+  // runs on doppel's simulation time. `sim_now` reads it; `monotonic_offset_ns` is what
+  // CLOCK_MONOTONIC reads at simulation time 0. The module then takes frames only in pump() and in
+  // the program's DQBUF and read() (no worker thread), stamps them with their simulation time, and
+  // answers EAGAIN where it would block: the shim waits in simulation time and asks again.
+  void (*set_lockstep)(int64_t (*sim_now)(void), int64_t monotonic_offset_ns);
+  // Lockstep: moves every frame published so far from shared memory into the program's buffers
+  // (or, with read(), keeps the newest), for descriptor `fd`'s camera or, with -1, every camera of
+  // the process, so that the descriptor's readiness says what simulation time says.
+  void (*pump)(int fd);
 };
 
 // Exported by libdoppel_v4l2.so.

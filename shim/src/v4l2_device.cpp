@@ -9,6 +9,11 @@
 // with none queued the frame is lost and the sequence number shows the gap. The descriptor the
 // program gets is an eventfd, readable while a filled buffer waits, so poll/select/epoll work
 // unchanged. The eventfd is read and written with raw system calls: the shim interposes read().
+//
+// Under lockstep (set_lockstep) there is no worker: doppel publishes each frame before any
+// controller thread sees its simulation time, and the program's own thread moves the frames into
+// its buffers when it polls, dequeues or reads (pump), so what it gets depends on simulation time
+// only (docs/lockstep.md, "Cameras").
 #include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -23,6 +28,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -45,6 +51,13 @@ constexpr uint32_t kMaxBuffers = 32;
 constexpr uint32_t kMinBuffers = 2;
 constexpr uint32_t kCaps = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING | V4L2_CAP_READWRITE | V4L2_CAP_EXT_PIX_FORMAT;
 constexpr uint32_t kTimestampFlags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_EOF;
+constexpr uint32_t kLockstepQueue = 16;  // most frames waiting in shared memory for one lockstep reader
+constexpr double kConnectTimeoutS = 5.0;  // lockstep: STREAMON waits this long for doppel's publisher
+
+// Lockstep: simulation time (the shim's), and what CLOCK_MONOTONIC reads at simulation time 0.
+int64_t (*g_sim_now)() = nullptr;
+int64_t g_monotonic_offset_ns = 0;
+bool lockstep() { return g_sim_now != nullptr; }
 
 void say(const std::string& text) {
   const std::string line = "doppel-run shim: " + text + "\n";
@@ -107,6 +120,7 @@ struct Camera {
   std::optional<camera::Frame> pending;
   bool have_base = false;
   uint64_t base_sequence = 0;  // frame sequence number of V4L2 sequence 0
+  int64_t started_sim_ns = 0;  // lockstep: simulation time of STREAMON (or the first read)
   std::thread worker;
   std::atomic<bool> stop{false};
   std::unique_ptr<camera::FrameSubscriber> subscriber;
@@ -227,9 +241,12 @@ Camera* camera_for(const char* device, const std::string& wanted) {
 
 // ---- streaming ------------------------------------------------------------------------------
 
+// Real time: when the frame was complete. Lockstep: its simulation time on the program's
+// CLOCK_MONOTONIC (the frame is ready at the time of its scene: no readout latency is modelled).
 void fill_timestamp(Buffer& b, const camera::FrameHeader& h) {
-  b.timestamp.tv_sec = static_cast<time_t>(h.publish_mono_ns / 1000000000);
-  b.timestamp.tv_usec = static_cast<suseconds_t>((h.publish_mono_ns % 1000000000) / 1000);
+  const int64_t ns = lockstep() ? g_monotonic_offset_ns + h.sim_time_ns : h.publish_mono_ns;
+  b.timestamp.tv_sec = static_cast<time_t>(ns / 1000000000);
+  b.timestamp.tv_usec = static_cast<suseconds_t>((ns % 1000000000) / 1000);
 }
 
 uint8_t* buffer_memory(Camera& cam, uint32_t index) {
@@ -241,59 +258,100 @@ bool frame_matches(const Camera& cam, const camera::FrameHeader& h) {
   return h.width_px == cam.source.width && h.height_px == cam.source.height && h.format == cam.source.format;
 }
 
+// One frame from shared memory into the oldest queued buffer (with read(): kept as the newest).
+// Caller holds the camera's lock; it is released during the copy.
+void deliver(Camera& cam, camera::Frame&& frame, std::unique_lock<std::mutex>& lock) {
+  const camera::FrameHeader& h = frame.header();
+  // Lockstep: a frame of a scene not after STREAMON is not this stream's (its history).
+  if (lockstep() && h.sim_time_ns <= cam.started_sim_ns) return;
+  if (!cam.have_base) {
+    cam.have_base = true;
+    cam.base_sequence = h.sequence;
+  }
+  if (cam.reading) {
+    const bool was_empty = !cam.pending.has_value();
+    cam.pending = std::move(frame);
+    if (was_empty && cam.owner != nullptr) eventfd_set(cam.owner->fd);
+    cam.changed.notify_all();
+    return;
+  }
+  if (cam.queued.empty()) return;  // no buffer: the frame is lost, the next sequence shows it
+  const uint32_t index = cam.queued.front();
+  cam.queued.pop_front();
+  Buffer& b = cam.buffers[index];
+  b.state = BufferState::kFilling;
+  const Mode mode = cam.mode;
+  const ToneCurves curves = cam.curves;
+  uint8_t* out = buffer_memory(cam, index);
+  lock.unlock();
+  bool ok = frame_matches(cam, h);
+  if (ok) convert_frame(cam.source, frame.pixels(), h.stride_bytes, mode, curves, out);
+  lock.lock();
+  b.bytesused = ok ? mode.sizeimage : 0;
+  b.flags = ok ? 0 : V4L2_BUF_FLAG_ERROR;
+  b.sequence = static_cast<uint32_t>(h.sequence - cam.base_sequence);
+  fill_timestamp(b, h);
+  if (!cam.streaming) {  // STREAMOFF while copying: the buffer goes back to the program
+    b.state = BufferState::kDequeued;
+    return;
+  }
+  b.state = BufferState::kDone;
+  const bool was_empty = cam.done.empty();
+  cam.done.push_back(index);
+  if (was_empty && cam.owner != nullptr) eventfd_set(cam.owner->fd);
+  cam.changed.notify_all();
+}
+
 void worker_loop(Camera* cam) {
   while (!cam->stop.load()) {
     std::optional<camera::Frame> frame = cam->subscriber->wait_take(0.05);
     if (!frame) continue;
-    const camera::FrameHeader& h = frame->header();
     std::unique_lock lock(cam->mutex);
-    if (!cam->have_base) {
-      cam->have_base = true;
-      cam->base_sequence = h.sequence;
-    }
-    if (cam->reading) {
-      const bool was_empty = !cam->pending.has_value();
-      cam->pending = std::move(frame);
-      if (was_empty && cam->owner != nullptr) eventfd_set(cam->owner->fd);
-      cam->changed.notify_all();
-      continue;
-    }
-    if (cam->queued.empty()) continue;  // no buffer: the frame is lost, the next sequence shows it
-    const uint32_t index = cam->queued.front();
-    cam->queued.pop_front();
-    Buffer& b = cam->buffers[index];
-    b.state = BufferState::kFilling;
-    const Mode mode = cam->mode;
-    const ToneCurves curves = cam->curves;
-    uint8_t* out = buffer_memory(*cam, index);
-    lock.unlock();
-    bool ok = frame_matches(*cam, h);
-    if (ok) convert_frame(cam->source, frame->pixels(), h.stride_bytes, mode, curves, out);
-    lock.lock();
-    b.bytesused = ok ? mode.sizeimage : 0;
-    b.flags = ok ? 0 : V4L2_BUF_FLAG_ERROR;
-    b.sequence = static_cast<uint32_t>(h.sequence - cam->base_sequence);
-    fill_timestamp(b, h);
-    if (!cam->streaming) {  // STREAMOFF while copying: the buffer goes back to the program
-      b.state = BufferState::kDequeued;
-      continue;
-    }
-    b.state = BufferState::kDone;
-    const bool was_empty = cam->done.empty();
-    cam->done.push_back(index);
-    if (was_empty && cam->owner != nullptr) eventfd_set(cam->owner->fd);
-    cam->changed.notify_all();
+    deliver(*cam, std::move(*frame), lock);
   }
 }
 
+// Lockstep: every frame doppel published so far (it publishes a frame before any controller
+// thread sees its time). Caller holds the camera's lock.
+void pump_camera(Camera& cam, std::unique_lock<std::mutex>& lock) {
+  if (!lockstep()) return;
+  while (cam.subscriber != nullptr) {
+    std::optional<camera::Frame> frame = cam.subscriber->try_take();
+    if (!frame) return;
+    deliver(cam, std::move(*frame), lock);
+  }
+}
+
+// Caller holds the camera's lock.
 int start_worker(Camera& cam) {
+  camera::SubscriberOptions options;
+  if (lockstep()) {
+    // Frames wait in shared memory until the program's thread takes them: room for as many as it
+    // has buffers (with read(), the newest two).
+    options.queue_capacity = cam.reading ? 2 : std::clamp(static_cast<uint32_t>(cam.buffers.size()), kMinBuffers, kLockstepQueue);
+  }
   try {
-    cam.subscriber = std::make_unique<camera::FrameSubscriber>(cam.name);
+    cam.subscriber = std::make_unique<camera::FrameSubscriber>(cam.name, options);
   } catch (const std::exception& e) {
     say(cam.name + ": " + e.what());
     return fail(EIO);
   }
   cam.have_base = false;
+  if (lockstep()) {
+    // The program's thread runs for doppel meanwhile (the shim bypasses), so no simulation time
+    // passes: every frame due after this instant reaches the subscription.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(kConnectTimeoutS);
+    while (!cam.subscriber->connected()) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        say(cam.name + ": doppel's camera did not accept the subscription within 5 s (is doppel running?)");
+        cam.subscriber.reset();
+        return fail(EIO);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    cam.started_sim_ns = g_sim_now();
+    return 0;
+  }
   cam.stop = false;
   cam.worker = std::thread(worker_loop, &cam);
   return 0;
@@ -301,11 +359,12 @@ int start_worker(Camera& cam) {
 
 // Caller holds the camera's lock; stops the worker and drops its subscription.
 void stop_worker(Camera& cam, std::unique_lock<std::mutex>& lock) {
-  if (!cam.worker.joinable()) return;
-  cam.stop = true;
-  lock.unlock();
-  cam.worker.join();
-  lock.lock();
+  if (cam.worker.joinable()) {
+    cam.stop = true;
+    lock.unlock();
+    cam.worker.join();
+    lock.lock();
+  }
   cam.subscriber.reset();
 }
 
@@ -628,10 +687,11 @@ int dqbuf(File& file, v4l2_buffer* b) {
   if (cam.owner != &file || cam.reading) return fail(cam.owner == nullptr ? EINVAL : EBUSY);
   if (b->memory != cam.memory) return fail(EINVAL);
   const bool nonblocking = (::fcntl(file.fd, F_GETFL) & O_NONBLOCK) != 0;
+  pump_camera(cam, lock);
   for (;;) {
     if (!cam.streaming) return fail(EINVAL);
     if (!cam.done.empty()) break;
-    if (nonblocking) return fail(EAGAIN);
+    if (nonblocking || lockstep()) return fail(EAGAIN);  // lockstep: the shim waits in simulation time
     cam.changed.wait(lock);
   }
   const uint32_t index = cam.done.front();
@@ -1035,8 +1095,9 @@ ssize_t api_read(int fd, void* out, size_t n) {
     }
   }
   const bool nonblocking = (::fcntl(fd, F_GETFL) & O_NONBLOCK) != 0;
+  pump_camera(cam, lock);
   while (!cam.pending) {
-    if (nonblocking) return fail(EAGAIN);
+    if (nonblocking || lockstep()) return fail(EAGAIN);  // lockstep: the shim waits in simulation time
     cam.changed.wait(lock);
   }
   camera::Frame frame = std::move(*cam.pending);
@@ -1051,7 +1112,31 @@ ssize_t api_read(int fd, void* out, size_t n) {
   return static_cast<ssize_t>(mode.sizeimage);
 }
 
-const DoppelV4l2Api g_api = {api_open, api_close, api_ioctl, api_mmap, api_unmapped, api_read};
+void api_set_lockstep(int64_t (*sim_now)(void), int64_t monotonic_offset_ns) {
+  g_monotonic_offset_ns = monotonic_offset_ns;
+  g_sim_now = sim_now;
+}
+
+void pump_one(Camera& cam) {
+  std::unique_lock lock(cam.mutex);
+  pump_camera(cam, lock);
+}
+
+void api_pump(int fd) {
+  if (!lockstep()) return;
+  if (fd >= 0) {
+    if (File* file = file_of(fd)) pump_one(*file->camera);
+    return;
+  }
+  std::vector<Camera*> cameras;  // not under g_mutex: a camera's lock is taken before it elsewhere
+  {
+    std::lock_guard lock(g_mutex);
+    for (const auto& [name, cam] : g_cameras) cameras.push_back(cam);
+  }
+  for (Camera* cam : cameras) pump_one(*cam);
+}
+
+const DoppelV4l2Api g_api = {api_open, api_close, api_ioctl, api_mmap, api_unmapped, api_read, api_set_lockstep, api_pump};
 
 }  // namespace
 }  // namespace doppel::shim

@@ -4,6 +4,8 @@
 // arrays.
 #include <dlfcn.h>
 #include <errno.h>
+#include <fcntl.h>
+#include <linux/videodev2.h>
 #include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
@@ -15,7 +17,7 @@
 
 #include <atomic>
 
-#include "lockstep/clock_file.h"
+#include "lockstep_shim.h"
 #include "v4l2_api.h"
 #include "v4l2_shim.h"
 
@@ -39,6 +41,7 @@ std::atomic<int> g_map_state{0};  // 0 unparsed, 1 parsing, 2 parsed
 std::atomic<bool> g_fd_camera[kMaxFds];
 std::atomic<const DoppelV4l2Api*> g_api{nullptr};
 std::atomic<bool> g_module_failed{false};
+std::atomic<bool> g_exit_handler{false};
 
 void say(const char* a, const char* b = "", const char* c = "") noexcept {
   const int saved = errno;
@@ -93,6 +96,7 @@ const DoppelV4l2Api* api() noexcept {
     return nullptr;
   }
   const DoppelV4l2Api* loaded = entry();
+  if (lockstep_clock()) loaded->set_lockstep(lockstep_sim_ns, lockstep_monotonic_offset_ns());
   g_api.store(loaded, std::memory_order_release);
   return loaded;
 }
@@ -197,13 +201,7 @@ int v4l2_open(const char* path, int flags) noexcept {
   if (g_map_state.load(std::memory_order_acquire) != 2) parse_map();
   for (int i = 0; i < g_camera_count; ++i) {
     if (strcmp(path, g_cameras[i].device) != 0) continue;
-    if (getenv(lockstep::kClockVariable) != nullptr) {
-      // Doppel's camera thread renders in wall time beside a lockstep run (docs/lockstep.md), so
-      // frames would not be ready at their simulation time: refuse rather than break determinism.
-      say(path, ": cameras are not in lockstep yet (docs/lockstep.md); not opened under --lockstep");
-      errno = ENODEV;
-      return -1;
-    }
+    LockstepBypass bypass;  // the module's iceoryx work takes no simulation time
     const DoppelV4l2Api* a = api();
     if (a == nullptr) {
       errno = ENODEV;
@@ -215,6 +213,11 @@ int v4l2_open(const char* path, int flags) noexcept {
       a->close(fd);
       errno = EMFILE;
       return -1;
+    }
+    if (fd >= 0 && lockstep_clock() && !g_exit_handler.exchange(true)) {
+      // Registered after the module's own (and iceoryx's runtime), so it runs before them: the
+      // exiting thread's teardown of iceoryx (requests to RouDi) takes no simulation time.
+      atexit(lockstep_bypass_for_good);
     }
     if (fd >= 0) {
       g_fd_minor[fd] = static_cast<int>(minor_of(g_cameras[i].device));
@@ -229,19 +232,55 @@ bool v4l2_fd(int fd) noexcept { return fd >= 0 && fd < kMaxFds && g_fd_camera[fd
 
 int v4l2_close(int fd) noexcept {
   g_fd_camera[fd].store(false, std::memory_order_release);
+  LockstepBypass bypass;
   return g_api.load()->close(fd);
 }
 
-int v4l2_ioctl(int fd, unsigned long request, void* arg) noexcept { return g_api.load()->ioctl(fd, request, arg); }
+namespace {
 
-ssize_t v4l2_read(int fd, void* buffer, size_t n) noexcept { return g_api.load()->read(fd, buffer, n); }
+// A call of the module that would block (DQBUF, read on a blocking descriptor) answers EAGAIN in
+// lockstep; the thread then waits for the next event of simulation time and asks again, so a
+// frame is got at the simulation time doppel published it, and time passes meanwhile.
+template <typename Call>
+long camera_call(int fd, bool may_block, Call call) noexcept {
+  const bool wait = may_block && lockstep_thread() && (fcntl(fd, F_GETFL) & O_NONBLOCK) == 0;
+  for (;;) {
+    long r;
+    {
+      LockstepBypass bypass;
+      r = call();
+    }
+    if (!wait || r >= 0 || errno != EAGAIN) return r;
+    lockstep_wait_event();
+  }
+}
+
+}  // namespace
+
+int v4l2_ioctl(int fd, unsigned long request, void* arg) noexcept {
+  return static_cast<int>(camera_call(fd, request == VIDIOC_DQBUF, [&] { return static_cast<long>(g_api.load()->ioctl(fd, request, arg)); }));
+}
+
+ssize_t v4l2_read(int fd, void* buffer, size_t n) noexcept {
+  return static_cast<ssize_t>(camera_call(fd, true, [&] { return static_cast<long>(g_api.load()->read(fd, buffer, n)); }));
+}
+
+void v4l2_pump(int fd) noexcept {
+  const DoppelV4l2Api* a = g_api.load(std::memory_order_acquire);
+  if (a == nullptr) return;
+  LockstepBypass bypass;
+  a->pump(fd);
+}
 
 }  // namespace doppel::shim
 
 using namespace doppel::shim;
 
 SHIM_EXPORT void* mmap(void* addr, size_t length, int prot, int flags, int fd, off_t offset) noexcept {
-  if (v4l2_fd(fd)) return g_api.load()->mmap(addr, length, prot, flags, fd, offset);
+  if (v4l2_fd(fd)) {
+    LockstepBypass bypass;
+    return g_api.load()->mmap(addr, length, prot, flags, fd, offset);
+  }
   if (real_mmap == nullptr) real_mmap = reinterpret_cast<void* (*)(void*, size_t, int, int, int, off_t)>(dlsym(RTLD_NEXT, "mmap"));
   return real_mmap(addr, length, prot, flags, fd, offset);
 }
@@ -252,7 +291,10 @@ SHIM_EXPORT int munmap(void* addr, size_t length) noexcept {
   if (real_munmap == nullptr) real_munmap = reinterpret_cast<int (*)(void*, size_t)>(dlsym(RTLD_NEXT, "munmap"));
   const int r = real_munmap(addr, length);
   if (r == 0) {
-    if (const DoppelV4l2Api* a = g_api.load(std::memory_order_acquire)) a->unmapped(addr, length);
+    if (const DoppelV4l2Api* a = g_api.load(std::memory_order_acquire)) {
+      LockstepBypass bypass;
+      a->unmapped(addr, length);
+    }
   }
   return r;
 }

@@ -42,7 +42,7 @@ enum WaitFlags : uint32_t {
 enum class Call : uint32_t {
   kNone, kStart, kClockGettime, kGettimeofday, kTime, kNanosleep, kClockNanosleep, kUsleep, kSleep,
   kPoll, kPpoll, kSelect, kPselect, kEpollWait, kTimerfdRead, kBusRead, kBusWrite, kCondWait,
-  kCondTimedwait, kSemWait, kSemTimedwait, kJoin, kRead, kCount,
+  kCondTimedwait, kSemWait, kSemTimedwait, kJoin, kRead, kCamera, kCount,
 };
 
 inline const char* call_name(uint32_t call) noexcept {
@@ -50,7 +50,7 @@ inline const char* call_name(uint32_t call) noexcept {
       "none", "thread start", "clock_gettime", "gettimeofday", "time", "nanosleep", "clock_nanosleep",
       "usleep", "sleep", "poll", "ppoll", "select", "pselect", "epoll_wait", "read(timerfd)",
       "read(bus)", "write(bus)", "pthread_cond_wait", "pthread_cond_timedwait", "sem_wait",
-      "sem_timedwait", "pthread_join", "read/recv (blocking)",
+      "sem_timedwait", "pthread_join", "read/recv (blocking)", "VIDIOC_DQBUF/read(camera)",
   };
   static_assert(sizeof(kNames) / sizeof(kNames[0]) == static_cast<std::size_t>(Call::kCount));
   return call < static_cast<uint32_t>(Call::kCount) ? kNames[call] : "?";

@@ -44,11 +44,11 @@ TEST(CameraFeedAllocations, OfferAllocatesNothingAndTheCameraRendersTheOfferedSc
   }
   ASSERT_TRUE(subscriber.connected());
 
-  // Like the simulation thread: offer after every step. The camera renders a scene once per frame
-  // period; this loop waits for each frame, so none is skipped and each must carry the time of the
-  // step that offered it.
+  // Like the simulation thread: offer after every step. Frame k is due at k / fps (a grid of
+  // simulation time) and rendered from the first step at or after it; this loop waits for each
+  // frame, so none is skipped and each must carry the time of the step that offered it.
   const int64_t period_ns = static_cast<int64_t>(1e9 / config.fps);
-  int64_t last_frame_ns = -period_ns;
+  int64_t next_frame_ns = 0;
   uint64_t offers = 0;
   int frames = 0;
   while (frames < 20) {
@@ -57,11 +57,11 @@ TEST(CameraFeedAllocations, OfferAllocatesNothingAndTheCameraRendersTheOfferedSc
     sut.offer(&world, world.time_ns());
     doppel::testing::count_allocations_on_this_thread(false);
     ++offers;
-    if (world.time_ns() >= last_frame_ns + period_ns) {
+    if (world.time_ns() >= next_frame_ns) {
       const auto frame = subscriber.wait_take(10.0);
       ASSERT_TRUE(frame.has_value()) << "no frame for the scene offered at " << world.time_ns() << " ns";
       EXPECT_EQ(frame->header().sim_time_ns, world.time_ns());
-      last_frame_ns = world.time_ns();
+      next_frame_ns = (world.time_ns() / period_ns + 1) * period_ns;
       ++frames;
     }
   }
