@@ -81,7 +81,8 @@ std::string gate_command(const std::string& launcher, const DoppelProcess& doppe
 // The read deadlines here are 500 ms, not the framework's 5 ms: even once doppel has the bytes, its
 // answer reaches the client through the pty's kernel work item, a normal-priority kworker that
 // competes with everything else on its CPU, so 5 ms depends on the machine's load (the opt-in test
-// above). The deadline still counts from write()'s return, as the framework's does.
+// above; docs/drivers.md has this client's figures with 5 ms). The deadline still counts from
+// write()'s return, as the framework's does.
 TEST(DarwinStartGate, EveryStalledWriteReturnsOnceDoppelCanReadItAndTheFirstCyclePingsBuildTheFullBulkRead) {
   if (!may_use_real_time()) GTEST_SKIP() << "the framework's start needs SCHED_RR (root), as on the robot";
   DoppelProcess doppel = darwin_op();
