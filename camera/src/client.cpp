@@ -26,6 +26,7 @@
 #include "iceoryx_posh/runtime/posh_runtime.hpp"
 #include "iceoryx_posh/runtime/service_discovery.hpp"
 #include "iox_support.h"
+#include "roudi/host.h"
 
 namespace doppel::camera {
 namespace {
@@ -74,18 +75,16 @@ int remove_stale_client_files(const std::string& app_name, const std::string& di
   return removed;
 }
 
-bool roudi_running() { return detail::roudi_lock_held(); }
+bool roudi_running() { return roudi::running(); }
 
 void connect_client(const std::string& app_name, bool verbose) {
-  if (detail::g_host_alive.load() || detail::g_client_runtime.load()) return;
-  if (!detail::roudi_lock_held()) {
+  if (roudi::Host::exists() || roudi::client_registered()) return;
+  if (!roudi::running()) {
     throw std::runtime_error("no RouDi runs on this machine: start doppel (or iox-roudi) first");
   }
-  detail::set_iceoryx_log_level(verbose);
+  roudi::set_log_level(verbose);
   remove_stale_client_files(app_name, iox::platform::IOX_UDS_SOCKET_PATH_PREFIX);
-  const std::string name = app_name + "-" + std::to_string(::getpid());
-  iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
-  detail::g_client_runtime = true;
+  roudi::register_client(app_name + "-" + std::to_string(::getpid()));
 }
 
 std::vector<CameraInfo> list_cameras(double timeout_s) {
@@ -138,7 +137,7 @@ std::vector<CameraInfo> list_cameras(double timeout_s) {
 
 CameraInfo set_camera_noise(const std::string& camera, const NoiseConfig& noise, double timeout_s) {
   validate(noise);
-  if (!detail::g_host_alive.load() && !detail::g_client_runtime.load()) {
+  if (!roudi::Host::exists() && !roudi::client_registered()) {
     throw std::logic_error("set_camera_noise: call connect_client() first");
   }
   if (!detail::service_offered(camera, detail::kInfoEvent)) {
@@ -240,7 +239,7 @@ struct FrameSubscriber::Impl {
 
 FrameSubscriber::FrameSubscriber(const std::string& camera, const SubscriberOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  if (!detail::g_host_alive.load() && !detail::g_client_runtime.load()) {
+  if (!roudi::Host::exists() && !roudi::client_registered()) {
     throw std::logic_error("FrameSubscriber: call connect_client() first");
   }
   if (options.queue_capacity < 1 || options.queue_capacity > 64) {

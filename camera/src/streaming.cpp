@@ -1,54 +1,27 @@
 #include "camera/streaming.h"
 
-#include <fcntl.h>
-#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <chrono>
-#include <condition_variable>
-#include <cstdio>
+#include <atomic>
 #include <cstring>
-#include <fstream>
-#include <iostream>
-#include <map>
 #include <mutex>
 #include <new>
-#include <sstream>
 #include <stdexcept>
-#include <thread>
-#include <vector>
 
 #include "base/monotonic_clock.h"
 #include "camera/frame.h"
 #include "camera/renderer.h"
 #include "concurrency/sanitizer_handover.h"
-#include "iceoryx_hoofs/cxx/generic_raii.hpp"
-#include "iceoryx_hoofs/log/logmanager.hpp"
-#include "iceoryx_hoofs/posix_wrapper/posix_access_rights.hpp"
-#include "iceoryx_posh/iceoryx_posh_config.hpp"
-#include "iceoryx_posh/iceoryx_posh_types.hpp"
-// An internal header, on purpose: in iceoryx 2.0.3 iox::roudi::RouDi is the only way to run RouDi
-// inside a process that goes on doing other work (iceoryx's own single-process example includes it
-// too; the public IceOryxRouDiApp::run() blocks and takes over the signals). roudi_test.cpp pins the
-// iceoryx version this was checked with, so another version fails a test before it is trusted.
-#include "iceoryx_posh/internal/roudi/roudi.hpp"
-#include "iceoryx_posh/internal/runtime/ipc_interface_base.hpp"
 #include "iceoryx_posh/mepoo/chunk_header.hpp"
 #include "iceoryx_posh/mepoo/chunk_settings.hpp"
-#include "iceoryx_posh/popo/subscriber.hpp"
 #include "iceoryx_posh/popo/untyped_publisher.hpp"
 #include "iceoryx_posh/popo/untyped_subscriber.hpp"
-#include "iceoryx_posh/roudi/iceoryx_roudi_components.hpp"
-#include "iceoryx_posh/roudi/introspection_types.hpp"
-#include "iceoryx_posh/runtime/posh_runtime.hpp"
-#include "iceoryx_posh/runtime/posh_runtime_single_process.hpp"
 #include "iox_support.h"
+#include "roudi/host.h"
 
 namespace doppel::camera {
 namespace {
-
-constexpr uint64_t kMgmtSegmentEstimateBytes = 80ull << 20;  // RouDi's management segment (~66 MB)
 
 uint32_t align64(uint64_t n) { return static_cast<uint32_t>((n + 63) / 64 * 64); }
 
@@ -61,175 +34,18 @@ uint64_t pool_payload_for(uint64_t payload) {
   return align64(settings.value().requiredChunkSize() - sizeof(iox::mepoo::ChunkHeader));
 }
 
-// Largest chunk payload of the running RouDi's pools that this process may write to, from RouDi's
-// mempool introspection topic; 0 when nothing arrives in time.
-uint64_t external_max_payload(double timeout_s) {
-  iox::popo::SubscriberOptions options;
-  options.queueCapacity = 1;
-  options.historyRequest = 1;
-  iox::popo::Subscriber<iox::roudi::MemPoolIntrospectionInfoContainer> sub(iox::roudi::IntrospectionMempoolService,
-                                                                          options);
-  const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (std::chrono::steady_clock::now() < deadline) {
-    uint64_t best_mine = 0;
-    uint64_t best_any = 0;
-    bool got = false;
-    sub.take().and_then([&](auto& sample) {
-      got = true;
-      for (const auto& segment : *sample) {
-        uint64_t seg_max = 0;
-        for (const auto& pool : segment.m_mempoolInfo) seg_max = std::max<uint64_t>(seg_max, pool.m_chunkPayloadSize);
-        best_any = std::max(best_any, seg_max);
-        if (segment.m_writerGroupName == group) best_mine = std::max(best_mine, seg_max);
-      }
-    });
-    if (got) return best_mine > 0 ? best_mine : best_any;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  return 0;
-}
-
-// Start time of process `pid` (clock ticks after boot, /proc/<pid>/stat field 22); 0 when the
-// process is gone or a zombie. Together with the pid it names one process, even after pid reuse.
-uint64_t process_start_ticks(uint32_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string stat;
-  std::getline(in, stat);
-  const std::size_t after_name = stat.rfind(')');
-  if (after_name == std::string::npos) return 0;
-  std::istringstream fields(stat.substr(after_name + 1));
-  std::string state;
-  fields >> state;
-  if (state == "Z" || state == "X") return 0;
-  std::string skipped;
-  for (int field = 4; field < 22; ++field) fields >> skipped;
-  uint64_t start = 0;
-  fields >> start;
-  return start;
-}
-
-// iceoryx 2.0's RouDi message thread writes "RouDi is ready for clients" straight to std::cout,
-// bypassing its logger (roudi.cpp, processRuntimeMessages). While `active`, this points stdout at
-// /dev/null; at the file-descriptor level, because that thread writes while RouDi starts and a
-// stream-buffer swap would race with it. Nothing else in doppel writes to stdout meanwhile.
-class QuietStdout {
- public:
-  explicit QuietStdout(bool active) {
-    if (!active) return;
-    const int null_fd = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
-    if (null_fd < 0) return;
-    std::cout.flush();
-    std::fflush(stdout);
-    saved_fd_ = ::fcntl(STDOUT_FILENO, F_DUPFD_CLOEXEC, 0);
-    if (saved_fd_ >= 0) ::dup2(null_fd, STDOUT_FILENO);
-    ::close(null_fd);
-  }
-  ~QuietStdout() {
-    if (saved_fd_ < 0) return;
-    std::cout.flush();
-    std::fflush(stdout);
-    ::dup2(saved_fd_, STDOUT_FILENO);
-    ::close(saved_fd_);
-  }
-  QuietStdout(const QuietStdout&) = delete;
-  QuietStdout& operator=(const QuietStdout&) = delete;
-
- private:
-  int saved_fd_ = -1;
-};
-
-// RouDi inside doppel. iceoryx's own process monitoring declares a client dead when its keep-alive
-// messages stop for 1.5 s, which a stopped client (SIGSTOP, a debugger, a suspended laptop) cannot
-// send; the client then aborts when it continues (POPO__CHUNK_LOCKING_ERROR). So that monitoring is
-// off, and this RouDi removes a client when its process is really gone: it notes the pid of every
-// client that registers and looks every 500 ms whether that process still exists.
-class ClientReapingRouDi final : public iox::roudi::RouDi {
- public:
-  ClientReapingRouDi(iox::roudi::RouDiMemoryInterface& memory, iox::roudi::PortManager& ports)
-      : RouDi(memory, ports,
-              RoudiStartupParameters{iox::roudi::MonitoringMode::OFF, false,
-                                     RuntimeMessagesThreadStart::DEFER_START}) {
-    reaper_ = std::thread([this] { reap_until_stopped(); });
-    startProcessRuntimeMessagesThread();
-  }
-  ~ClientReapingRouDi() override {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_all();
-    reaper_.join();
-    shutdown();  // joins the message thread before the members it uses go
-  }
-
- protected:
-  void processMessage(const iox::runtime::IpcMessage& message, const iox::runtime::IpcMessageType& cmd,
-                      const iox::RuntimeName_t& runtime_name) noexcept override {
-    if (cmd == iox::runtime::IpcMessageType::REG && message.getNumberOfElements() == 6) {
-      uint32_t pid = 0;
-      uid_t user = 0;
-      int64_t timestamp = 0;
-      parseRegisterMessage(message, pid, user, timestamp);
-      std::lock_guard<std::mutex> lock(mutex_);
-      clients_.push_back({runtime_name, pid, process_start_ticks(pid)});
-    }
-    RouDi::processMessage(message, cmd, runtime_name);
-  }
-
- private:
-  struct Client {
-    iox::RuntimeName_t name;
-    uint32_t pid;
-    uint64_t start_ticks;
-  };
-
-  void reap_until_stopped() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!wake_.wait_for(lock, std::chrono::milliseconds(500), [this] { return stop_; })) {
-      std::vector<iox::RuntimeName_t> gone;
-      for (auto it = clients_.begin(); it != clients_.end();) {
-        if (it->start_ticks != 0 && process_start_ticks(it->pid) == it->start_ticks) {
-          ++it;
-          continue;
-        }
-        gone.push_back(it->name);
-        it = clients_.erase(it);
-      }
-      lock.unlock();
-      for (const auto& name : gone) {
-        m_prcMgr->unregisterProcess(name);  // false when the client had already deregistered itself
-      }
-      lock.lock();
-    }
-  }
-
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  bool stop_ = false;
-  std::vector<Client> clients_;  // registered clients, until their process is gone
-  std::thread reaper_;
-};
+// Set while a StreamingHost exists: the cameras of a process share one host.
+std::atomic<bool> g_streaming_host{false};
 
 }  // namespace
 
 struct StreamingHost::Impl {
-  bool in_process = false;
+  std::shared_ptr<roudi::Host> host;
   std::string description;
-  uint64_t max_payload = 0;
-  std::unique_ptr<iox::roudi::IceOryxRouDiComponents> components;
-  std::unique_ptr<iox::roudi::RouDi> roudi;
-  std::unique_ptr<iox::runtime::PoshRuntimeSingleProcess> runtime;
-
-  ~Impl() {
-    runtime.reset();
-    roudi.reset();
-    components.reset();
-  }
 };
 
 StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const StreamingOptions& options) {
-  if (detail::g_host_alive.exchange(true)) {
+  if (g_streaming_host.exchange(true)) {
     throw std::logic_error("StreamingHost: only one may exist per process");
   }
   try {
@@ -237,105 +53,54 @@ StreamingHost::StreamingHost(const std::vector<CameraConfig>& cameras, const Str
     if (options.chunks_per_camera < 4 || options.chunks_per_camera > 1024) {
       throw std::invalid_argument("StreamingOptions.chunks_per_camera must lie in 4..1024");
     }
-    if (detail::g_client_runtime.load()) {
+    if (roudi::client_registered()) {
       throw std::logic_error("StreamingHost: this process already registered with RouDi as a client");
     }
-    detail::set_iceoryx_log_level(options.verbose);
-    impl_ = std::make_unique<Impl>();
-    const std::string name =
-        options.runtime_name.empty() ? "doppel-" + std::to_string(::getpid()) : options.runtime_name;
-    const bool running = detail::roudi_lock_held();
-    if (running && options.roudi == RouDiMode::kInProcess) {
-      throw std::runtime_error("a RouDi already runs on this machine (an iox-roudi or another doppel); "
-                               "use the external RouDi or stop it first");
-    }
-    if (!running && options.roudi == RouDiMode::kExternal) {
-      throw std::runtime_error("no RouDi runs on this machine: start iox-roudi first or let doppel start its own");
-    }
+    roudi::HostOptions host_options;
+    host_options.mode = options.roudi;
+    host_options.runtime_name = options.runtime_name;
+    host_options.introspection_timeout_s = options.introspection_timeout_s;
+    host_options.verbose = options.verbose;
     uint64_t largest_frame = 0;
     for (const CameraConfig& c : cameras) {
-      largest_frame = std::max<uint64_t>(largest_frame, pool_payload_for(frame_payload_bytes(c)));
+      const uint64_t payload = pool_payload_for(frame_payload_bytes(c));
+      largest_frame = std::max(largest_frame, payload);
+      host_options.pools.push_back({static_cast<uint32_t>(payload), options.chunks_per_camera});
     }
-
-    if (!running) {
-      // Pools: small ones for info topics and other users, then one pool per distinct frame size.
-      std::map<uint32_t, uint32_t> pools = {{128, 1024}, {1024, 512}, {16384, 128}, {131072, 16}};
-      for (const CameraConfig& c : cameras) {
-        pools[static_cast<uint32_t>(pool_payload_for(frame_payload_bytes(c)))] += options.chunks_per_camera;
-      }
-      iox::mepoo::MePooConfig mepoo;
-      uint64_t data_bytes = 0;
+    impl_ = std::make_unique<Impl>();
+    impl_->host = roudi::Host::share(host_options);
+    const roudi::Host& host = *impl_->host;
+    if (host.in_process()) {
       std::string sizes;
-      for (const auto& [size, count] : pools) {
-        mepoo.addMemPool({size, count});
-        data_bytes += (uint64_t{size} + 128) * count;
-        impl_->max_payload = std::max<uint64_t>(impl_->max_payload, size);
+      for (const auto& [size, count] : host.pools()) {
         if (size >= 131072) sizes += " " + std::to_string(count) + "x" + std::to_string(size / 1024) + "KiB";
       }
-      struct statvfs shm {};
-      if (::statvfs("/dev/shm", &shm) == 0) {
-        const uint64_t free_bytes = static_cast<uint64_t>(shm.f_bavail) * shm.f_frsize;
-        if (free_bytes < data_bytes + kMgmtSegmentEstimateBytes) {
-          throw std::runtime_error("/dev/shm has " + std::to_string(free_bytes >> 20) + " MiB free, RouDi needs about " +
-                                   std::to_string((data_bytes + kMgmtSegmentEstimateBytes) >> 20) +
-                                   " MiB (mount a larger tmpfs or use fewer/smaller cameras)");
-        }
-      }
-      iox::RouDiConfig_t config;
-      const auto group = iox::posix::PosixGroup::getGroupOfCurrentProcess().getName();
-      config.m_sharedMemorySegments.push_back({group, group, mepoo});
-      {
-        // iceoryx reports each shared-memory reservation on std::clog; only --verbose shows it.
-        std::ostringstream discarded;
-        std::streambuf* const clog_buffer = options.verbose ? nullptr : std::clog.rdbuf(discarded.rdbuf());
-        const iox::cxx::GenericRAII restore_clog([] {}, [clog_buffer] {
-          if (clog_buffer != nullptr) std::clog.rdbuf(clog_buffer);
-        });
-        impl_->components = std::make_unique<iox::roudi::IceOryxRouDiComponents>(config);
-      }
-      {
-        const QuietStdout quiet(!options.verbose);
-        impl_->roudi = std::make_unique<ClientReapingRouDi>(impl_->components->rouDiMemoryManager,
-                                                            impl_->components->portManager);
-        // Registering waits for RouDi's message thread, which prints its line before it serves.
-        impl_->runtime = std::make_unique<iox::runtime::PoshRuntimeSingleProcess>(
-            iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
-      }
-      impl_->in_process = true;
-      impl_->description = "camera: started RouDi inside this process (" + std::to_string(data_bytes >> 20) +
+      impl_->description = "camera: started RouDi inside this process (" + std::to_string(host.pool_bytes() >> 20) +
                            " MiB of frame pools:" + sizes + ")";
     } else {
-      iox::runtime::PoshRuntime::initRuntime(iox::RuntimeName_t(iox::cxx::TruncateToCapacity, name.c_str()));
-      detail::g_client_runtime = true;
-      impl_->max_payload = external_max_payload(options.introspection_timeout_s);
-      if (impl_->max_payload == 0) {
-        throw std::runtime_error("a RouDi runs on this machine but did not report its memory pools within " +
-                                 std::to_string(options.introspection_timeout_s) + " s");
-      }
       impl_->description = "camera: RouDi already running on this machine (iox-roudi or another doppel): using it "
-                           "(largest chunk payload " + std::to_string(impl_->max_payload) + " bytes)";
-      if (largest_frame > impl_->max_payload) {
-        throw std::runtime_error("the running RouDi's largest chunk holds " + std::to_string(impl_->max_payload) +
+                           "(largest chunk payload " + std::to_string(host.max_payload_bytes()) + " bytes)";
+      if (largest_frame > host.max_payload_bytes()) {
+        throw std::runtime_error("the running RouDi's largest chunk holds " + std::to_string(host.max_payload_bytes()) +
                                  " bytes but a frame needs " + std::to_string(largest_frame) +
                                  ": add a mempool to its config or stop it and let doppel start its own");
       }
     }
   } catch (...) {
     impl_.reset();
-    detail::g_host_alive = false;
+    g_streaming_host = false;
     throw;
   }
 }
 
 StreamingHost::~StreamingHost() {
   impl_.reset();
-  detail::g_host_alive = false;
+  g_streaming_host = false;
 }
 
-bool StreamingHost::roudi_in_process() const noexcept { return impl_->in_process; }
+bool StreamingHost::roudi_in_process() const noexcept { return impl_->host->in_process(); }
 const std::string& StreamingHost::description() const noexcept { return impl_->description; }
-uint64_t StreamingHost::max_payload_bytes() const noexcept { return impl_->max_payload; }
-bool StreamingHost::exists() noexcept { return detail::g_host_alive.load(); }
+uint64_t StreamingHost::max_payload_bytes() const noexcept { return impl_->host->max_payload_bytes(); }
 
 struct CameraStream::Impl {
   CameraConfig config;

@@ -1,31 +1,22 @@
 #include "record/recorder.h"
 
-#include <google/protobuf/descriptor.pb.h>
-
 #include <cstdio>
 #include <iomanip>
 #include <map>
 #include <optional>
 #include <ostream>
-#include <set>
 #include <sstream>
 #include <stdexcept>
 
 #include "base/monotonic_clock.h"
 #include "record/bus_transcriber.h"
+#include "recording/topics.h"
 
 namespace doppel::record {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-void add_file(const google::protobuf::FileDescriptor* file, std::set<std::string>& seen,
-              google::protobuf::FileDescriptorSet& set) {
-  if (!seen.insert(file->name()).second) return;
-  for (int i = 0; i < file->dependency_count(); ++i) add_file(file->dependency(i), seen, set);
-  file->CopyTo(set.add_file());
-}
 
 recording::Vector3 vector3(double x, double y, double z) {
   recording::Vector3 v;
@@ -154,13 +145,6 @@ std::string scene_signature(const contract::Scene& scene) {
 
 }  // namespace
 
-std::string protobuf_schema(const google::protobuf::Descriptor& descriptor) {
-  google::protobuf::FileDescriptorSet set;
-  std::set<std::string> seen;
-  add_file(descriptor.file(), seen, set);
-  return set.SerializeAsString();
-}
-
 struct Recorder::Impl {
   RecorderOptions options;
   recording::RunInfo run;
@@ -191,10 +175,11 @@ struct Recorder::Impl {
     if (auto it = schemas.find(descriptor.full_name()); it != schemas.end()) {
       schema = it->second;
     } else {
-      schema = writer->add_schema(descriptor.full_name(), "protobuf", protobuf_schema(descriptor));
+      schema = writer->add_schema(descriptor.full_name(), std::string(recording::kEncoding),
+                                  recording::protobuf_schema(descriptor));
       schemas[descriptor.full_name()] = schema;
     }
-    const uint16_t id = writer->add_channel(schema, topic, "protobuf");
+    const uint16_t id = writer->add_channel(schema, topic, std::string(recording::kEncoding));
     channels[topic] = id;
     return id;
   }
@@ -214,10 +199,6 @@ struct Recorder::Impl {
     }
   }
 
-  std::string bus_topic(const recording::BusInfo& info, const char* leaf) const {
-    return "/doppel/bus/" + std::to_string(info.robot()) + "/" + std::to_string(info.bus()) + "/" + leaf;
-  }
-
   void drain_taps() {
     for (std::size_t i = 0; i < buses.size(); ++i) {
       while (buses[i].tap->pop(event, payload)) transcribers[i].feed(event, payload);
@@ -234,10 +215,10 @@ struct Recorder::Impl {
     const contract::SimState state = control.simulation->state();
     if (state.sim_time_s == last_world_time_s) return;  // nothing new since the last sample
     last_world_time_s = state.sim_time_s;
-    write("/doppel/world", world_state(state), now_ns);
+    write(std::string(recording::kWorldTopic), world_state(state), now_ns);
   }
 
-  // /doppel/faults: the whole list whenever a fault was added or cleared, or started or ended.
+  // The faults topic: the whole list whenever a fault was added or cleared, or started or ended.
   void sample_faults(int64_t now_ns, bool force = false) {
     if (control.faults == nullptr) return;
     const contract::FaultList list = control.faults->faults();
@@ -265,7 +246,7 @@ struct Recorder::Impl {
     }
     if (list.faults.empty() || (!force && signature == fault_signature)) return;
     fault_signature = signature;
-    write("/doppel/faults", message, now_ns);
+    write(std::string(recording::kFaultsTopic), message, now_ns);
   }
 
   void sample_scene(int64_t now_ns) {
@@ -274,9 +255,9 @@ struct Recorder::Impl {
     const std::string signature = record::scene_signature(scene);
     if (signature != scene_signature) {
       scene_signature = signature;
-      write("/doppel/scene", scene_shapes(scene), now_ns);
+      write(std::string(recording::kSceneTopic), scene_shapes(scene), now_ns);
     }
-    write("/doppel/scene_poses", scene_poses(scene), now_ns);
+    write(std::string(recording::kScenePosesTopic), scene_poses(scene), now_ns);
   }
 
   void sample_cameras(int64_t now_ns) {
@@ -291,7 +272,7 @@ struct Recorder::Impl {
         image.set_camera(camera.name);
         image.set_format("png");
         image.set_data(still.png);
-        write("/doppel/camera/" + camera.name, image, now_ns);
+        write(recording::camera_topic(camera.name), image, now_ns);
       }
     }
   }
@@ -319,7 +300,7 @@ struct Recorder::Impl {
         sample_world(now_ns);  // every state the simulation publishes (100 Hz of simulation time)
         sample_faults(now_ns);
         if (options.servo_hz > 0 && now >= next_servo) {
-          write("/doppel/servos", servo_tables(last_world_time_s, control.simulation->buses()), now_ns);
+          write(std::string(recording::kServosTopic), servo_tables(last_world_time_s, control.simulation->buses()), now_ns);
           next_servo = std::max(next_servo + period(options.servo_hz), now);
         }
         if (options.scene_hz > 0 && now >= next_scene) {
@@ -371,9 +352,9 @@ Recorder::Recorder(const RecorderOptions& options, recording::RunInfo run, std::
     const recording::BusInfo& info = bus.info;
     Impl* impl = &d;
     TranscriptSink sink;
-    const std::string transactions = d.bus_topic(info, "transactions");
-    const std::string input = d.bus_topic(info, "input");
-    const std::string events = d.bus_topic(info, "events");
+    const std::string transactions = recording::bus_topic(info.robot(), info.bus(), recording::BusStream::kTransactions);
+    const std::string input = recording::bus_topic(info.robot(), info.bus(), recording::BusStream::kInput);
+    const std::string events = recording::bus_topic(info.robot(), info.bus(), recording::BusStream::kEvents);
     sink.transaction = [impl, transactions](const recording::BusTransaction& t) {
       impl->write(transactions, t, t.first_seen_ns() != 0 ? t.first_seen_ns() : t.seen_ns());
       impl->transactions.fetch_add(1, std::memory_order_relaxed);
@@ -382,7 +363,7 @@ Recorder::Recorder(const RecorderOptions& options, recording::RunInfo run, std::
     sink.event = [impl, events](const recording::BusEvent& e) { impl->write(events, e, e.time_ns()); };
     d.transcribers.emplace_back(info.robot(), info.bus(), info.adapter(), std::move(sink));
   }
-  d.write("/doppel/run", d.run, d.run.start_monotonic_ns());
+  d.write(std::string(recording::kRunTopic), d.run, d.run.start_monotonic_ns());
   if (!d.error.empty()) throw std::runtime_error(d.error);
 }
 
@@ -410,7 +391,7 @@ void Recorder::stop() {
   summary.set_messages(d.messages.load() + 1);
   summary.set_dropped_bus_events(d.dropped_bus_events());
   summary.set_bytes_written(d.bytes.load());
-  d.write("/doppel/summary", summary, monotonic_now_ns());
+  d.write(std::string(recording::kSummaryTopic), summary, monotonic_now_ns());
   if (d.error.empty()) {
     try {
       d.writer->close();

@@ -16,7 +16,8 @@
 #include "dynamixel/models.h"
 #include "dynamixel/packet_framer.h"
 #include "dynamixel/protocol2_models.h"
-#include "mcap/mcap.h"
+#include "recording/reader.h"
+#include "recording/topics.h"
 
 namespace doppel::replay {
 namespace {
@@ -477,14 +478,13 @@ std::string format_report(const std::vector<TransactionResult>& results, const B
 }
 
 RecordedBus load_bus(const std::string& path, uint32_t robot, uint32_t bus) {
-  const mcap::Reader reader(path);
-  const std::string topic = "/doppel/bus/" + std::to_string(robot) + "/" + std::to_string(bus) + "/transactions";
+  const recording::Reader reader(path);
+  const std::string topic = recording::bus_topic(robot, bus, recording::BusStream::kTransactions);
   RecordedBus out;
   uint64_t undecodable = 0;
-  reader.for_each_message(
-      [&](const mcap::Message& message) {
-        const std::string& name = reader.channels().at(message.channel_id).topic;
-        if (name == "/doppel/run") {
+  reader.for_each(
+      [&](const recording::Channel& channel, const mcap::Message& message) {
+        if (channel.content == recording::Content::kRun) {
           recording::RunInfo run;
           if (run.ParseFromArray(message.data.data(), static_cast<int>(message.data.size()))) {
             for (const recording::BusInfo& info : run.buses()) {
@@ -501,7 +501,9 @@ RecordedBus load_bus(const std::string& path, uint32_t robot, uint32_t bus) {
         out.transactions.push_back(std::move(transaction));
         return true;
       },
-      mcap::ReadOptions{std::nullopt, std::nullopt, {"/doppel/run", topic}});
+      [&topic](const recording::Channel& channel) {
+        return channel.content == recording::Content::kRun || channel.topic == topic;
+      });
   if (undecodable > 0) {
     throw std::runtime_error(path + ": " + std::to_string(undecodable) + " messages on " + topic + " are no BusTransaction");
   }
@@ -515,11 +517,10 @@ RecordedBus load_bus(const std::string& path, uint32_t robot, uint32_t bus) {
 }
 
 std::vector<std::pair<uint32_t, uint32_t>> recorded_buses(const std::string& path) {
-  const mcap::Reader reader(path);
+  const recording::Reader reader(path);
   std::vector<std::pair<uint32_t, uint32_t>> out;
   for (const auto& [id, channel] : reader.channels()) {
-    const auto bus = parse_bus_topic(channel.topic);
-    if (bus && bus->kind == "transactions") out.emplace_back(bus->robot, bus->bus);
+    if (channel.content == recording::Content::kBusTransactions) out.emplace_back(channel.robot, channel.bus);
   }
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());

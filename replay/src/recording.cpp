@@ -3,10 +3,10 @@
 #include <malloc.h>
 
 #include <algorithm>
-#include <charconv>
 #include <stdexcept>
 
-#include "mcap/mcap.h"
+#include "recording/reader.h"
+#include "recording/topics.h"
 
 namespace doppel::replay {
 
@@ -43,22 +43,6 @@ std::size_t Track::held_bytes() const noexcept {
   return bytes;
 }
 
-std::optional<BusTopic> parse_bus_topic(std::string_view topic) {
-  if (!topic.starts_with(kBusTopicPrefix)) return std::nullopt;
-  std::string_view rest = topic.substr(kBusTopicPrefix.size());
-  BusTopic out;
-  for (uint32_t* field : {&out.robot, &out.bus}) {
-    const std::size_t slash = rest.find('/');
-    if (slash == std::string_view::npos || slash == 0) return std::nullopt;
-    const auto [end, error] = std::from_chars(rest.data(), rest.data() + slash, *field);
-    if (error != std::errc() || end != rest.data() + slash) return std::nullopt;
-    rest.remove_prefix(slash + 1);
-  }
-  if (rest.empty() || rest.find('/') != std::string_view::npos) return std::nullopt;
-  out.kind = std::string(rest);
-  return out;
-}
-
 namespace {
 
 // Running counters of one bus while the transactions are folded in.
@@ -79,9 +63,8 @@ void add_point(std::vector<CounterPoint>& points, CounterState& state, int64_t t
 }  // namespace
 
 Recording::Recording(const std::string& path) : path_(path) {
-  const mcap::Reader reader(path);
+  const recording::Reader reader(path);
   recovery_note_ = reader.recovery_note();
-  const auto& channels = reader.channels();
   // What each channel is, decided once (not per message).
   enum class Kind { kSkip, kRun, kWorld, kServos, kScene, kScenePoses, kSummary, kCamera, kTransactions, kEvents, kInput };
   struct Route {
@@ -90,34 +73,31 @@ Recording::Recording(const std::string& path) : path_(path) {
     std::pair<uint32_t, uint32_t> bus;
   };
   std::map<uint16_t, Route> routes;
-  for (const auto& [id, channel] : channels) {
+  for (const auto& [id, channel] : reader.channels()) {
     Route route;
     const std::string& topic = channel.topic;
-    if (channel.message_encoding != "protobuf") {
+    const bool protobuf = channel.message_encoding == recording::kEncoding;
+    if (!protobuf) {
       warnings_.push_back("topic " + topic + ": message encoding '" + channel.message_encoding + "', not protobuf: skipped");
-    } else if (topic == kRunTopic) {
-      route.kind = Kind::kRun;
-    } else if (topic == kWorldTopic) {
-      route.kind = Kind::kWorld;
-    } else if (topic == kServosTopic) {
-      route.kind = Kind::kServos;
-    } else if (topic == kSceneTopic) {
-      route.kind = Kind::kScene;
-    } else if (topic == kScenePosesTopic) {
-      route.kind = Kind::kScenePoses;
-    } else if (topic == kSummaryTopic) {
-      route.kind = Kind::kSummary;
-    } else if (topic.starts_with(kCameraTopicPrefix) && topic.size() > kCameraTopicPrefix.size()) {
-      route.kind = Kind::kCamera;
-      route.camera = topic.substr(kCameraTopicPrefix.size());
-    } else if (const auto bus = parse_bus_topic(topic)) {
-      route.bus = {bus->robot, bus->bus};
-      route.kind = bus->kind == "transactions" ? Kind::kTransactions
-                   : bus->kind == "events"     ? Kind::kEvents
-                   : bus->kind == "input"      ? Kind::kInput
-                                               : Kind::kSkip;
+    } else {
+      route.camera = channel.camera;
+      route.bus = {channel.robot, channel.bus};
+      switch (channel.content) {
+        case recording::Content::kRun: route.kind = Kind::kRun; break;
+        case recording::Content::kWorld: route.kind = Kind::kWorld; break;
+        case recording::Content::kServos: route.kind = Kind::kServos; break;
+        case recording::Content::kScene: route.kind = Kind::kScene; break;
+        case recording::Content::kScenePoses: route.kind = Kind::kScenePoses; break;
+        case recording::Content::kSummary: route.kind = Kind::kSummary; break;
+        case recording::Content::kCamera: route.kind = Kind::kCamera; break;
+        case recording::Content::kBusTransactions: route.kind = Kind::kTransactions; break;
+        case recording::Content::kBusEvents: route.kind = Kind::kEvents; break;
+        case recording::Content::kBusInput: route.kind = Kind::kInput; break;
+        case recording::Content::kFaults:
+        case recording::Content::kUnknown: break;
+      }
     }
-    if (route.kind == Kind::kSkip && channel.message_encoding == "protobuf") {
+    if (route.kind == Kind::kSkip && protobuf) {
       warnings_.push_back("topic " + topic + " is not one doppel-replay knows: skipped");
     }
     routes[id] = route;
@@ -129,8 +109,8 @@ Recording::Recording(const std::string& path) : path_(path) {
   recording::BusTransaction transaction;
   recording::BusEvent event;
   recording::BusNoise noise;
-  reader.for_each_message([&](const mcap::Message& message) {
-    const auto route = routes.find(message.channel_id);
+  reader.for_each([&](const recording::Channel& channel, const mcap::Message& message) {
+    const auto route = routes.find(channel.id);
     const int64_t log_ns = static_cast<int64_t>(message.log_time_ns);
     if (first) {
       origin_ns_ = log_ns;
@@ -139,7 +119,7 @@ Recording::Recording(const std::string& path) : path_(path) {
     const int64_t t_ns = log_ns - origin_ns_;
     end_ns_ = std::max(end_ns_, t_ns);
     if (route == routes.end()) return true;
-    ++topic_counts_[channels.at(message.channel_id).topic];
+    ++topic_counts_[channel.topic];
     const void* data = message.data.data();
     const int size = static_cast<int>(message.data.size());
     switch (route->second.kind) {
@@ -223,8 +203,9 @@ Recording::Recording(const std::string& path) : path_(path) {
   }
   if (first) throw std::runtime_error(path + ": the recording holds no messages");
   if (world_.empty() && scene_.empty() && servos_.empty() && bus_counters_.empty()) {
-    throw std::runtime_error(path + ": no doppel recording topics (" + std::string(kWorldTopic) + ", " +
-                             std::string(kSceneTopic) + ", " + std::string(kBusTopicPrefix) + "...): is it a doppel --record file?");
+    throw std::runtime_error(path + ": no doppel recording topics (" + std::string(recording::kWorldTopic) + ", " +
+                             std::string(recording::kSceneTopic) + ", " + std::string(recording::kBusTopicPrefix) +
+                             "...): is it a doppel --record file?");
   }
 }
 

@@ -34,6 +34,7 @@
 #include "lockstep/clock_file.h"
 #include "lockstep/futex.h"
 #include "lockstep_shim.h"
+#include "port_table.h"
 #include "v4l2_shim.h"
 
 #define SHIM_EXPORT extern "C" __attribute__((visibility("default")))
@@ -46,7 +47,6 @@ using lockstep::ClockFile;
 using lockstep::kNever;
 using lockstep::ThreadSlot;
 
-constexpr int kMaxFds = 4096;
 constexpr int64_t kSecond = 1'000'000'000;
 constexpr int64_t kSettleWallNs = 1'000'000'000;  // how long a read waits for bytes doppel delivered to cross the pty
 constexpr int64_t kSliceWallNs = 1'000'000;       // wall-time slices of condition-variable and semaphore waits
@@ -316,7 +316,7 @@ int bus_of_fd(int fd) noexcept {
 
 int readable_bytes(int fd) noexcept {
   int n = 0;
-  return ::ioctl(fd, FIONREAD, &n) == 0 ? n : 0;
+  return ::syscall(SYS_ioctl, fd, FIONREAD, &n) == 0 ? n : 0;  // not through shim.cpp's ioctl
 }
 
 // Totals of ClockFile::BusSlot::delivered known to have crossed the pty (by bus): those bytes stay
@@ -518,7 +518,7 @@ int select_for(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, int64_t timeout_ns,
   return count;
 }
 
-bool nonblocking(int fd) noexcept { return (::fcntl(fd, F_GETFL) & O_NONBLOCK) != 0; }
+bool nonblocking(int fd) noexcept { return (::syscall(SYS_fcntl, fd, F_GETFL) & O_NONBLOCK) != 0; }
 
 ssize_t counted_read(int bus, int fd, void* buffer, size_t n) noexcept {
   const ssize_t r = g_real.read(fd, buffer, n);
@@ -968,7 +968,7 @@ static void wait_readable(int fd, bool dontwait) noexcept {
   struct pollfd p {fd, POLLIN, 0};
   const struct timespec zero {};
   if (g_real.ppoll(&p, 1, &zero, nullptr) != 0) return;  // readable, closed, or not pollable
-  if ((::fcntl(fd, F_GETFL) & O_NONBLOCK) != 0) return;
+  if (nonblocking(fd)) return;
   ThreadSlot* slot = self();
   if (slot == nullptr) return;
   touch(slot, Call::kRead);
@@ -1016,7 +1016,7 @@ static void peer_io() noexcept {
 SHIM_EXPORT ssize_t write(int fd, const void* buffer, size_t n) {
   NEED_REAL();
   const int bus = g_clock != nullptr ? bus_of_fd(fd) : -1;
-  // Wall-clock mode: wait until doppel has the bytes (shim.cpp, await_handover). Lockstep has its own.
+  // Wall-clock mode: wait until doppel has the bytes (port_table.h, await_handover). Lockstep has its own.
   const int port = g_clock == nullptr ? port_index_of_fd(fd) : -1;
   const uint64_t mark = port >= 0 ? handover_mark(port) : 0;
   const ssize_t r = g_real.write(fd, buffer, n);

@@ -3,8 +3,8 @@
 // file descriptors of those ports only, answers what a USB serial adapter answers and a pty does
 // not (ftdi_serial.h). Every other call goes to libc's own function untouched, errno included.
 //
-// Rules kept here: no allocation and no lock in an intercepted call (one fixed table of atomics
-// maps fd -> port), no C++ exceptions (built with -fno-exceptions), messages written with write(2)
+// Rules kept here: no allocation and no lock in an intercepted call (the port table, port_table.h,
+// maps fd -> port with fixed atomics), no C++ exceptions (built with -fno-exceptions), messages written with write(2)
 // once per problem, and a missing or bad environment never breaks the program: it then runs as if
 // the library were not there.
 #include <dlfcn.h>
@@ -31,6 +31,7 @@
 #include "base/pty_handover.h"
 #include "line_rate.h"
 #include "lockstep_shim.h"
+#include "port_table.h"
 #include "shim/ftdi_serial.h"
 #include "shim/port_map.h"
 #include "v4l2_shim.h"
@@ -39,28 +40,6 @@
 
 namespace doppel::shim {
 namespace {
-
-constexpr int kMaxFds = 4096;  // descriptors tracked; a Doppel port opened above this passes through (said once)
-
-// One of Doppel's ports as the program sees it. Settings are per port (as ftdi_private is per
-// device), shared by every descriptor open on it.
-struct Port {
-  const char* link = nullptr;               // the mapping's link (points into the PortMap)
-  char pts[64] = {};                        // what the link pointed at when the library loaded
-  char latency_file[kMaxPathBytes + 16] = {};  // <link>.latency_timer (bus/latency_timer_files.h)
-  char tty[kMaxPathBytes] = {};             // ttyUSB<n>: its sysfs latency_timer leads to latency_file
-  int line = 0;                             // <n> of ttyUSB<n>, TIOCGSERIAL's line
-  std::atomic<int> flags{0};
-  std::atomic<int> custom_divisor{0};
-  std::atomic<int> close_delay{kCloseDelay};
-  std::atomic<int> closing_wait{kClosingWait};
-  std::atomic<unsigned> dtr_rts{TIOCM_DTR | TIOCM_RTS};
-  std::atomic<int> latency_before_low_ms{0};  // the file's value when ASYNC_LOW_LATENCY was set
-  // <link>.received (base/pty_handover.h), mapped read-only: bytes doppel has read from the pty.
-  // nullptr when doppel publishes none (then writes are not waited for).
-  const std::atomic<uint64_t>* received = nullptr;
-  std::atomic<uint64_t> expected{0};  // doppel's count once it has read everything written so far
-};
 
 struct Real {
   int (*open)(const char*, int, ...);
@@ -97,13 +76,10 @@ struct Real {
 };
 
 PortMap g_map;
-Port g_ports[kMaxMappings];
 int g_mapping_port[kMaxMappings];  // mapping -> port index
-std::size_t g_port_count = 0;
 Real g_real{};
 std::atomic<int> g_state{0};  // 0 = not set up, 1 = setting up, 2 = ready (active or passing through)
 bool g_active = false;        // a valid map with at least one live port
-std::atomic<uint8_t> g_fd_port[kMaxFds];  // 0 = not Doppel's, else port index + 1
 std::atomic<bool> g_said_fd_limit{false};
 
 template <typename F>
@@ -202,12 +178,6 @@ void map_received(Port& port) noexcept {
   port.expected.store(port.received->load(std::memory_order_acquire), std::memory_order_relaxed);
 }
 
-int64_t monotonic_ns() noexcept {
-  timespec t{};
-  ::syscall(SYS_clock_gettime, CLOCK_MONOTONIC, &t);  // not through this library's clock_gettime (lockstep)
-  return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
-
 void set_up() noexcept {
   resolve_all();
   const char* spec = ::getenv(kPortsVariable);
@@ -219,22 +189,23 @@ void set_up() noexcept {
     say(kPortsVariable, ": ", g_map.error(), "; passing everything through");
     return;
   }
+  std::size_t ports = 0;
   for (std::size_t m = 0; m < g_map.size(); ++m) {
     const Mapping& mapping = g_map[m];
     g_mapping_port[m] = -1;
-    for (std::size_t p = 0; p < g_port_count; ++p) {
-      if (strcmp(g_ports[p].link, mapping.link.data()) == 0) g_mapping_port[m] = static_cast<int>(p);
+    for (std::size_t p = 0; p < ports; ++p) {
+      if (strcmp(port_slot(p).link, mapping.link.data()) == 0) g_mapping_port[m] = static_cast<int>(p);
     }
     if (g_mapping_port[m] < 0) {
-      Port& port = g_ports[g_port_count];
+      Port& port = port_slot(ports);
       if (!check_link(mapping, port)) continue;
       port.link = mapping.link.data();
       snprintf(port.latency_file, sizeof(port.latency_file), "%s.latency_timer", port.link);
       map_received(port);
-      g_mapping_port[m] = static_cast<int>(g_port_count++);
+      g_mapping_port[m] = static_cast<int>(ports++);
     }
     // The first ttyUSB<n> mapped to a port names its sysfs latency timer and its line.
-    Port& port = g_ports[g_mapping_port[m]];
+    Port& port = port_slot(static_cast<std::size_t>(g_mapping_port[m]));
     const std::string_view device = base_name(mapping.device.data());
     if (port.tty[0] == '\0' && device.size() > 6 && std::string_view(device.data(), 6) == "ttyUSB") {
       memcpy(port.tty, device.data(), device.size());
@@ -242,7 +213,8 @@ void set_up() noexcept {
       port.line = trailing_number(device);
     }
   }
-  g_active = g_port_count > 0;
+  set_port_count(ports);
+  g_active = ports > 0;
 }
 
 // True once set up (always after the constructor). A call that comes in while another thread sets
@@ -269,31 +241,6 @@ F real(F Real::*member, const char* name) noexcept {
   return f;
 }
 
-Port* port_of_fd(int fd) noexcept {
-  if (fd < 0 || fd >= kMaxFds) return nullptr;
-  const uint8_t p = g_fd_port[fd].load(std::memory_order_acquire);
-  return p == 0 ? nullptr : &g_ports[p - 1];
-}
-
-void track(int fd, int port) noexcept {
-  if (fd < 0) return;
-  if (fd >= kMaxFds) {
-    if (!g_said_fd_limit.exchange(true)) say("a Doppel port opened as a descriptor above 4095 passes through untouched");
-    return;
-  }
-  g_fd_port[fd].store(static_cast<uint8_t>(port + 1), std::memory_order_release);
-}
-
-void copy_fd(int from, int to) noexcept {
-  if (to < 0 || to >= kMaxFds) return;
-  const uint8_t p = (from >= 0 && from < kMaxFds) ? g_fd_port[from].load(std::memory_order_acquire) : 0;
-  g_fd_port[to].store(p, std::memory_order_release);
-}
-
-void untrack(int fd) noexcept {
-  if (fd >= 0 && fd < kMaxFds) g_fd_port[fd].store(0, std::memory_order_release);
-}
-
 // Where an open of `path` really goes: the path to pass to libc and Doppel's port index (-1 = not one).
 struct Target {
   const char* path;
@@ -305,14 +252,14 @@ Target target_of(const char* path) noexcept {
   if (path == nullptr || path[0] != '/' || !ready() || !g_active) return {path, -1, false};
   const std::string_view p(path);
   const int m = g_map.find_device(p);
-  if (m >= 0 && g_mapping_port[m] >= 0) return {g_ports[g_mapping_port[m]].link, g_mapping_port[m], true};
-  for (std::size_t i = 0; i < g_port_count; ++i) {
-    if (p == g_ports[i].link || p == g_ports[i].pts) return {path, static_cast<int>(i), false};
+  if (m >= 0 && g_mapping_port[m] >= 0) return {port_slot(static_cast<std::size_t>(g_mapping_port[m])).link, g_mapping_port[m], true};
+  for (std::size_t i = 0; i < port_count(); ++i) {
+    if (p == port_slot(i).link || p == port_slot(i).pts) return {path, static_cast<int>(i), false};
   }
   const std::string_view tty = latency_timer_tty(p);
   if (!tty.empty()) {
-    for (std::size_t i = 0; i < g_port_count; ++i) {
-      if (tty == g_ports[i].tty) return {g_ports[i].latency_file, -1, true};
+    for (std::size_t i = 0; i < port_count(); ++i) {
+      if (tty == port_slot(i).tty) return {port_slot(i).latency_file, -1, true};
     }
   }
   return {path, -1, false};
@@ -320,8 +267,10 @@ Target target_of(const char* path) noexcept {
 
 int opened(int fd, const Target& target) noexcept {
   if (fd >= 0 && target.port >= 0) {
-    g_ports[target.port].dtr_rts.store(TIOCM_DTR | TIOCM_RTS, std::memory_order_relaxed);  // tty_port_open raises them
-    track(fd, target.port);
+    port_slot(static_cast<std::size_t>(target.port)).dtr_rts.store(TIOCM_DTR | TIOCM_RTS, std::memory_order_relaxed);  // tty_port_open raises them
+    if (!track(fd, target.port) && !g_said_fd_limit.exchange(true)) {
+      say("a Doppel port opened as a descriptor above 4095 passes through untouched");
+    }
   } else {
     untrack(fd);  // a number freed behind the table's back (e.g. by a raw close) is not Doppel's any more
   }
@@ -475,41 +424,6 @@ int open_path(int (*fn)(const char*, int, ...), const char* path, int flags, mod
 __attribute__((constructor)) void load() noexcept { ready(); }
 
 }  // namespace
-
-int port_index_of_fd(int fd) noexcept {
-  if (fd < 0 || fd >= kMaxFds) return -1;
-  return static_cast<int>(g_fd_port[fd].load(std::memory_order_acquire)) - 1;
-}
-
-const char* port_pts(int port) noexcept { return port >= 0 && static_cast<std::size_t>(port) < g_port_count ? g_ports[port].pts : ""; }
-
-uint64_t handover_mark(int port) noexcept {
-  if (port < 0 || static_cast<std::size_t>(port) >= g_port_count || g_ports[port].received == nullptr) return 0;
-  return g_ports[port].received->load(std::memory_order_acquire);
-}
-
-void await_handover(int port, uint64_t mark, std::size_t written) noexcept {
-  if (port < 0 || static_cast<std::size_t>(port) >= g_port_count || written == 0) return;
-  Port& p = g_ports[port];
-  if (p.received == nullptr) return;
-  // Doppel's count once it has these bytes: after everything this process wrote before (expected)
-  // or, if that is behind, after what doppel had read before this write (mark).
-  uint64_t before = p.expected.load(std::memory_order_relaxed);
-  uint64_t target = 0;
-  do {
-    target = (before > mark ? before : mark) + written;
-  } while (!p.expected.compare_exchange_weak(before, target, std::memory_order_relaxed));
-  const int64_t give_up = monotonic_ns() + kHandoverLimitNs;
-  const timespec pause{0, kHandoverPauseNs};
-  while (p.received->load(std::memory_order_acquire) < target) {
-    if (monotonic_ns() > give_up) {
-      // Doppel is not reading (stopped, or stalled): count from what it has, not from a backlog.
-      p.expected.store(p.received->load(std::memory_order_acquire), std::memory_order_relaxed);
-      return;
-    }
-    ::syscall(SYS_clock_nanosleep, CLOCK_MONOTONIC, 0, &pause, nullptr);  // a sleep: this CPU is free meanwhile
-  }
-}
 
 }  // namespace doppel::shim
 

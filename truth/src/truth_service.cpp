@@ -7,7 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "camera/streaming.h"
+#include "roudi/host.h"
 
 namespace doppel::truth {
 
@@ -15,10 +15,10 @@ TruthService::TruthService(TruthOptions options)
     : options_(std::move(options)),
       samples_(std::make_unique<concurrency::SpscQueue<WorldSample, 1024>>()),
       bindings_in_(std::make_unique<concurrency::SpscQueue<BindingChange, 16>>()) {
-  if (options_.transport.iceoryx && !camera::StreamingHost::exists()) {
-    camera::StreamingOptions streaming;
-    streaming.verbose = options_.verbose;
-    host_ = std::make_unique<camera::StreamingHost>(std::vector<camera::CameraConfig>{}, streaming);
+  if (options_.transport.iceoryx) {
+    roudi::HostOptions host;
+    host.verbose = options_.verbose;
+    roudi_ = roudi::Host::share(host);
   }
   transport_ = std::make_unique<Transport>(options_.transport);
 }
@@ -26,7 +26,7 @@ TruthService::TruthService(TruthOptions options)
 TruthService::~TruthService() {
   stop();
   transport_.reset();  // its iceoryx ports before the host
-  host_.reset();
+  roudi_.reset();
 }
 
 std::string TruthService::add_robot(std::size_t robot, const RobotBinding& binding,

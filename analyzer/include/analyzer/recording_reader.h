@@ -1,8 +1,7 @@
 #pragma once
 // Reads what the analyzer needs from a recording (doppel --record, docs/recording.md) through
-// mcap::Reader: the run info (topic /doppel/run), the bus transactions (topics
-// /doppel/bus/<robot>/<bus>/transactions) and what the recorder lost (/doppel/summary), all
-// protobuf messages of proto/recording.proto.
+// recording::Reader: the run info, the bus transactions and what the recorder lost (the summary),
+// all protobuf messages of proto/recording.proto.
 // A recording cut off by a kill is read as far as its finished chunks go (the reader's recovery
 // note says so). Allocates and reads files: not for real-time threads.
 
@@ -53,10 +52,5 @@ struct ReadProgress {
 Recording read_recording(const std::string& path, const std::optional<BusSelector>& only = std::nullopt,
                          const std::function<void(const ReadProgress&)>& progress = {},
                          bool require_transactions = true);
-
-// The topic of one bus' transactions.
-std::string transactions_topic(uint32_t robot, uint32_t bus);
-inline constexpr const char* kRunTopic = "/doppel/run";
-inline constexpr const char* kSummaryTopic = "/doppel/summary";
 
 }  // namespace doppel::analyzer

@@ -20,7 +20,7 @@ bool roudi_running();
 
 // Registers this process with the running RouDi as `app_name`-<pid>, first removing what killed
 // clients of that name left behind (remove_stale_client_files). iceoryx's own log lines are shown
-// only if `verbose`. Does nothing when this process already has iceoryx (a StreamingHost, or an
+// only if `verbose`. Does nothing when this process already has iceoryx (a roudi::Host, or an
 // earlier call). Throws std::runtime_error when no RouDi runs (iceoryx itself would wait a minute
 // and then abort).
 void connect_client(const std::string& app_name, bool verbose = false);

@@ -1,9 +1,10 @@
 #pragma once
 // Zero-copy frame publishing through iceoryx: each frame is rendered straight into a loaned
-// shared-memory chunk and published; subscribers read the same memory. StreamingHost brings up
-// iceoryx for this process: it starts RouDi inside the process (sized from the cameras) or, when a
-// RouDi already runs on the machine (an iox-roudi or another doppel), attaches to that one and says
-// so. CameraStream is one camera's publisher. iceoryx types stay out of this header.
+// shared-memory chunk and published; subscribers read the same memory. StreamingHost is the
+// cameras' share of this process' iceoryx (roudi::Host, which the truth transport shares too): it
+// sizes the in-process RouDi's pools from the cameras, or checks that a RouDi already running on the
+// machine (an iox-roudi or another doppel) holds their frames, and says which. CameraStream is one
+// camera's publisher. iceoryx types stay out of this header.
 //
 // Services: ("DoppelCamera", <camera name>, "frames") carries frames, ("DoppelCamera", <name>,
 // "info") a CameraInfo with history 1 for discovery and the current settings, and ("DoppelCamera",
@@ -23,14 +24,11 @@
 #include "camera/frame.h"
 #include "camera/noise.h"
 #include "physics/scene_view.h"
+#include "roudi/host.h"
 
 namespace doppel::camera {
 
-enum class RouDiMode : uint8_t {
-  kAuto,       // use a RouDi already running on this machine, else start one in this process
-  kInProcess,  // start RouDi in this process; fail if one already runs
-  kExternal,   // use a running RouDi; fail if there is none
-};
+using RouDiMode = roudi::Mode;  // kAuto, kInProcess, kExternal (roudi/host.h)
 
 struct StreamingOptions {
   RouDiMode roudi = RouDiMode::kAuto;  // see RouDiMode
@@ -42,10 +40,11 @@ struct StreamingOptions {
 
 class StreamingHost {
  public:
-  // Brings up iceoryx for `cameras` (pools sized from them). Throws std::runtime_error with the
-  // reason (RouDi already running in kInProcess, none in kExternal, an external RouDi's pools too
-  // small for a camera, /dev/shm too small) and std::logic_error when a host already exists in this
-  // process. Setup code.
+  // Brings up iceoryx for `cameras` (pools sized from them), or shares this process' roudi::Host
+  // when one exists already (the truth transport's; its pools stay as they are). Throws
+  // std::runtime_error with the reason (RouDi already running in kInProcess, none in kExternal, an
+  // external RouDi's pools too small for a camera, /dev/shm too small) and std::logic_error when a
+  // StreamingHost already exists in this process. Setup code.
   explicit StreamingHost(const std::vector<CameraConfig>& cameras, const StreamingOptions& options = {});
   ~StreamingHost();
   StreamingHost(const StreamingHost&) = delete;
@@ -56,8 +55,6 @@ class StreamingHost {
   const std::string& description() const noexcept;
   // Largest chunk payload of the pools in use (a frame needs frame_payload_bytes plus alignment).
   uint64_t max_payload_bytes() const noexcept;
-  // True while a StreamingHost exists in this process.
-  static bool exists() noexcept;
 
   struct Impl;
 

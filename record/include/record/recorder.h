@@ -71,8 +71,4 @@ class Recorder {
   std::unique_ptr<Impl> impl_;
 };
 
-// The schema MCAP stores for a protobuf message: a FileDescriptorSet with its file and every
-// file it imports, serialized.
-std::string protobuf_schema(const google::protobuf::Descriptor& descriptor);
-
 }  // namespace doppel::record

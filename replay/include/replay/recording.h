@@ -67,13 +67,13 @@ inline constexpr int64_t kCounterPeriodNs = 10'000'000;
 
 class Recording {
  public:
-  // Reads `path` through mcap::Reader. Throws std::runtime_error naming the file and what is wrong
+  // Reads `path` through recording::Reader. Throws std::runtime_error naming the file and what is wrong
   // (not MCAP, corrupt, no recording.proto topics at all). A file cut off by a kill is read up to
   // its last complete chunk (recovery_note() says so).
   explicit Recording(const std::string& path);
 
   const std::string& path() const noexcept { return path_; }
-  // /doppel/run (default-constructed when the recording has none).
+  // The run info (default-constructed when the recording has none).
   const recording::RunInfo& run() const noexcept { return run_; }
   const std::optional<recording::RecordingSummary>& summary() const noexcept { return summary_; }
   // Log time (CLOCK_MONOTONIC of the recording machine) of recording time 0: the first message.
@@ -113,23 +113,5 @@ class Recording {
   std::vector<std::string> warnings_;
   std::string recovery_note_;
 };
-
-// Recording topics (proto/recording.proto).
-inline constexpr std::string_view kRunTopic = "/doppel/run";
-inline constexpr std::string_view kWorldTopic = "/doppel/world";
-inline constexpr std::string_view kServosTopic = "/doppel/servos";
-inline constexpr std::string_view kSceneTopic = "/doppel/scene";
-inline constexpr std::string_view kScenePosesTopic = "/doppel/scene_poses";
-inline constexpr std::string_view kSummaryTopic = "/doppel/summary";
-inline constexpr std::string_view kCameraTopicPrefix = "/doppel/camera/";
-inline constexpr std::string_view kBusTopicPrefix = "/doppel/bus/";
-
-// A bus topic "/doppel/bus/<robot>/<bus>/<kind>" taken apart; none for any other topic.
-struct BusTopic {
-  uint32_t robot = 0;
-  uint32_t bus = 0;
-  std::string kind;  // transactions, events, input
-};
-std::optional<BusTopic> parse_bus_topic(std::string_view topic);
 
 }  // namespace doppel::replay

@@ -10,7 +10,7 @@
 namespace doppel::truth {
 
 // Subscribes to ("DoppelTruth", "robot<robot>", topic). Requires this process registered with
-// RouDi (camera::connect_client, or a StreamingHost). Queues up to `queue` messages.
+// RouDi (camera::connect_client, or a roudi::Host). Queues up to `queue` messages.
 class IceoryxSubscriber {
  public:
   IceoryxSubscriber(std::size_t robot, const std::string& topic, uint64_t queue = 256);

@@ -25,7 +25,7 @@ inline constexpr uint16_t kDefaultUdpBasePort = 7600;  // robot N: 7600 + N
 std::string iceoryx_location(std::size_t robot, std::string_view topic);
 
 struct TransportOptions {
-  bool iceoryx = true;       // needs this process registered with RouDi (camera::StreamingHost or connect_client)
+  bool iceoryx = true;       // needs this process registered with RouDi (a roudi::Host or connect_client)
   bool udp = true;
   uint16_t udp_base_port = kDefaultUdpBasePort;   // robot N sends to base + N
   std::string udp_address = "127.0.0.1";           // IPv4 address; another than loopback only when the user names it

@@ -29,8 +29,8 @@
 #include "truth/transport.h"
 #include "truth/world_model.h"
 
-namespace doppel::camera {
-class StreamingHost;
+namespace doppel::roudi {
+class Host;
 }
 
 namespace doppel::truth {
@@ -60,8 +60,8 @@ struct TruthStats {
 
 class TruthService {
  public:
-  // Uses this process' iceoryx (a camera StreamingHost) or, with transport.iceoryx and none yet,
-  // brings up its own (RouDi inside doppel unless one runs). Throws std::runtime_error /
+  // With transport.iceoryx, shares this process' iceoryx (roudi::Host: the cameras' when they
+  // brought it up, else a new one, RouDi inside doppel unless one runs). Throws std::runtime_error /
   // std::invalid_argument naming the problem. Setup.
   explicit TruthService(TruthOptions options);
   ~TruthService();
@@ -110,7 +110,7 @@ class TruthService {
   void update_enabled();  // under mutex_
 
   TruthOptions options_;
-  std::unique_ptr<camera::StreamingHost> host_;  // only when this service brought iceoryx up
+  std::shared_ptr<roudi::Host> roudi_;  // with transport.iceoryx
 
   // Simulation thread.
   std::array<std::optional<RobotBinding>, kMaxRobots> bindings_{};
