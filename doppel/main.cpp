@@ -41,15 +41,15 @@ int main(int argc, char** argv) {
     std::cout << usage();
     return 0;
   }
-  if (options.robots_dir.empty()) {
-    options.robots_dir = default_robots_dir();
+  if (options.buses.robots_dir.empty()) {
+    options.buses.robots_dir = default_robots_dir();
   }
-  if (options.list_robots) {
+  if (options.buses.list_robots) {
     // One line a robot: its name, then its description, or why its file cannot be used.
-    for (const std::string& name : list_robots(options.robots_dir)) {
+    for (const std::string& name : list_robots(options.buses.robots_dir)) {
       std::string about;
       try {
-        about = load_robot(name, options.robots_dir).description;
+        about = load_robot(name, options.buses.robots_dir).description;
       } catch (const std::exception& e) {
         about = std::string("(cannot be loaded: ") + e.what() + ")";
       }
@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
 
   try {
     std::vector<RobotConfig> robots = load_robots(options);
-    const SessionConfig session = options.session.empty() ? SessionConfig{} : load_session(options.session);
+    const SessionConfig session = options.world.session.empty() ? SessionConfig{} : load_session(options.world.session);
     {
       std::lock_guard<std::mutex> lock(phase_mutex);
       phase = kSettingUp;

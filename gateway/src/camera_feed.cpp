@@ -56,8 +56,8 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
     return;
   }
   camera::StreamingOptions streaming;
-  streaming.roudi = options.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
-  streaming.verbose = options.verbose;
+  streaming.roudi = options.cameras.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
+  streaming.verbose = options.cameras.verbose;
   host_ = std::make_unique<camera::StreamingHost>(configs, streaming);
   double fastest_fps = 0.0;
   for (Mount& mount : mounts_) {
@@ -217,8 +217,8 @@ std::size_t CameraFeed::add(const CameraSetup& setup, const Options& options) {
   try {
     if (host_ == nullptr) {  // nothing streamed yet: iceoryx starts now, its pools sized for this camera
       camera::StreamingOptions streaming;
-      streaming.roudi = options.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
-      streaming.verbose = options.verbose;
+      streaming.roudi = options.cameras.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
+      streaming.verbose = options.cameras.verbose;
       host_ = std::make_unique<camera::StreamingHost>(std::vector<camera::CameraConfig>{setup.config}, streaming);
     }
     auto stream = std::make_unique<camera::CameraStream>(*host_, setup.config);  // outside the lock: it builds its renderer

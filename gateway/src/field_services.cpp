@@ -68,33 +68,33 @@ std::pair<std::string, uint16_t> address_and_port(const std::string& text, const
 }
 
 FieldServices::FieldServices(const Options& options)
-    : gc_destination_(options.gc_destination), gc_return_(options.gc_return), gc_watch_(options.gc_watch) {
-  gc_options_.team_a = static_cast<uint8_t>(options.gc_team_a);
-  gc_options_.team_b = static_cast<uint8_t>(options.gc_team_b);
-  gc_options_.players_per_team = static_cast<uint8_t>(options.gc_players);
-  std::tie(gc_options_.address, gc_options_.port) = address_and_port(options.gc_destination, "--gc-destination");
-  std::tie(gc_options_.return_address, gc_options_.return_port) = address_and_port(options.gc_return, "--gc-return");
-  if (options.gc_watch != "off") {
-    std::tie(gc_options_.watch_address, gc_options_.watch_port) = address_and_port(options.gc_watch, "--gc-watch");
+    : gc_destination_(options.gamecontroller.destination), gc_return_(options.gamecontroller.return_to), gc_watch_(options.gamecontroller.watch) {
+  gc_options_.team_a = static_cast<uint8_t>(options.gamecontroller.team_a);
+  gc_options_.team_b = static_cast<uint8_t>(options.gamecontroller.team_b);
+  gc_options_.players_per_team = static_cast<uint8_t>(options.gamecontroller.players);
+  std::tie(gc_options_.address, gc_options_.port) = address_and_port(options.gamecontroller.destination, "--gc-destination");
+  std::tie(gc_options_.return_address, gc_options_.return_port) = address_and_port(options.gamecontroller.return_to, "--gc-return");
+  if (options.gamecontroller.watch != "off") {
+    std::tie(gc_options_.watch_address, gc_options_.watch_port) = address_and_port(options.gamecontroller.watch, "--gc-watch");
   }
   gc_options_.on_step_aside = [](const std::string& reason) {
     std::cerr << "doppel: GameController: " << reason << " (doppel-ctl game on sends again)\n" << std::flush;
   };
-  if (options.gamecontroller) {
+  if (options.gamecontroller.enabled) {
     std::lock_guard lock(mutex_);
     if (const std::string error = open_game_controller(); !error.empty()) {
       throw std::runtime_error("--gamecontroller: " + error + " (--gc-return picks another address or port)");
     }
   }
-  if (!options.teamcomm.empty()) {
-    std::string listen = options.teamcomm;
+  if (!options.teamcomm.hub.empty()) {
+    std::string listen = options.teamcomm.hub;
     if (listen.find(':') == std::string::npos) listen = "127.0.0.1:" + listen;
     std::tie(hub_config_.listen_address, hub_config_.listen_port) = address_and_port(listen, "--teamcomm");
-    hub_config_.robot_address = options.teamcomm_robot_address;
-    hub_config_.link = options.teamcomm_link;
-    hub_config_.seed = options.teamcomm_seed;
+    hub_config_.robot_address = options.teamcomm.robot_address;
+    hub_config_.link = options.teamcomm.link;
+    hub_config_.seed = options.teamcomm.seed;
     try {
-      for (const std::string& robot : options.teamcomm_robots) hub_config_.robots.push_back(teamcomm::parse_robot(robot));
+      for (const std::string& robot : options.teamcomm.robots) hub_config_.robots.push_back(teamcomm::parse_robot(robot));
       hub_ = std::make_unique<teamcomm::Hub>(hub_config_);
     } catch (const std::exception& e) {
       throw std::runtime_error(std::string("--teamcomm: ") + e.what());

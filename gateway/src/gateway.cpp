@@ -62,15 +62,15 @@ namespace {
 
 // Where robot r starts: where the options put it (a scenario's start pose), else its kick-off spot.
 physics::RobotPlacement start_placement(const Options& options, std::size_t r) {
-  return r < options.placements.size() && options.placements[r] ? *options.placements[r] : kick_off_placement(r);
+  return r < options.world.placements.size() && options.world.placements[r] ? *options.world.placements[r] : kick_off_placement(r);
 }
 
 }  // namespace
 
 std::vector<RobotConfig> load_robots(const Options& options) {
-  const std::string robots_dir = options.robots_dir.empty() ? default_robots_dir() : options.robots_dir;
+  const std::string robots_dir = options.buses.robots_dir.empty() ? default_robots_dir() : options.buses.robots_dir;
   std::vector<RobotConfig> configs;
-  for (const std::string& robot : options.robots) {
+  for (const std::string& robot : options.buses.robots) {
     configs.push_back(load_robot(robot, robots_dir));
   }
   return configs;
@@ -78,13 +78,13 @@ std::vector<RobotConfig> load_robots(const Options& options) {
 
 Gateway::Gateway(const Options& options)
     : Gateway(options, load_robots(options),
-              options.session.empty() ? SessionConfig{} : load_session(options.session)) {}
+              options.world.session.empty() ? SessionConfig{} : load_session(options.world.session)) {}
 
 Gateway::Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session, TransitionHook hook)
     : options_(options), session_(session), configs_(std::move(configs)), lifecycle_(std::move(hook)) {
-  if (options.token) {
+  if (options.viewer.token) {
     access_token_ = contract::new_access_token();
-  } else if (options.viewer || (options.handshake && options.handshake_tcp)) {
+  } else if (options.viewer.enabled || (options.handshake.enabled && options.handshake.tcp)) {
     std::cerr << "doppel: warning: --no-token: every local user and program can use the control API and the TCP "
                  "handshake (docs/security.md)\n";
   }
@@ -97,7 +97,7 @@ void Gateway::add_components() {
   // from configure until release, and stops before any of them.
   lifecycle_.add({"links", [this] {
                     try {
-                      links_ = std::make_unique<bus::LinkDirectory>(options_.link_dir, options_.allow_shared_link_dir, std::cerr);
+                      links_ = std::make_unique<bus::LinkDirectory>(options_.buses.link_dir, options_.buses.allow_shared_link_dir, std::cerr);
                       for (std::size_t r = 1; r < configs_.size(); ++r) links_->subdirectory("robot" + std::to_string(r));
                     } catch (const bus::UnsafeLinkDirectory& e) {
                       throw std::runtime_error(std::string(e.what()) + " (--allow-shared-link-dir uses it anyway)");
@@ -245,7 +245,7 @@ void Gateway::add_components() {
                     bus_stop_ = false;
                     for (auto& robot : robots_) {
                       if (lockstep_ == nullptr) {
-                        robot->start(bus_stop_, options_.rt_priority);
+                        robot->start(bus_stop_, options_.buses.rt_priority);
                       } else {
                         robot->publish_links();  // under lockstep the simulation thread serves the buses itself
                       }
@@ -270,7 +270,7 @@ void Gateway::configure_world() {
   std::vector<physics::RobotModel> bodies;
   std::vector<physics::RobotPlacement> placements;
   in_world_.assign(configs_.size(), std::nullopt);
-  if (options_.physics) {
+  if (options_.world.physics) {
     for (std::size_t r = 0; r < configs_.size(); ++r) {
       if (configs_[r].body) {
         in_world_[r] = bodies.size();
@@ -282,7 +282,7 @@ void Gateway::configure_world() {
   if (bodies.empty()) return;
   physics::WorldOptions world_options;
   world_options.step_s = static_cast<double>(kSimulationStepNs) * 1e-9;
-  world_options.hold = options_.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
+  world_options.hold = options_.world.hold ? physics::HoldMode::kUntilTorque : physics::HoldMode::kReleased;
   world_options.field = physics::field_shapes();
   for (const Eigen::Vector2d& ball : session_.extra_balls) {
     physics::BallOptions extra = world_options.ball;
@@ -292,23 +292,23 @@ void Gateway::configure_world() {
   int files_sweeps = 0;
   for (const RobotConfig& config : configs_) files_sweeps = std::max(files_sweeps, config.solver_iterations.value_or(0));
   world_options.solver_iterations =
-      options_.solver_iterations.value_or(files_sweeps > 0 ? files_sweeps : world_options.solver_iterations);
-  world_ = std::make_unique<physics::World>(physics::make_backend(*options_.physics), std::move(bodies),
+      options_.world.solver_iterations.value_or(files_sweeps > 0 ? files_sweeps : world_options.solver_iterations);
+  world_ = std::make_unique<physics::World>(physics::make_backend(*options_.world.physics), std::move(bodies),
                                             std::move(placements), world_options);
 }
 
 void Gateway::configure_state() {
-  if (options_.state_dir.empty()) return;
-  prepare_state_dir(options_.state_dir);
+  if (options_.state.dir.empty()) return;
+  prepare_state_dir(options_.state.dir);
   for (std::size_t r = 0; r < configs_.size(); ++r) {
-    state_files_.push_back(state_file_path(options_.state_dir, configs_[r], r));
+    state_files_.push_back(state_file_path(options_.state.dir, configs_[r], r));
   }
 }
 
 void Gateway::configure_robots() {
   // Saved EEPROM areas are read before any port exists: a bad state file stops doppel cleanly.
   std::vector<std::optional<RobotEeprom>> saved(configs_.size());
-  for (std::size_t r = 0; r < state_files_.size() && !options_.fresh; ++r) {
+  for (std::size_t r = 0; r < state_files_.size() && !options_.state.fresh; ++r) {
     saved[r] = read_state(state_files_[r], configs_[r]);
   }
   const RobotBuilder builder(options_, world_.get());
@@ -319,7 +319,7 @@ void Gateway::configure_robots() {
 }
 
 void Gateway::configure_cameras() {
-  if (!options_.camera || (world_ == nullptr && session_.world_cameras.empty())) return;
+  if (!options_.cameras.enabled || (world_ == nullptr && session_.world_cameras.empty())) return;
   std::vector<std::vector<CameraSetup>> cameras(world_ != nullptr ? world_->robot_count() : 0);  // by world robot
   for (std::size_t r = 0; r < configs_.size(); ++r) {
     if (in_world_[r]) cameras[*in_world_[r]] = RobotBuilder::cameras(r, configs_[r].cameras);
@@ -328,22 +328,22 @@ void Gateway::configure_cameras() {
 }
 
 void Gateway::configure_control() {
-  if (!options_.viewer) return;
+  if (!options_.viewer.enabled) return;
   // The viewer's page beside the API; without its files (no libjs-three) the API alone.
   control::StaticFiles files = control::default_static_files();
-  if (!options_.viewer_dir.empty()) files.viewer_dir = options_.viewer_dir;
+  if (!options_.viewer.dir.empty()) files.viewer_dir = options_.viewer.dir;
   if (const std::string problem = control::static_files_problem(files); !problem.empty()) {
-    if (!options_.viewer_dir.empty()) throw std::runtime_error("--viewer-dir: " + problem);
+    if (!options_.viewer.dir.empty()) throw std::runtime_error("--viewer-dir: " + problem);
     std::cerr << "doppel: viewer page off: " << problem << "\n";
     files = {};
   }
   viewer_page_ = !files.viewer_dir.empty();
   try {
-    control_api_ = std::make_unique<control::HttpApi>(controller_->facets(), options_.viewer_address,
-                                                      options_.viewer_port.value_or(control::kDefaultPort), files,
+    control_api_ = std::make_unique<control::HttpApi>(controller_->facets(), options_.viewer.address,
+                                                      options_.viewer.port.value_or(control::kDefaultPort), files,
                                                       access_token_);
   } catch (const std::runtime_error& e) {
-    if (options_.viewer_port) {
+    if (options_.viewer.port) {
       throw std::runtime_error(std::string("--viewer: ") + e.what());
     }
     std::cerr << "doppel: simulation control off: " << e.what() << "; --viewer PORT picks another port\n";
@@ -385,30 +385,30 @@ std::optional<std::size_t> Gateway::world_index(std::size_t robot) const {
 }
 
 void Gateway::configure_truth() {
-  if (options_.world_model && world_ == nullptr) {
+  if (options_.truth.world_model && world_ == nullptr) {
     std::cerr << "doppel: --world-model: no robot has a body in the world (--physics none?): no world model\n";
   }
-  if (!((options_.world_model && world_ != nullptr) || options_.sensor_levels_hz > 0.0)) return;
+  if (!((options_.truth.world_model && world_ != nullptr) || options_.truth.sensor_levels_hz > 0.0)) return;
   truth::TruthOptions truth_options;
-  truth_options.transport.iceoryx = options_.truth_iceoryx;
-  truth_options.transport.udp_base_port = options_.truth_udp_port;
-  truth_options.transport.udp_address = options_.truth_udp_address;
-  truth_options.verbose = options_.verbose;
+  truth_options.transport.iceoryx = options_.truth.iceoryx;
+  truth_options.transport.udp_base_port = options_.truth.udp_port;
+  truth_options.transport.udp_address = options_.truth.udp_address;
+  truth_options.verbose = options_.cameras.verbose;
   try {
     truth_ = std::make_unique<truth::TruthService>(truth_options);
   } catch (const std::exception& e) {
-    throw std::runtime_error(std::string(options_.world_model ? "--world-model: " : "--sensor-levels: ") + e.what());
+    throw std::runtime_error(std::string(options_.truth.world_model ? "--world-model: " : "--sensor-levels: ") + e.what());
   }
-  if (options_.sensor_levels_hz > 0.0) {
+  if (options_.truth.sensor_levels_hz > 0.0) {
     std::vector<RobotRuntime*> robots;
     for (auto& robot : robots_) robots.push_back(robot.get());
     levels_feed_ = std::make_unique<SensorLevelsFeed>(std::move(robots));
     truth_->add_poller([feed = levels_feed_.get()](truth::Transport& transport) { feed->publish(transport); });
   }
   for (std::size_t r = 0; r < configs_.size(); ++r) {
-    if (!in_world_[r] || !options_.world_model) continue;
+    if (!in_world_[r] || !options_.truth.world_model) continue;
     const truth::RobotBinding binding = RobotBuilder::truth_binding(configs_[r], *in_world_[r], start_placement(options_, r).team);
-    if (const std::string problem = truth_->add_robot(r, binding, options_.world_model_settings); !problem.empty()) {
+    if (const std::string problem = truth_->add_robot(r, binding, options_.truth.world_model_settings); !problem.empty()) {
       throw std::runtime_error("--world-model: " + problem);
     }
   }
@@ -420,7 +420,7 @@ contract::RobotHost& Gateway::robot_host() noexcept { return *live_; }
 contract::Result<uint32_t> Gateway::add_fault(const faults::FaultSpec& spec) { return faults_->add(spec); }
 
 void Gateway::configure_lockstep() {
-  if (!options_.lockstep) return;
+  if (!options_.lockstep.enabled) return;
   std::vector<lockstep::LockstepBus> buses;
   for (auto& robot : robots_) {
     for (std::size_t b = 0; b < robot->bus_count(); ++b) {
@@ -431,22 +431,22 @@ void Gateway::configure_lockstep() {
     }
   }
   lockstep::CoordinatorOptions coordinator;
-  coordinator.watchdog_ns = static_cast<int64_t>(options_.lockstep_watchdog_s * 1e9);
-  if (options_.lockstep_epoch_s) coordinator.epoch_realtime_ns = static_cast<int64_t>(*options_.lockstep_epoch_s * 1e9);
+  coordinator.watchdog_ns = static_cast<int64_t>(options_.lockstep.watchdog_s * 1e9);
+  if (options_.lockstep.epoch_s) coordinator.epoch_realtime_ns = static_cast<int64_t>(*options_.lockstep.epoch_s * 1e9);
   coordinator.start_ns = world_ != nullptr ? world_->time_ns() : 0;
-  lockstep_ = std::make_unique<lockstep::Coordinator>(options_.link_dir + "/" + lockstep::kClockFileName, buses, coordinator);
+  lockstep_ = std::make_unique<lockstep::Coordinator>(options_.buses.link_dir + "/" + lockstep::kClockFileName, buses, coordinator);
   for (auto& robot : robots_) {
     for (std::size_t b = 0; b < robot->bus_count(); ++b) {
       bus_hashes_.push_back(std::make_unique<Fnv1a>());
       robot->bus(b).server().use_lockstep_clock(&lockstep_->clock(), bus_hashes_.back().get());
     }
   }
-  if (!options_.hashes_file.empty()) {
-    hashes_file_.open(options_.hashes_file, std::ios::out | std::ios::trunc);
-    if (!hashes_file_) throw std::runtime_error("--hashes-file: cannot write " + options_.hashes_file);
+  if (!options_.lockstep.hashes_file.empty()) {
+    hashes_file_.open(options_.lockstep.hashes_file, std::ios::out | std::ios::trunc);
+    if (!hashes_file_) throw std::runtime_error("--hashes-file: cannot write " + options_.lockstep.hashes_file);
   }
-  if (options_.hashes || !options_.hashes_file.empty()) {
-    std::ostream* out = options_.hashes_file.empty() ? &std::cout : &hashes_file_;
+  if (options_.lockstep.hashes || !options_.lockstep.hashes_file.empty()) {
+    std::ostream* out = options_.lockstep.hashes_file.empty() ? &std::cout : &hashes_file_;
     hash_callback_ = [out](int64_t second, uint64_t hash) {
       char line[64];
       std::snprintf(line, sizeof(line), "hash %" PRId64 " %016" PRIx64 "\n", second, hash);
@@ -460,15 +460,15 @@ void Gateway::on_second_hash(HashCallback callback) { hash_callback_ = std::move
 std::string Gateway::lockstep_clock_path() const { return lockstep_ != nullptr ? lockstep_->path() : std::string(); }
 
 void Gateway::configure_recorder() {
-  if (options_.record_path.empty()) return;
+  if (options_.record.path.empty()) return;
   const std::vector<RobotConfig>& configs = configs_;
   recording::RunInfo run;
   run.set_doppel_version(DOPPEL_VERSION);
   run.set_command_line(options_.command_line);
   run.set_start_monotonic_ns(monotonic_now_ns());
   run.set_start_unix_ns(clock_now_ns(CLOCK_REALTIME));
-  run.set_physics_engine(world_ != nullptr ? std::string(physics::engine_name(*options_.physics)) : "");
-  run.set_timing_mode(options_.timing == bus::TimingMode::kWire ? "wire" : "fast");
+  run.set_physics_engine(world_ != nullptr ? std::string(physics::engine_name(*options_.world.physics)) : "");
+  run.set_timing_mode(options_.buses.timing == bus::TimingMode::kWire ? "wire" : "fast");
   std::vector<record::RecordedBus> buses;
   for (std::size_t r = 0; r < robots_.size(); ++r) {
     for (std::size_t b = 0; b < robots_[r]->bus_count(); ++b) {
@@ -498,12 +498,12 @@ void Gateway::configure_recorder() {
     }
   }
   record::RecorderOptions recorder_options;
-  recorder_options.path = options_.record_path;
-  recorder_options.camera_hz = options_.record_camera_hz;
-  recorder_options.compression = options_.record_compression == "lz4"    ? mcap::Compression::kLz4
-                                 : options_.record_compression == "none" ? mcap::Compression::kNone
+  recorder_options.path = options_.record.path;
+  recorder_options.camera_hz = options_.record.camera_hz;
+  recorder_options.compression = options_.record.compression == "lz4"    ? mcap::Compression::kLz4
+                                 : options_.record.compression == "none" ? mcap::Compression::kNone
                                                                          : mcap::Compression::kZstd;
-  recorder_options.progress = options_.record_progress && ::isatty(STDERR_FILENO) == 1;
+  recorder_options.progress = options_.record.progress && ::isatty(STDERR_FILENO) == 1;
   try {
     recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_->facets(),
                                                    &std::cerr);
@@ -725,12 +725,12 @@ std::string Gateway::describe() const {
   if (cameras_ != nullptr) {
     out << cameras_->describe();
   }
-  if (truth_ != nullptr && options_.world_model) {
+  if (truth_ != nullptr && options_.truth.world_model) {
     out << truth_->describe();
   }
   if (levels_feed_ != nullptr) {
     const truth::TransportOptions& transport = truth_->transport_options();
-    out << "doppel: sensor levels " << options_.sensor_levels_hz << " times per simulated second on";
+    out << "doppel: sensor levels " << options_.truth.sensor_levels_hz << " times per simulated second on";
     if (transport.iceoryx) out << " iceoryx (" << truth::kServiceId << ", robot<N>, " << kSensorLevelsTopic << ")";
     if (transport.iceoryx && transport.udp) out << " and";
     if (transport.udp) out << " UDP " << transport.udp_address << ":" << transport.udp_base_port << "+N";
@@ -749,15 +749,15 @@ std::string Gateway::describe() const {
     out << "doppel: access token in " << file->path() << " (doppel-ctl, doppel_session.py read it; docs/security.md)\n";
   }
   out << field_->describe();
-  const char* timing = options_.timing == bus::TimingMode::kWire ? "wire" : "fast";
-  out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.physics) : std::string_view("none (kinematic joints)"))
-      << (world_ != nullptr && options_.hold ? ", robots held until their servos have torque" : "") << "\n";
+  const char* timing = options_.buses.timing == bus::TimingMode::kWire ? "wire" : "fast";
+  out << "doppel: physics " << (world_ != nullptr ? physics::engine_name(*options_.world.physics) : std::string_view("none (kinematic joints)"))
+      << (world_ != nullptr && options_.world.hold ? ", robots held until their servos have torque" : "") << "\n";
   if (lockstep_ != nullptr) {
     out << "doppel: lockstep: simulation time runs while controllers started with `doppel-run --lockstep --link-dir "
-        << options_.link_dir << " -- CONTROLLER` wait (clock file " << lockstep_->path() << ")\n";
+        << options_.buses.link_dir << " -- CONTROLLER` wait (clock file " << lockstep_->path() << ")\n";
   }
-  out << "doppel: timing " << timing << ", firmware time " << options_.processing_us << " us, USB latency timer "
-      << (options_.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.latency_timer_ms) + " ms")
+  out << "doppel: timing " << timing << ", firmware time " << options_.buses.processing_us << " us, USB latency timer "
+      << (options_.buses.latency_timer_ms == 0 ? std::string("off") : std::to_string(options_.buses.latency_timer_ms) + " ms")
       << "; running until SIGINT/SIGTERM\n";
   return out.str();
 }
@@ -776,7 +776,7 @@ std::string Gateway::summary() const {
   if (truth_ != nullptr) {
     const truth::TruthStats stats = truth_->stats();
     if (levels_feed_ != nullptr) out << "  sensor levels: " << levels_feed_->messages() << " messages\n";
-    if (options_.world_model) {
+    if (options_.truth.world_model) {
       out << "  world model: " << stats.messages << " messages, " << stats.samples_dropped << " world samples dropped\n";
     }
     out << "  truth transport: iceoryx " << stats.transport.iceoryx_sent << " sent, " << stats.transport.iceoryx_dropped

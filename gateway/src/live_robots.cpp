@@ -150,7 +150,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const contract::RobotR
   if (parts_.world == nullptr) {
     return Refusal{"", "this doppel runs without a physics world (--physics none): no robot can be added while it runs"};
   }
-  if (parts_.options->lockstep) {
+  if (parts_.options->lockstep.enabled) {
     return Refusal{"", "this doppel runs in lockstep (--lockstep): its robots are fixed at start (docs/lockstep.md)"};
   }
   if (request.world_model) {
@@ -175,7 +175,7 @@ std::variant<LiveRobots::Plan, Refusal> LiveRobots::check(const contract::RobotR
     const Options& options = *parts_.options;
     plan.config = request.robot.empty()
                       ? parse_robot(request.description, "description")
-                      : load_robot(request.robot, options.robots_dir.empty() ? default_robots_dir() : options.robots_dir);
+                      : load_robot(request.robot, options.buses.robots_dir.empty() ? default_robots_dir() : options.buses.robots_dir);
   } catch (const std::exception& e) {
     return Refusal{robot_field, e.what()};
   }
@@ -299,7 +299,7 @@ contract::AddResult LiveRobots::add_robot(const contract::RobotRequest& request)
     robot.latency = std::make_unique<bus::LatencyTimerFiles>(std::cerr);
     robot.runtime->add_latency_timer_files(*robot.latency);
     robot.latency->start();
-    robot.runtime->start(robot.stop, parts_.options->rt_priority);
+    robot.runtime->start(robot.stop, parts_.options->buses.rt_priority);
     robot.threads = true;
     for (const std::size_t id : robot.camera_ids) parts_.cameras->show(id, from_s);
     parts_.controller->show(index);

@@ -137,9 +137,9 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   }
   wire_supply_switch();
   stuck_.resize(servos_.size());
-  if (options.sensor_levels_hz > 0.0) {
+  if (options.truth.sensor_levels_hz > 0.0) {
     static_assert(kMaxServos <= body::kLevelsMaxServos && kMaxBoards <= body::kLevelsMaxBoards);
-    levels_period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.sensor_levels_hz));
+    levels_period_ns_ = std::max<int64_t>(1, std::llround(1e9 / options.truth.sensor_levels_hz));
     for (const auto& device : devices_) levels_tables_.push_back(body::device_table(*device));
     auto layout = [&](std::size_t d) {
       const DeviceConfig& device = config.devices[d];
@@ -182,11 +182,11 @@ BusRuntime::BusRuntime(const BusConfig& config, std::size_t bus_index, body::Sim
   }
 
   bus::BusServerOptions server_options;
-  server_options.timing_mode = options.timing;
-  server_options.processing_ns = static_cast<int64_t>(options.processing_us * 1000.0);
-  server_options.adapter_latency_ms = config.latency_timer_ms.value_or(options.latency_timer_ms);
+  server_options.timing_mode = options.buses.timing;
+  server_options.processing_ns = static_cast<int64_t>(options.buses.processing_us * 1000.0);
+  server_options.adapter_latency_ms = config.latency_timer_ms.value_or(options.buses.latency_timer_ms);
   server_options.adapter = config.adapter;
-  if (!options.record_path.empty()) {
+  if (!options.record.path.empty()) {
     tap_ = std::make_unique<bus::TrafficTap>();
     server_options.tap = tap_.get();
   }
@@ -618,7 +618,7 @@ RobotRuntime::RobotRuntime(const RobotConfig& config, std::size_t robot_index,
     : config_(config), index_(robot_index), body_(std::move(body)), state_path_(state_path), state_loaded_(saved != nullptr) {
   for (std::size_t b = 0; b < config.buses.size(); ++b) {
     buses_.push_back(std::make_unique<BusRuntime>(config.buses[b], b, *body_,
-                                                  link_path(options.link_dir, robot_index, b), options,
+                                                  link_path(options.buses.link_dir, robot_index, b), options,
                                                   saved != nullptr ? &saved->at(b) : nullptr, state_path));
   }
   // Power-on (before the world's first step): the sensors' first sample and the servos' Present

@@ -151,7 +151,7 @@ class BusRuntime final : public bus::DeviceSync {
   // the bus thread (one at a time: a mutex on the reading side only).
   contract::BusTable servo_table();
 
-  // Sensor levels (body/sensor_levels.h; Options::sensor_levels_hz > 0, else none). The levels
+  // Sensor levels (body/sensor_levels.h; TruthOptions::sensor_levels_hz > 0, else none). The levels
   // thread only: takes the newest sample the bus thread published (true when it is new), and the
   // sample itself. rt-safe.
   bool sensor_levels_enabled() const noexcept { return levels_ != nullptr; }

@@ -113,36 +113,36 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   if (!own_work_dir) std::filesystem::create_directories(work_dir);
 
   gateway::Options gateway_options;
-  gateway_options.link_dir = work_dir + "/links";
-  gateway_options.viewer = false;
-  gateway_options.camera = false;
-  gateway_options.state_dir = "";  // every run starts from the robot files
-  gateway_options.fresh = true;
-  gateway_options.physics = scenario.engine;
+  gateway_options.buses.link_dir = work_dir + "/links";
+  gateway_options.viewer.enabled = false;
+  gateway_options.cameras.enabled = false;
+  gateway_options.state.dir = "";  // every run starts from the robot files
+  gateway_options.state.fresh = true;
+  gateway_options.world.physics = scenario.engine;
   if (scenario.lockstep) {
     // Simulation time only advances while the controllers wait (docs/lockstep.md); a fixed epoch
     // makes their CLOCK_REALTIME the same in every run, so equal runs hash equal.
-    gateway_options.lockstep = true;
-    gateway_options.lockstep_epoch_s = kLockstepEpochS;
+    gateway_options.lockstep.enabled = true;
+    gateway_options.lockstep.epoch_s = kLockstepEpochS;
   }
   if (scenario.metrics.control_cycle) {
-    gateway_options.record_path = work_dir + "/run.mcap";
-    gateway_options.record_compression = "none";
-    gateway_options.record_progress = false;
+    gateway_options.record.path = work_dir + "/run.mcap";
+    gateway_options.record.compression = "none";
+    gateway_options.record.progress = false;
   }
   gateway_options.command_line = "doppel scenario run " + scenario.source;
   std::vector<gateway::RobotConfig> configs;
   for (const RobotEntry& robot : scenario.robots) {
-    gateway_options.robots.push_back(robot.reference);
+    gateway_options.buses.robots.push_back(robot.reference);
     configs.push_back(robot.config);
     if (robot.start) {
       physics::RobotPlacement placement;
       placement.position_m = Eigen::Vector3d(robot.start->x_m, robot.start->y_m, 0.0);
       placement.yaw_rad = robot.start->yaw_rad;
-      placement.team = static_cast<uint8_t>(gateway_options.placements.size() % 2);
-      gateway_options.placements.emplace_back(placement);
+      placement.team = static_cast<uint8_t>(gateway_options.world.placements.size() % 2);
+      gateway_options.world.placements.emplace_back(placement);
     } else {
-      gateway_options.placements.emplace_back(std::nullopt);
+      gateway_options.world.placements.emplace_back(std::nullopt);
     }
   }
   gateway::Gateway gateway(gateway_options, configs, gateway::SessionConfig{});
@@ -150,7 +150,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   // Every servo of every robot, for the energy.
   std::vector<std::vector<physics::MotorHandle>> motors(configs.size());
   Substitutions values;
-  values.link_dir = gateway_options.link_dir;
+  values.link_dir = gateway_options.buses.link_dir;
   values.seconds = duration_s;
   values.seed = seed;
   values.params = params;
@@ -160,7 +160,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     }
     values.links.emplace_back();
     for (std::size_t b = 0; b < configs[r].buses.size(); ++b) {
-      values.links.back().push_back(gateway::link_path(gateway_options.link_dir, r, b));
+      values.links.back().push_back(gateway::link_path(gateway_options.buses.link_dir, r, b));
     }
   }
   std::vector<std::vector<std::string>> argvs;
@@ -178,7 +178,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
     if (controller.doppel_run || scenario.lockstep) {
       const std::string shim = find_program("doppel-run", scenario.folder, options.tool_dirs);
       if (shim.empty()) throw std::runtime_error(controller.location + ": doppel_run: doppel-run not found");
-      std::vector<std::string> wrapped = {shim, "--link-dir", gateway_options.link_dir};
+      std::vector<std::string> wrapped = {shim, "--link-dir", gateway_options.buses.link_dir};
       if (scenario.lockstep) wrapped.push_back("--lockstep");
       wrapped.push_back("--");
       wrapped.insert(wrapped.end(), argv.begin(), argv.end());
@@ -341,7 +341,7 @@ json run_scenario(const Scenario& scenario, const RunOptions& options, const std
   if (scenario.metrics.control_cycle) {
     try {
       const analyzer::Recording recording =
-          analyzer::read_recording(gateway_options.record_path, std::nullopt, {}, false);
+          analyzer::read_recording(gateway_options.record.path, std::nullopt, {}, false);
       for (std::size_t r = 0; r < configs.size(); ++r) {
         cycles[r] = analyzer::analyze(recording.run, recording.transactions, static_cast<uint32_t>(r)).cycle;
       }

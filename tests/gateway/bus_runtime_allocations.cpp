@@ -78,7 +78,7 @@ TEST(BusRuntimeAllocations, SamplingSensorLevelsAllocatesNothing) {
   std::filesystem::create_directories(dir);
   body::KinematicBody body;
   Options options;
-  options.sensor_levels_hz = 100.0;
+  options.truth.sensor_levels_hz = 100.0;
   BusRuntime sut(robot.buses[0], 0, body, (dir / "ttyDXL0").string(), options);
   int samples = 0;
   for (int tick = 0; tick < 200; ++tick) {  // 200 ms of simulation, one bus tick per step

@@ -55,24 +55,24 @@ class GatewayLifecycle : public ::testing::Test {
     // Every component with work to do: two robots (robot1/ links), their cameras, the world model
     // and sensor levels, the recorder, the EEPROM state, the control API, the handshake on its
     // socket and a TCP port, the GameController and the team hub (loopback only).
-    options_.link_dir = dir_ + "/links";
-    options_.robots = {"fumanoid-2011", "fumanoid-2011"};
-    options_.robots_dir = DOPPEL_ROBOTS_DIR;
-    options_.timing = bus::TimingMode::kFast;
-    options_.camera = true;
-    options_.world_model = true;
-    options_.sensor_levels_hz = 10.0;
-    options_.record_path = dir_ + "/run.mcap";
-    options_.record_progress = false;
-    options_.state_dir = dir_ + "/state";
-    options_.viewer = true;
-    options_.viewer_port = 0;
-    options_.handshake = true;
-    options_.handshake_port = 0;
-    options_.gamecontroller = true;
-    options_.gc_return = "127.0.0.1:0";
-    options_.gc_watch = "off";
-    options_.teamcomm = "127.0.0.1:0";
+    options_.buses.link_dir = dir_ + "/links";
+    options_.buses.robots = {"fumanoid-2011", "fumanoid-2011"};
+    options_.buses.robots_dir = DOPPEL_ROBOTS_DIR;
+    options_.buses.timing = bus::TimingMode::kFast;
+    options_.cameras.enabled = true;
+    options_.truth.world_model = true;
+    options_.truth.sensor_levels_hz = 10.0;
+    options_.record.path = dir_ + "/run.mcap";
+    options_.record.progress = false;
+    options_.state.dir = dir_ + "/state";
+    options_.viewer.enabled = true;
+    options_.viewer.port = 0;
+    options_.handshake.enabled = true;
+    options_.handshake.port = 0;
+    options_.gamecontroller.enabled = true;
+    options_.gamecontroller.return_to = "127.0.0.1:0";
+    options_.gamecontroller.watch = "off";
+    options_.teamcomm.hub = "127.0.0.1:0";
     configs_ = gateway::load_robots(options_);
   }
   void TearDown() override {
@@ -137,15 +137,15 @@ TEST_F(GatewayLifecycle, StartsInListOrderAndStopsInReverse) {
   EXPECT_EQ(of(Transition::kConfigure), components);
   sut->start();
   EXPECT_EQ(of(Transition::kStart), components);
-  EXPECT_TRUE(fs::is_symlink(options_.link_dir + "/ttyDXL0"));
-  EXPECT_TRUE(fs::is_symlink(options_.link_dir + "/robot1/ttyDXL0"));
-  EXPECT_TRUE(fs::exists(options_.link_dir + "/handshake.sock"));
+  EXPECT_TRUE(fs::is_symlink(options_.buses.link_dir + "/ttyDXL0"));
+  EXPECT_TRUE(fs::is_symlink(options_.buses.link_dir + "/robot1/ttyDXL0"));
+  EXPECT_TRUE(fs::exists(options_.buses.link_dir + "/handshake.sock"));
   EXPECT_NE(sut->control_port(), 0);
   sut->stop();
   EXPECT_EQ(of(Transition::kStop), Log(components.rbegin(), components.rend()));
   sut.reset();
   EXPECT_EQ(of(Transition::kRelease), Log(components.rbegin(), components.rend()));
-  EXPECT_TRUE(entries(options_.link_dir).empty());
+  EXPECT_TRUE(entries(options_.buses.link_dir).empty());
 }
 
 TEST_F(GatewayLifecycle, AFailureInAnyComponentUndoesWhatCameBeforeItAndLeavesNothingBehind) { fail_each_component(); }
@@ -153,8 +153,8 @@ TEST_F(GatewayLifecycle, AFailureInAnyComponentUndoesWhatCameBeforeItAndLeavesNo
 // The same on the lockstep clock (docs/lockstep.md): its clock file lives in the link directory,
 // the simulation thread serves the buses.
 TEST_F(GatewayLifecycle, UnderLockstepToo) {
-  options_.lockstep = true;
-  options_.hashes_file = dir_ + "/hashes";
+  options_.lockstep.enabled = true;
+  options_.lockstep.hashes_file = dir_ + "/hashes";
   fail_each_component();
 }
 
@@ -187,7 +187,7 @@ void GatewayLifecycle::fail_each_component() {
         EXPECT_EQ(of(Transition::kStop), reversed);
         EXPECT_EQ(of(Transition::kRelease), Log(components.rbegin(), components.rend()));
       }
-      EXPECT_EQ(entries(options_.link_dir), std::set<std::string>{}) << "links, sockets, token files";
+      EXPECT_EQ(entries(options_.buses.link_dir), std::set<std::string>{}) << "links, sockets, token files";
       EXPECT_EQ(entries("/dev/shm"), shm_before) << "iceoryx's shared memory";
       EXPECT_EQ(sockets("/tmp"), sockets_before) << "iceoryx's sockets";
     }

@@ -53,17 +53,17 @@ class LiveRobots : public ::testing::Test {
     char pattern[] = "/tmp/doppel-live-XXXXXX";
     ASSERT_NE(::mkdtemp(pattern), nullptr);
     dir_ = pattern;
-    options_.link_dir = dir_ + "/links";
-    options_.robots = {"fumanoid-2011"};
-    options_.robots_dir = DOPPEL_ROBOTS_DIR;
-    options_.timing = bus::TimingMode::kFast;
-    options_.camera = false;
-    options_.viewer = true;  // simulation control on any free port: the new robot shows in /api/state
-    options_.viewer_port = 0;
-    options_.state_dir.clear();
+    options_.buses.link_dir = dir_ + "/links";
+    options_.buses.robots = {"fumanoid-2011"};
+    options_.buses.robots_dir = DOPPEL_ROBOTS_DIR;
+    options_.buses.timing = bus::TimingMode::kFast;
+    options_.cameras.enabled = false;
+    options_.viewer.enabled = true;  // simulation control on any free port: the new robot shows in /api/state
+    options_.viewer.port = 0;
+    options_.state.dir.clear();
     gateway_ = std::make_unique<gateway::Gateway>(options_);
     gateway_->start();
-    first_ = std::make_unique<SerialClient>(options_.link_dir + "/ttyDXL0", 1000000);
+    first_ = std::make_unique<SerialClient>(options_.buses.link_dir + "/ttyDXL0", 1000000);
   }
   void TearDown() override {
     first_.reset();
@@ -113,7 +113,7 @@ class LiveRobots : public ::testing::Test {
     EXPECT_EQ(refusal.field, field) << refusal.message;
     EXPECT_FALSE(refusal.message.empty()) << field;
     EXPECT_EQ(host().robots().size(), 1u) << field;
-    EXPECT_FALSE(fs::exists(fs::symlink_status(options_.link_dir + "/robot1/ttyDXL0"))) << field;
+    EXPECT_FALSE(fs::exists(fs::symlink_status(options_.buses.link_dir + "/robot1/ttyDXL0"))) << field;
   }
 
   std::string dir_;
@@ -160,8 +160,8 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
   const contract::Link* timer = find_link(added, "latency_timer", "ttyDXL0");
   ASSERT_NE(bus, nullptr);
   ASSERT_NE(timer, nullptr);
-  EXPECT_EQ(bus->location, options_.link_dir + "/robot1/ttyDXL0");
-  EXPECT_EQ(timer->location, options_.link_dir + "/robot1/ttyDXL0.latency_timer");
+  EXPECT_EQ(bus->location, options_.buses.link_dir + "/robot1/ttyDXL0");
+  EXPECT_EQ(timer->location, options_.buses.link_dir + "/robot1/ttyDXL0.latency_timer");
   std::ifstream timer_file(timer->location);
   int latency_ms = 0;
   EXPECT_TRUE(timer_file >> latency_ms) << "the latency-timer file holds the adapter's value";
@@ -208,7 +208,7 @@ TEST_F(LiveRobots, ASecondRobotIsServedWhileDoppelRunsAndRemovingItRemovesItsLin
   const contract::AddResult back = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(back));
   EXPECT_EQ(std::get<RobotAdded>(back).robot, 1u);
-  SerialClient second(options_.link_dir + "/robot1/ttyDXL0", 1000000);
+  SerialClient second(options_.buses.link_dir + "/robot1/ttyDXL0", 1000000);
   expect_ping_answered(second, "the robot added again");
 }
 
@@ -228,7 +228,7 @@ int threads_named(const std::string& name) {
 // started with: a script watching the link directory may write the moment it sees it.
 TEST_F(LiveRobots, AnAddedRobotsLinkAppearsOnlyOnceItsBusIsServed) {
   ASSERT_EQ(threads_named("doppel-bus"), 1);
-  const std::string link = options_.link_dir + "/robot1/ttyDXL0";
+  const std::string link = options_.buses.link_dir + "/robot1/ttyDXL0";
   std::atomic<int> bus_threads_when_seen{-1};
   std::atomic<bool> stop{false};
   std::thread watcher([&] {
@@ -265,8 +265,8 @@ TEST_F(LiveRobots, ARobotFromAnInlineDescriptionIsServed) {
 // A failure halfway (here: its port link's place is taken by a regular file, found once the world
 // holds its body) undoes what was built: no body stays in the world, nothing is served.
 TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
-  fs::create_directories(options_.link_dir + "/robot1");
-  std::ofstream(options_.link_dir + "/robot1/ttyDXL0") << "not a link\n";
+  fs::create_directories(options_.buses.link_dir + "/robot1");
+  std::ofstream(options_.buses.link_dir + "/robot1/ttyDXL0") << "not a link\n";
   const contract::AddResult failed = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<Refusal>(failed));
   EXPECT_EQ(std::get<Refusal>(failed).field, "robot");
@@ -276,7 +276,7 @@ TEST_F(LiveRobots, ARobotThatFailsHalfwayLeavesNothingInTheWorld) {
   const double now_s = state()["sim_time_s"].get<double>();
   EXPECT_EQ(robots_in_scene(now_s).size(), 1u) << "the failed robot's body was left in the world";
 
-  fs::remove(options_.link_dir + "/robot1/ttyDXL0");
+  fs::remove(options_.buses.link_dir + "/robot1/ttyDXL0");
   const contract::AddResult added = host().add_robot(named("fumanoid-2011"));
   ASSERT_TRUE(std::holds_alternative<RobotAdded>(added)) << std::get<Refusal>(added).message;
   EXPECT_EQ(robots_in_scene(state()["sim_time_s"].get<double>()).size(), 2u);
@@ -329,16 +329,16 @@ TEST(LiveRobotsWorldModel, AnAddedRobotsWorldModelArrivesWhereItsLinkSaysAndStop
     GTEST_SKIP() << "the UDP port after " << robot0.port() << " is taken: " << e.what();
   }
   gateway::Options options;
-  options.link_dir = dir + "/links";
-  options.robots = {"fumanoid-2011"};
-  options.robots_dir = DOPPEL_ROBOTS_DIR;
-  options.timing = bus::TimingMode::kFast;
-  options.camera = false;
-  options.viewer = false;
-  options.state_dir.clear();
-  options.world_model = true;
-  options.truth_iceoryx = false;
-  options.truth_udp_port = robot0.port();
+  options.buses.link_dir = dir + "/links";
+  options.buses.robots = {"fumanoid-2011"};
+  options.buses.robots_dir = DOPPEL_ROBOTS_DIR;
+  options.buses.timing = bus::TimingMode::kFast;
+  options.cameras.enabled = false;
+  options.viewer.enabled = false;
+  options.state.dir.clear();
+  options.truth.world_model = true;
+  options.truth.iceoryx = false;
+  options.truth.udp_port = robot0.port();
   auto gateway = std::make_unique<gateway::Gateway>(options);
   gateway->start();
 
@@ -404,8 +404,8 @@ TEST_F(LiveRobots, ASeventhRobotIsRefused) {
   ASSERT_TRUE(std::holds_alternative<Refusal>(seventh));
   EXPECT_EQ(std::get<Refusal>(seventh).field, "robot");
   EXPECT_EQ(host().robots().size(), 6u);
-  EXPECT_FALSE(fs::exists(fs::symlink_status(options_.link_dir + "/robot6")));
-  SerialClient fifth(options_.link_dir + "/robot5/ttyDXL0", 1000000);
+  EXPECT_FALSE(fs::exists(fs::symlink_status(options_.buses.link_dir + "/robot6")));
+  SerialClient fifth(options_.buses.link_dir + "/robot5/ttyDXL0", 1000000);
   expect_ping_answered(fifth, "the sixth robot");
   expect_ping_answered(*first_, "the first robot among six");
   for (uint32_t r = 1; r < 6; ++r) EXPECT_FALSE(host().remove_robot(r).has_value()) << r;

@@ -67,9 +67,9 @@ class Rig {
                                               std::vector<physics::RobotModel>{*config_.body},
                                               std::vector<physics::RobotPlacement>{physics::RobotPlacement{}}, world_options);
     Options options;
-    options.link_dir = dir_.string();
-    options.timing = bus::TimingMode::kFast;
-    options.sensor_levels_hz = levels_hz;
+    options.buses.link_dir = dir_.string();
+    options.buses.timing = bus::TimingMode::kFast;
+    options.truth.sensor_levels_hz = levels_hz;
     robot_ = std::make_unique<RobotRuntime>(config_, 0, std::make_unique<body::PhysicsBody>(*world_, 0), options);
   }
   ~Rig() {
@@ -255,8 +255,8 @@ TEST(SensorLevelsGateway, ARobotWithSeveralBusesSendsOneMessagePerSample) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("doppel-levels-buses-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   Options options;
-  options.link_dir = dir.string();
-  options.sensor_levels_hz = 100.0;
+  options.buses.link_dir = dir.string();
+  options.truth.sensor_levels_hz = 100.0;
   {
     RobotRuntime robot(config, 0, std::make_unique<body::KinematicBody>(), options);
     levels::SensorLevels message;

@@ -29,7 +29,7 @@ TEST(SimControllerAllocations, PublishingTheSceneAllocatesNothingAndTheReaderSee
   physics::WorldOptions world_options;
   world_options.hold = physics::HoldMode::kReleased;  // the robot falls: every scene differs
   world_options.field = physics::field_shapes();
-  physics::World world(physics::make_backend(*options.physics), {*robot.body}, {}, world_options);
+  physics::World world(physics::make_backend(*options.world.physics), {*robot.body}, {}, world_options);
   SimController sut(&world, {{nullptr, 0, robot.name, &robot}}, 5.0, 3.5);
 
   std::atomic<bool> done{false};

@@ -28,22 +28,22 @@ std::string error_of(const std::string& session) {
 
 TEST(WorldModelOptions, OffByDefaultOnWithAnyOfItsOptions) {
   const Options plain = parse({});
-  EXPECT_FALSE(plain.world_model);
-  EXPECT_EQ(plain.truth_udp_port, 7600);
-  EXPECT_EQ(plain.truth_udp_address, "127.0.0.1");
-  EXPECT_TRUE(plain.truth_iceoryx);
-  EXPECT_TRUE(parse({"--world-model"}).world_model);
+  EXPECT_FALSE(plain.truth.world_model);
+  EXPECT_EQ(plain.truth.udp_port, 7600);
+  EXPECT_EQ(plain.truth.udp_address, "127.0.0.1");
+  EXPECT_TRUE(plain.truth.iceoryx);
+  EXPECT_TRUE(parse({"--world-model"}).truth.world_model);
   const Options fov = parse({"--world-model-fov", "60", "--world-model-nearest-ball", "--world-model-rate", "50",
                              "--world-model-range", "3", "--truth-udp-port", "9000", "--truth-udp-address",
                              "192.168.1.20", "--no-truth-iceoryx"});
-  EXPECT_TRUE(fov.world_model);
-  EXPECT_EQ(fov.world_model_settings.fov_deg, 60.0);
-  EXPECT_TRUE(fov.world_model_settings.nearest_ball_only);
-  EXPECT_EQ(fov.world_model_settings.rate_hz, 50.0);
-  EXPECT_EQ(fov.world_model_settings.max_range_m, 3.0);
-  EXPECT_EQ(fov.truth_udp_port, 9000);
-  EXPECT_EQ(fov.truth_udp_address, "192.168.1.20");
-  EXPECT_FALSE(fov.truth_iceoryx);
+  EXPECT_TRUE(fov.truth.world_model);
+  EXPECT_EQ(fov.truth.world_model_settings.fov_deg, 60.0);
+  EXPECT_TRUE(fov.truth.world_model_settings.nearest_ball_only);
+  EXPECT_EQ(fov.truth.world_model_settings.rate_hz, 50.0);
+  EXPECT_EQ(fov.truth.world_model_settings.max_range_m, 3.0);
+  EXPECT_EQ(fov.truth.udp_port, 9000);
+  EXPECT_EQ(fov.truth.udp_address, "192.168.1.20");
+  EXPECT_FALSE(fov.truth.iceoryx);
 }
 
 TEST(WorldModelOptions, BadValuesAreRejectedWithTheirName) {

@@ -28,7 +28,7 @@ Options parse(std::vector<const char*> args) {
 
 TEST(HandshakeOptions, DefaultsServeTheLinkDirectorysSocketAndLoopbackPort7590) {
   const Options o = parse({"--link-dir", "/run/x"});
-  EXPECT_TRUE(o.handshake);
+  EXPECT_TRUE(o.handshake.enabled);
   const handshake::ServerOptions s = handshake_options(o, "");
   EXPECT_EQ(s.unix_path, "/run/x/handshake.sock");
   EXPECT_EQ(s.tcp_port, uint16_t{7590});
@@ -43,7 +43,7 @@ TEST(HandshakeOptions, EachOptionChangesItsPart) {
   EXPECT_EQ(s.tcp_address, "::1");
   EXPECT_EQ(s.tcp_token, "secret");
   EXPECT_FALSE(handshake_options(parse({"--no-handshake-tcp"}), "").tcp_port.has_value());
-  EXPECT_FALSE(parse({"--no-handshake"}).handshake);
+  EXPECT_FALSE(parse({"--no-handshake"}).handshake.enabled);
   EXPECT_THROW(parse({"--handshake-port", "65536"}), std::invalid_argument);
   EXPECT_THROW(parse({"--handshake-socket", ""}), std::invalid_argument);
   for (const char* option : {"--handshake-socket PATH", "--handshake-port PORT", "--handshake-address ADDR",

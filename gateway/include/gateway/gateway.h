@@ -84,7 +84,7 @@ class Gateway {
   // Configures every robot of `options`. Throws (std::invalid_argument, std::runtime_error) with a
   // message for the user when a robot file or a port cannot be set up.
   explicit Gateway(const Options& options);
-  // The same with the robots (in the order of options.robots) and the session already loaded, so
+  // The same with the robots (in the order of options.buses.robots) and the session already loaded, so
   // that a caller can tell reading files (no side effects) from opening ports and links. `hook`
   // sees every component's transitions (lifecycle.h; tests inject failures with it).
   Gateway(const Options& options, std::vector<RobotConfig> configs, const SessionConfig& session, TransitionHook hook = {});
@@ -112,7 +112,7 @@ class Gateway {
   // session handshake): Hub::add_robot and remove_robot are thread-safe. Null without --teamcomm.
   teamcomm::Hub* teamcomm_hub() noexcept;
 
-  // Lockstep (options.lockstep, docs/lockstep.md): `callback` gets the run hash of every simulated
+  // Lockstep (options.lockstep.enabled, docs/lockstep.md): `callback` gets the run hash of every simulated
   // second (1, 2, ...) on the simulation thread, right after the physics step at its end; it must
   // be quick and must not call back into the gateway. Set before start(); replaces --hashes output.
   using HashCallback = std::function<void(int64_t second, uint64_t hash)>;

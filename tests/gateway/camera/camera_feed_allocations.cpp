@@ -34,7 +34,7 @@ TEST(CameraFeedAllocations, OfferAllocatesNothingAndTheCameraRendersTheOfferedSc
   physics::WorldOptions world_options;
   world_options.hold = physics::HoldMode::kReleased;  // the robot falls: every scene differs
   world_options.field = physics::field_shapes();
-  physics::World world(physics::make_backend(*options.physics), {*robot.body}, {}, world_options);
+  physics::World world(physics::make_backend(*options.world.physics), {*robot.body}, {}, world_options);
   CameraFeed sut(&world, {robot.cameras}, {}, options);
   camera::FrameSubscriber subscriber(config.name);
   sut.start();

@@ -33,13 +33,13 @@ class LiveRobotCameras : public ::testing::Test {
     ASSERT_NE(::mkdtemp(pattern), nullptr);
     dir_ = pattern;
     gateway::Options options;
-    options.link_dir = dir_ + "/links";
-    options.robots = {"fumanoid-2011"};
-    options.robots_dir = DOPPEL_ROBOTS_DIR;
-    options.timing = bus::TimingMode::kFast;
-    options.viewer = false;
-    options.state_dir.clear();
-    link_dir_ = options.link_dir;
+    options.buses.link_dir = dir_ + "/links";
+    options.buses.robots = {"fumanoid-2011"};
+    options.buses.robots_dir = DOPPEL_ROBOTS_DIR;
+    options.buses.timing = bus::TimingMode::kFast;
+    options.viewer.enabled = false;
+    options.state.dir.clear();
+    link_dir_ = options.buses.link_dir;
     gateway_ = std::make_unique<gateway::Gateway>(options);
     gateway_->start();
   }
