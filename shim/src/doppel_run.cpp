@@ -111,11 +111,13 @@ int main(int argc, char** argv) {
   std::vector<std::string> command;
   app.add_option("--port", ports,
                  "DEVICE=LINK: opening DEVICE opens Doppel's port LINK (repeatable). Default: /dev/ttyUSB<n>\n"
-                 "and /dev/ttyACM<n> -> LINK-DIR/ttyDXL<n> for every ttyDXL<n> there, /dev/U2D2 -> ttyDXL0");
+                 "and /dev/ttyACM<n> -> LINK-DIR/ttyDXL<n> for every ttyDXL<n> there, /dev/U2D2 -> ttyDXL0")
+      ->allow_extra_args(false);  // one value per --port: the words after it are the command's
   std::vector<std::string> cameras;
   app.add_option("--camera", cameras,
                  "/dev/videoN=CAMERA: opening /dev/videoN opens a V4L2 capture device fed by Doppel's camera CAMERA\n"
-                 "(repeatable; doppel-camera list names them). Default: /dev/video<n> -> the n-th camera of robot 0");
+                 "(repeatable; doppel-camera list names them). Default: /dev/video<n> -> the n-th camera of robot 0")
+      ->allow_extra_args(false);
   app.add_option("--link-dir", link_dir, "Doppel's link directory (doppel --link-dir). Default: " + link_dir);
   bool lockstep = false;
   app.add_flag("--lockstep", lockstep,

@@ -179,6 +179,19 @@ TEST_F(DoppelRun, ALinkThatIsNotAPtyIsRefused) {
   EXPECT_NE(output.find(file + " is not a pseudo-terminal"), std::string::npos) << output;
 }
 
+// The command's arguments reach it as given, in order, options included, whatever doppel-run's own
+// options before "--" were (a repeatable --port or --camera once took the command's words).
+TEST_F(DoppelRun, TheCommandGetsItsArgumentsInOrderAfterRepeatableOptions) {
+  for (const std::string& options :
+       {"--port /dev/ttyUSB0=" + doppel_.link(), "--camera /dev/video0=HEAD --port /dev/ttyUSB0=" + doppel_.link(),
+        "--link-dir " + doppel_.link_dir()}) {
+    const auto [code, output] =
+        run_command(kDoppelRun + " " + options + " -- /bin/echo /dev/ttyUSB0 --cycles 10 --margin-ms 500 -- x");
+    EXPECT_EQ(code, 0) << options << ": " << output;
+    EXPECT_NE(output.find("/dev/ttyUSB0 --cycles 10 --margin-ms 500 -- x\n"), std::string::npos) << options << ": " << output;
+  }
+}
+
 TEST(DoppelRunAlone, WithoutDoppelItSaysSoAndRunsNothing) {
   const std::string dir = ::testing::TempDir() + "/doppel-run-empty";
   std::filesystem::create_directories(dir);
