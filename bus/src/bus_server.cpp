@@ -1,8 +1,6 @@
 #include "bus/bus_server.h"
 
-#include <sched.h>
 #include <sys/prctl.h>
-#include <sys/syscall.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +11,7 @@
 
 #include "base/fnv_hash.h"
 #include "base/monotonic_clock.h"
+#include "bus/thread_slice.h"
 
 namespace doppel::bus {
 namespace {
@@ -26,37 +25,6 @@ void add(std::atomic<uint64_t>& counter, uint64_t n = 1) noexcept {
 
 void set_if_changed(std::atomic<uint64_t>& counter, uint64_t value) noexcept {
   if (counter.load(std::memory_order_relaxed) != value) counter.store(value, std::memory_order_relaxed);
-}
-
-// The kernel's struct sched_attr (linux/sched/types.h, which clashes with glibc's <sched.h>); glibc
-// has no sched_setattr wrapper.
-struct SchedAttr {
-  uint32_t size = sizeof(SchedAttr);
-  uint32_t sched_policy = 0;
-  uint64_t sched_flags = 0;
-  int32_t sched_nice = 0;
-  uint32_t sched_priority = 0;
-  uint64_t sched_runtime = 0;  // SCHED_OTHER since Linux 6.12: the thread's slice (EEVDF custom slice)
-  uint64_t sched_deadline = 0;
-  uint64_t sched_period = 0;
-  uint32_t sched_util_min = 0;
-  uint32_t sched_util_max = 0;
-};
-
-// Asks for a slice of `slice_ns` (0 = the kernel's default) for the calling thread if it runs
-// SCHED_OTHER; returns the one it had, nullopt when nothing changed (another policy, or a kernel
-// without sched_setattr).
-std::optional<uint64_t> request_slice(uint64_t slice_ns) noexcept {
-  SchedAttr attr;
-  if (::syscall(SYS_sched_getattr, 0, &attr, sizeof(attr), 0) != 0 || attr.sched_policy != SCHED_OTHER) {
-    return std::nullopt;
-  }
-  const uint64_t old_slice = attr.sched_runtime;
-  attr.size = sizeof(attr);
-  attr.sched_flags = 0;
-  attr.sched_runtime = slice_ns;
-  if (::syscall(SYS_sched_setattr, 0, &attr, 0) != 0) return std::nullopt;
-  return old_slice;
 }
 
 const BusServerOptions& validated(const BusServerOptions& options) {
@@ -101,9 +69,9 @@ void BusServer::run(const std::atomic<bool>& stop) noexcept {
   const int old_slack = ::prctl(PR_GET_TIMERSLACK, 0, 0, 0, 0);
   ::prctl(PR_SET_TIMERSLACK, 1UL, 0, 0, 0);
   const std::optional<uint64_t> old_slice =
-      options_.slice_ns > 0 ? request_slice(static_cast<uint64_t>(options_.slice_ns)) : std::nullopt;
+      options_.slice_ns > 0 ? request_thread_slice_ns(static_cast<uint64_t>(options_.slice_ns)) : std::nullopt;
   while (!stop.load(std::memory_order_acquire)) run_once(options_.idle_wait_ns);
-  if (old_slice) request_slice(*old_slice);
+  if (old_slice) request_thread_slice_ns(*old_slice);
   if (old_slack > 0) ::prctl(PR_SET_TIMERSLACK, static_cast<unsigned long>(old_slack), 0, 0, 0);
 }
 

@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/syscall.h>
 #include <sys/utsname.h>
 #include <sys/wait.h>
 #include <termios.h>
@@ -18,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "bus/thread_slice.h"
 #include "dynamixel/bus_devices.h"
 #include "dynamixel/device.h"
 #include "pty_test_support.h"
@@ -371,26 +371,13 @@ TEST(BusServer, RejectsANegativeSlice) {
   EXPECT_THROW(BusServer(port, devices, options), std::invalid_argument);
 }
 
-// The kernel's struct sched_attr, as far as sched_runtime (the fields before it have fixed sizes).
-struct SliceAttr {
-  uint32_t size = sizeof(SliceAttr);
-  uint32_t policy = 0;
-  uint64_t flags = 0;
-  int32_t nice = 0;
-  uint32_t priority = 0;
-  uint64_t runtime = 0;
-  uint64_t deadline = 0;
-  uint64_t period = 0;
-};
-
 // Records, on the bus thread, the slice the scheduler gives it (sched_getattr's sched_runtime).
 class SliceProbe final : public DeviceSync {
  public:
   void before_dispatch() noexcept override {}
   void after_dispatch() noexcept override {}
   void on_tick() noexcept override {
-    SliceAttr attr;
-    if (::syscall(SYS_sched_getattr, 0, &attr, sizeof(attr), 0) == 0) slice_ns.store(attr.runtime);
+    if (const std::optional<uint64_t> slice = thread_slice_ns()) slice_ns.store(*slice);
     ticks.fetch_add(1);
   }
   std::atomic<uint64_t> slice_ns{0};
@@ -419,8 +406,8 @@ TEST(BusServer, ItsThreadAsksForTheSliceOfItsOptionsWhileItServes) {
 
 TEST(BusServer, SliceZeroLeavesTheKernelsDefault) {
   if (!kernel_has_custom_slices()) GTEST_SKIP() << "the kernel has no custom slices for SCHED_OTHER (Linux < 6.12)";
-  SliceAttr mine;
-  ASSERT_EQ(::syscall(SYS_sched_getattr, 0, &mine, sizeof(mine), 0), 0);  // a new thread inherits this one's
+  const std::optional<uint64_t> mine = thread_slice_ns();  // a new thread inherits this one's
+  ASSERT_TRUE(mine.has_value());
   SliceProbe probe;
   BusServerOptions options = fast();
   options.slice_ns = 0;
@@ -428,7 +415,7 @@ TEST(BusServer, SliceZeroLeavesTheKernelsDefault) {
     ServedBus sut(options, {}, &probe);
     ASSERT_TRUE(sut.eventually([&](const BusDiagnostics&) { return probe.ticks.load() > 0; }));
   }
-  EXPECT_EQ(probe.slice_ns.load(), mine.runtime);
+  EXPECT_EQ(probe.slice_ns.load(), *mine);
 }
 
 }  // namespace
