@@ -8,7 +8,7 @@ target_link_libraries(bus_latency PRIVATE util)  # openpty
 # Short runs under ctest so the tools cannot rot; the real figures come from full runs.
 add_test(NAME bus_latency_smoke COMMAND bus_latency --quick)
 add_test(NAME bus_throughput_smoke COMMAND bus_throughput --seconds 0.3)
-add_test(NAME control_loop_smoke COMMAND control_loop --seconds 0.5)
+add_test(NAME control_loop_smoke COMMAND control_loop --seconds 0.5 --reply-timeout-ms 2000)
 add_test(NAME reopen_race_smoke COMMAND reopen_race --startups 20 --load 0)
 add_test(NAME flush_loss_smoke COMMAND flush_loss --packets 200 --timing fast)
 set_tests_properties(bus_latency_smoke bus_throughput_smoke control_loop_smoke reopen_race_smoke flush_loss_smoke

@@ -172,19 +172,6 @@ TEST_F(V4l2Device, AMissingCameraIsAMissingDevice) {
   EXPECT_NE(output.find("doppel publishes no camera #3"), std::string::npos) << output;
 }
 
-// Cameras are not in lockstep (doppel renders them in wall time): under --lockstep the device
-// refuses to open instead of giving frames that break the run's determinism.
-TEST(V4l2Lockstep, CameraDevicesDoNotOpenUnderLockstep) {
-  DoppelProcess doppel({"--robot", "darwin-op", "--lockstep", "--timing", "fast"}, "ttyDXL0", /*camera=*/true);
-  doppel.wait_for_output("running until");
-  const auto [code, output] = run_command(
-      std::string(DOPPEL_RUN) + " --lockstep --link-dir " + doppel.link_dir() +
-      " -- /usr/bin/python3 -c \"import os\ntry:\n  os.open('/dev/video0', os.O_RDWR)\nexcept OSError as e:\n  print('errno', e.errno)\"");
-  EXPECT_EQ(code, 0) << output;
-  EXPECT_NE(output.find("errno 19"), std::string::npos) << output;  // ENODEV
-  EXPECT_NE(output.find("cameras are not in lockstep yet"), std::string::npos) << output;
-}
-
 // /dev/video<n> is the n-th camera of the robot file, not of the alphabet: the darwin-op with a
 // second camera written after HEAD_CAMERA whose name sorts first.
 TEST(V4l2DoppelRun, DevicesFollowTheRobotFilesCameraOrder) {
