@@ -1,5 +1,5 @@
 // p2_bus_latency: round-trip latency of every Protocol 2.0 instruction that gets a reply, through
-// the real `doppel` executable serving robots/fumanoid-x430 (4 Mbps, BOTHER), in fast and wire
+// the real `doppel` executable serving data/robots/fumanoid-x430 (4 Mbps, BOTHER), in fast and wire
 // timing, beside a bare pty echo measured alternately by the same client. In wire mode it reports
 // the error against the wire model computed here from the reference (10 bit times per byte,
 // firmware time, Return Delay Time; FAST reads: one firmware time for the combined status).

@@ -3,7 +3,7 @@
 add_executable(physics_bench ${CMAKE_CURRENT_SOURCE_DIR}/physics_bench.cpp)
 target_link_libraries(physics_bench PRIVATE doppel::physics_engines doppel::dynamixel doppel::body benchmark::benchmark_main
                       doppel::build_options)
-target_compile_definitions(physics_bench PRIVATE DOPPEL_ROBOTS_DIR="${PROJECT_SOURCE_DIR}/robots")
+target_compile_definitions(physics_bench PRIVATE DOPPEL_ROBOTS_DIR="${PROJECT_SOURCE_DIR}/data/robots")
 
 # A short run under ctest so the benchmark cannot rot; the real figures come from full runs.
 add_test(NAME physics_bench_smoke COMMAND physics_bench --benchmark_min_time=0.01 --benchmark_filter=robots:1/)

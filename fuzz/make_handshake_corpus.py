@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Writes the seed corpus of handshake_frame_fuzz: byte 0 picks the slice size, then frames as a
-client sends them (4-byte little-endian length, serialized ClientMessage; proto/handshake.proto).
+client sends them (4-byte little-endian length, serialized ClientMessage; libs/proto/handshake.proto).
 
 Usage: /usr/bin/python3 fuzz/make_handshake_corpus.py BUILD/python [fuzz/corpus]
 """

@@ -1,5 +1,5 @@
 // doppel-bus run as a user runs it, on recordings written with mcap::Writer the way doppel --record
-// writes them (proto/recording.proto schemas as FileDescriptorSets), and on bad files.
+// writes them (libs/proto/recording.proto schemas as FileDescriptorSets), and on bad files.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>

@@ -147,7 +147,7 @@ TEST(RouDiTest, UsesARouDiThatAlreadyRunsInsteadOfAborting) {
 
 // StreamingHost starts RouDi through iceoryx_posh/internal/roudi/roudi.hpp (iox::roudi::RouDi and its
 // RoudiStartupParameters), which is not a public API. It was checked against iceoryx 2.0 (Debian
-// 2.0.3); with another version, check roudi/src/host.cpp's use of it again before moving this pin.
+// 2.0.3); with another version, check libs/roudi/src/host.cpp's use of it again before moving this pin.
 TEST(RouDiTest, TheInProcessRouDiIsBuiltWithTheIceoryxItWasCheckedAgainst) {
   EXPECT_EQ(ICEORYX_VERSION_MAJOR, 2);
   EXPECT_EQ(ICEORYX_VERSION_MINOR, 0);

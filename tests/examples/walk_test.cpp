@@ -256,7 +256,7 @@ TEST_P(Walk, KeepsWalkingAfterASidewaysPush) {
 INSTANTIATE_TEST_SUITE_P(Engines, Walk, ::testing::Values("ode", "bullet"));
 
 TEST(LegIk, TheDarwinOpsWalkReadyPoseComesBack) {
-  // robots/darwin-op.textproto: thigh = shank = 93 mm, ankle 33.5 mm, hips 219.5 mm up at straight
+  // data/robots/darwin-op.textproto: thigh = shank = 93 mm, ankle 33.5 mm, hips 219.5 mm up at straight
   // legs; walk-ready hip pitch -23.2, knee 53.17, ankle pitch -29.97 deg (initial_deg).
   const walk::LegGeometry leg{0.093, 0.093, 0.0335, 0.2195, 0.037};
   const double hip = -23.2 * kDeg, knee = 53.17 * kDeg;
@@ -270,7 +270,7 @@ TEST(LegIk, TheDarwinOpsWalkReadyPoseComesBack) {
   EXPECT_NEAR(a.ankle_pitch, -29.97 * kDeg, 0.001);
 }
 
-// The DARwIn-OP (robots/darwin-op.textproto) through the same walk: doppel-walk powers the servos
+// The DARwIn-OP (data/robots/darwin-op.textproto) through the same walk: doppel-walk powers the servos
 // through the CM-730 and paces by an 8 ms wall-clock cycle (no sample counter).
 class DarwinWalk : public ::testing::TestWithParam<std::string> {};
 

@@ -240,7 +240,7 @@ TEST_F(MxBus, ImuAndFootBoardReportARobotAtRest) {
 // client could still be handed its predecessor's bytes, so the reconnect tests wait for it. Opens
 // are watched too, though not counted: inotify merges two identical events in a row, and an open
 // between the client's close and doppel's keeps them apart (the clean-up's open raises IN_OPEN,
-// which bus/src/pty_port.cpp relies on as well).
+// which libs/bus/src/pty_port.cpp relies on as well).
 class LineCloses {
  public:
   explicit LineCloses(const std::string& link) : fd_(::inotify_init1(IN_NONBLOCK | IN_CLOEXEC)) {

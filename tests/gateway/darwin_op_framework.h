@@ -22,7 +22,7 @@ inline constexpr uint8_t kDxlPower = 24, kGyroZ = 38, kAccelX = 44, kVoltage = 5
 inline constexpr uint8_t kDGain = 26, kPGain = 28, kGoalPosition = 30, kPresentPosition = 36, kTorqueEnable = 24;
 inline constexpr uint8_t kFsr1 = 26;
 
-// robots/darwin-op.textproto: the sum of its body masses (Webots' DARwIn-OP figures).
+// data/robots/darwin-op.textproto: the sum of its body masses (Webots' DARwIn-OP figures).
 inline constexpr double kRobotMassKg = 2.9253241;
 inline constexpr double kStandardGravity = 9.80665;
 // The walk-ready pose leans the trunk forward by the hips' HIP_PITCH_OFFSET as the counts give it:

@@ -1,4 +1,4 @@
-// End-to-end: robots/op3 (20 XM430-W350 and the OpenCR on one Protocol 2.0 bus at 2 Mbps) driven
+// End-to-end: data/robots/op3 (20 XM430-W350 and the OpenCR on one Protocol 2.0 bus at 2 Mbps) driven
 // over its pty the way the OP3's stack drives the real bus, in the order its sources give:
 // op3_manager.cpp (ROBOTIS-GIT/ROBOTIS-OP3 commit 3bc2bd5) writes dynamixel_power (24) = 1 to the
 // OpenCR; robotis_controller (ROBOTIS-GIT/ROBOTIS-Framework commit 288e048, initializeDevice) then
@@ -48,7 +48,7 @@ constexpr double kUnitsPerDeg = 4096.0 / 360.0;  // XM430-W350.device: 2048 = 0 
 struct Joint {
   const char* name;
   uint8_t id;
-  double initial_deg;  // robots/op3.textproto: walking-ready legs, ini_pose.yaml arms and head
+  double initial_deg;  // data/robots/op3.textproto: walking-ready legs, ini_pose.yaml arms and head
   bool arm;            // dxl_init_OP3.yaml sets Shutdown 56 on the arms
 };
 // OP3.robot's joints in robotis_controller's order (std::map by name).

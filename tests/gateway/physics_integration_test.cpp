@@ -18,7 +18,7 @@ namespace doppel::testing {
 namespace {
 
 constexpr uint32_t kBaud = 1000000;
-constexpr double kRobotMassKg = 4.7;  // robots/fumanoid-2011.textproto: sum of its body masses
+constexpr double kRobotMassKg = 4.7;  // data/robots/fumanoid-2011.textproto: sum of its body masses
 constexpr uint8_t kServoCount = 21;   // IDs 1..21, RX-28 and RX-64
 // A held robot's servos stay within 2 position units (0.6 deg, RX 0.29 deg per unit) of their start.
 constexpr int kHeldPositionUnits = 2;

@@ -1,4 +1,4 @@
-// End-to-end Protocol 2.0: the real doppel executable serving robots/fumanoid-x430 (four buses
+// End-to-end Protocol 2.0: the real doppel executable serving data/robots/fumanoid-x430 (four buses
 // at 4 Mbps), four real ptys opened as DynamixelSDK opens them (raw, TCSETS2/BOTHER 4 000 000),
 // and the reference client of tests/support/reference_client_p2.h written from
 // shared/reference/dynamixel.md. Expected bytes are the reference's worked packets or built with

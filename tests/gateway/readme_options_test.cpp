@@ -1,5 +1,5 @@
 // README's option list is the one `doppel --help` prints (generated from each service's option
-// declarations, gateway/src/options.cpp): a group per service, every option with its value's
+// declarations, services/gateway/src/options.cpp): a group per service, every option with its value's
 // label. When they disagree this test prints the block README should have.
 #include <gtest/gtest.h>
 
@@ -42,7 +42,7 @@ std::string option_list(const std::string& help) {
 TEST(ReadmeOptions, TheOptionListIsTheOneOfHelp) {
   const std::string expected = option_list(usage());
   ASSERT_NE(expected.find("- Robots and their buses: `--robot NAME|FILE`"), std::string::npos) << expected;
-  std::ifstream file(std::string(DOPPEL_ROBOTS_DIR) + "/../README.md");
+  std::ifstream file(std::string(DOPPEL_ROBOTS_DIR) + "/../../README.md");
   ASSERT_TRUE(file) << "README.md";
   const std::string readme((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
   const std::size_t begin = readme.find(kBegin);

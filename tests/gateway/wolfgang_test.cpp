@@ -1,4 +1,4 @@
-// End-to-end with robots/wolfgang (the Bit-Bots Wolfgang-OP): the real doppel, driven through its
+// End-to-end with data/robots/wolfgang (the Bit-Bots Wolfgang-OP): the real doppel, driven through its
 // four ptys the way the team's hardware interface drives the robot (bit-bots/bitbots_main
 // src/bitbots_lowlevel/bitbots_ros_control at 6c86850149f4: config/wolfgang.yaml,
 // src/servo_bus_interface.cpp, imu_hardware_interface.cpp, bitfoot_hardware_interface.cpp,
@@ -35,10 +35,10 @@ constexpr int kReplyTimeoutMs = 1000;
 constexpr uint32_t kBaud = 1000000;  // wolfgang.yaml port_info: baudrate 1000000
 constexpr uint8_t kRead = 0x02, kSyncRead = 0x82, kSyncWrite = 0x83, kBroadcast = 0xFE;
 constexpr double kGravity = 9.80665;
-// robots/wolfgang.textproto: the URDF's link masses, 6.117 kg in all.
+// data/robots/wolfgang.textproto: the URDF's link masses, 6.117 kg in all.
 constexpr double kRobotMassKg = 6.1167;
 // The walk-ready pose leans the trunk forward: the soles are pitched -12.75 deg against the torso
-// (wolfgang_animations walkready.json through the URDF; robots/wolfgang.textproto), so the torso
+// (wolfgang_animations walkready.json through the URDF; data/robots/wolfgang.textproto), so the torso
 // IMU reads a pitch of 12.75 deg when both soles are flat.
 constexpr double kWalkReadyLeanDeg = 12.75;
 
@@ -268,7 +268,7 @@ TEST_F(WolfgangHeld, UntilTheDriverEnablesTorque) {
   const std::vector<int32_t> positions = read_positions();
   // Every joint within 7 units (0.6 deg) of where it started, except the four shoulder joints (IDs
   // 1-4, either side of the URDF's 41 g shoulder link between the 2.08 kg torso and the 0.44 kg
-  // arm): there the handler's grip (physics/src/world.cpp hold_law) lets the arm sag, shoulder pitch
+  // arm): there the handler's grip (libs/physics/src/world.cpp hold_law) lets the arm sag, shoulder pitch
   // by 11-14 units on ODE and 29 on Bullet in 3 s, shoulder roll by up to 21 units on ODE. With a
   // 0.3 kg shoulder link both engines hold them within 7. Their limit here is 40 units (3.5 deg).
   for (std::size_t i = 0; i < positions.size(); ++i) {

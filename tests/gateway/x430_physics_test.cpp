@@ -1,4 +1,4 @@
-// End-to-end with the body simulated on Protocol 2.0: the real doppel serving robots/fumanoid-x430
+// End-to-end with the body simulated on Protocol 2.0: the real doppel serving data/robots/fumanoid-x430
 // (fumanoid-2011's body on 21 XM430-W350 over four 4 Mbps buses), driven and read back through the
 // four ptys as a driver (p2_robot_buses.h, over tests/support/reference_client_p2.h). What it reads
 // comes from the physics world through the Bit-Bots IMU (float32 quaternion, reference §8.2) and the BitFoot
@@ -20,7 +20,7 @@ namespace doppel::testing {
 namespace {
 
 constexpr uint32_t kBaud = 4000000;
-constexpr double kRobotMassKg = 4.7;  // robots/fumanoid-x430.textproto: sum of its body masses
+constexpr double kRobotMassKg = 4.7;  // data/robots/fumanoid-x430.textproto: sum of its body masses
 constexpr double kGravity = 9.80665;
 // A held robot's servos stay within 7 position units (0.6 deg, 0.088 deg per unit) of their start.
 constexpr int kHeldPositionUnits = 7;

@@ -53,7 +53,7 @@ TEST(HandshakeEndToEnd, AddsASecondRobotThatAnswersPingAndStreamsThenRemovesItsL
   ASSERT_TRUE(std::filesystem::exists(bus)) << bus;
 
   {
-    // fumanoid-2011: servo ID 1 at 1 Mbps (robots/fumanoid-2011.textproto). Golden reply: a status
+    // fumanoid-2011: servo ID 1 at 1 Mbps (data/robots/fumanoid-2011.textproto). Golden reply: a status
     // packet of ID 1 with no error and no parameters (reference §1.1).
     SerialClient port(bus, 1000000);
     const Bytes reply = port.transact(p1_instruction(1, 0x01), 6, 1000);

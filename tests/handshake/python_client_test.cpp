@@ -1,4 +1,4 @@
-// examples/handshake/doppel_session.py, run with Debian's /usr/bin/python3 and the handshake_pb2
+// programs/examples/handshake/doppel_session.py, run with Debian's /usr/bin/python3 and the handshake_pb2
 // the build generated, against the server with a fake RobotHost whose robot's bus is a real
 // pseudo-terminal that answers a Protocol 1.0 PING of ID 1 (golden bytes from the e-Manual's
 // Protocol 1.0 page: instruction FF FF 01 02 01 FB, status FF FF 01 02 00 FC).

@@ -1,5 +1,5 @@
 // check_add_robot: every field of an add_robot request reaches contract::RobotRequest, and every bad
-// one is refused naming its proto field path (limits: camera/src/camera_config.cpp, camera/src/noise.cpp,
+// one is refused naming its proto field path (limits: libs/camera/src/camera_config.cpp, libs/camera/src/noise.cpp,
 // control/world_model_settings.h).
 #include "handshake/request.h"
 

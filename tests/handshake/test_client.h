@@ -1,5 +1,5 @@
 #pragma once
-// A handshake client for tests, written from proto/handshake.proto's framing rule (4-byte
+// A handshake client for tests, written from libs/proto/handshake.proto's framing rule (4-byte
 // little-endian length, then the message), not from the server's encoder; and raw bytes for the
 // tests that send what no client should.
 

@@ -1,5 +1,5 @@
 // End to end: a vision loop (lockstep_vision.c, written from the V4L2 specification) reads the
-// DARwIn-OP's head camera (HEAD_CAMERA: 320x240 YUYV at 30 fps, robots/darwin-op.textproto) over
+// DARwIn-OP's head camera (HEAD_CAMERA: 320x240 YUYV at 30 fps, data/robots/darwin-op.textproto) over
 // /dev/video0 under doppel-run --lockstep against doppel --lockstep (issue 24, item 2). Two runs
 // must give the same frames in the same order at the same simulation times (the client's hash of
 // sequence, timestamp and pixels, and doppel's run hashes); frame k after STREAMON at simulation

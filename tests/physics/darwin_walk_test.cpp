@@ -1,4 +1,4 @@
-// robots/darwin-op.textproto walking on both engines with the DARwIn-OP framework's own gait and
+// data/robots/darwin-op.textproto walking on both engines with the DARwIn-OP framework's own gait and
 // gains (darwin_walking_gait.h: Walking.cpp's equations and constructor parameters, leg P gain 32,
 // arms 8, I = D = 0), its gyro balance fed from the CM-730's scale, one goal update every 8 ms as
 // MotionManager's timer sends them. Below the bus and without wall clock, so every run is the same:

@@ -1,4 +1,4 @@
-// robots/op3.textproto on both engines, below the bus: the body from ROBOTIS-OP3-Common's URDF
+// data/robots/op3.textproto on both engines, below the bus: the body from ROBOTIS-OP3-Common's URDF
 // standing in the walking module's ready pose at the Position P Gain its stack sets (800,
 // op3_manager/config/dxl_init_OP3.yaml), and the weight on its feet. The OP3 has no foot sensors,
 // so the test measures the soles' contact force with load cells of its own: two foot boards added

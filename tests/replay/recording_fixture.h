@@ -1,5 +1,5 @@
 #pragma once
-// A recording in the format of proto/recording.proto, written with mcap::Writer as doppel --record
+// A recording in the format of libs/proto/recording.proto, written with mcap::Writer as doppel --record
 // would write it, with values that name their own time so a test can tell which message it got:
 // world state k (every 10 ms from 5 ms) has robot x = 0.001 k m and sim time 0.005 + 0.01 k s; the
 // robot's trunk falls over (tilt from 0 to 90 degrees over the recording) while it moves along x

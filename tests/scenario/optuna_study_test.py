@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The Optuna example end to end (examples/optuna/walk_study.py local): its own PostgreSQL 15, two
+"""The Optuna example end to end (programs/examples/optuna/walk_study.py local): its own PostgreSQL 15, two
 worker processes sharing one study, every trial a `doppel scenario run` of the walk. Checks that
 every trial completed with a result from a real run, that both workers took trials from the one
 study, that the baseline came first, and that PostgreSQL and its directory are gone afterwards.
@@ -12,7 +12,7 @@ import sys
 import tempfile
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-STUDY = os.path.join(HERE, "..", "..", "examples", "optuna", "walk_study.py")
+STUDY = os.path.join(HERE, "..", "..", "programs", "examples", "optuna", "walk_study.py")
 TRIALS = 6
 
 before = set(glob.glob(os.path.join(tempfile.gettempdir(), "doppel-study-*")))

@@ -1,4 +1,4 @@
-// Scenario files (proto/scenario.proto): the shipped one loads, and every kind of bad input is
+// Scenario files (libs/proto/scenario.proto): the shipped one loads, and every kind of bad input is
 // refused with a message naming file, line and field before anything runs.
 #include <gtest/gtest.h>
 

@@ -214,7 +214,7 @@ TEST_F(ScenarioRun, TheShippedWalkUnderLockstepGivesTheSameHashesTwice) {
   EXPECT_EQ(first["metrics"][0]["energy_j"], second["metrics"][0]["energy_j"]);
 }
 
-// A walk through a fault (scenarios/walk-weak-knee.textproto): the left knee weakens at 5 s. In
+// A walk through a fault (data/scenarios/walk-weak-knee.textproto): the left knee weakens at 5 s. In
 // lockstep every second before the fault hashes as the same walk without it does, the seconds
 // after it differ, and the faulted walk is the same to the last bit when run again.
 TEST_F(ScenarioRun, AWalkThroughAWeakeningKneeIsTheSameWalkUntilTheFaultAndRepeatsExactly) {

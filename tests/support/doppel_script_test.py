@@ -1,6 +1,6 @@
 """What doppel's Python end-to-end tests share: their failure, its check, JSON requests to doppel's
 control API with the run's access token (found as every client finds it:
-examples/handshake/doppel_session.py's find_token), stopping the doppel they started (SIGINT as a user's ^C, then SIGKILL after 30 s) and
+programs/examples/handshake/doppel_session.py's find_token), stopping the doppel they started (SIGINT as a user's ^C, then SIGKILL after 30 s) and
 their main().
 
 A test puts this folder on sys.path and imports it:
@@ -16,7 +16,7 @@ import urllib.error
 import urllib.parse
 import urllib.request
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples", "handshake"))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "programs", "examples", "handshake"))
 from doppel_session import find_token  # noqa: E402  (the one way to find the token)
 
 
