@@ -12,3 +12,10 @@ if(TARGET lockstep_speed)
   add_test(NAME lockstep_speed_smoke COMMAND lockstep_speed --seconds 0.5)
   set_tests_properties(lockstep_speed_smoke PROPERTIES LABELS "bench;lockstep")
 endif()
+
+# What a lockstep cycle cannot cost less than on this machine besides the physics (issue 26):
+# a process hand-over and the pty's bytes both ways, beside a null system call.
+add_executable(lockstep_floor ${CMAKE_CURRENT_SOURCE_DIR}/lockstep_floor.cpp)
+target_link_libraries(lockstep_floor PRIVATE benchmark::benchmark_main doppel::build_options)
+add_test(NAME lockstep_floor_smoke COMMAND lockstep_floor --benchmark_min_time=0.01)
+set_tests_properties(lockstep_floor_smoke PROPERTIES LABELS "bench;lockstep")
