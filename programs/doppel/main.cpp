@@ -1,6 +1,5 @@
 // doppel: serves the Dynamixel buses of simulated robots on pseudo-terminals until SIGINT/SIGTERM,
 // or runs a scenario (doppel scenario run FILE, scenario/).
-#include <pthread.h>
 #include <signal.h>
 
 #include <atomic>
@@ -14,6 +13,7 @@
 #include <string_view>
 #include <thread>
 
+#include "base/stop_signals.h"
 #include "gateway/gateway.h"
 #include "gateway/options.h"
 #include "gateway/robot_config.h"
@@ -62,12 +62,7 @@ int main(int argc, char** argv) {
   // the signal thread below receives them. While the robot files load (no side effects yet) a
   // signal ends doppel at once; while ports and links are set up, doppel stops (removing them)
   // instead of starting to serve. Either way it is a requested stop: exit code 0.
-  sigset_t stop_signals;
-  sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
-  signal(SIGPIPE, SIG_IGN);
+  const sigset_t stop_signals = doppel::block_stop_signals();
   enum Phase { kLoading, kSettingUp, kServing };
   static std::mutex phase_mutex;  // held by the signal thread from reading kLoading until it exits
   static Phase phase = kLoading;

@@ -7,13 +7,14 @@
 #include <vector>
 
 #include "control/http_api.h"
+#include "null_simulation.h"
 
 namespace doppel::control {
 namespace {
 
 using nlohmann::json;
 
-class FaultControl final : public contract::Simulation, public contract::Faults {
+class FaultControl final : public testing::NullSimulation, public contract::Faults {
  public:
   contract::SimState state() override {
     contract::SimState s;
@@ -23,18 +24,6 @@ class FaultControl final : public contract::Simulation, public contract::Faults 
     a.simulated = true;
     s.robots = {a};
     return s;
-  }
-  contract::Outcome pause() override { return {}; }
-  contract::Outcome resume() override { return {}; }
-  contract::Outcome step(uint32_t) override { return {}; }
-  contract::Outcome reset() override { return {}; }
-  contract::Outcome place(std::size_t, double, double, double) override { return {}; }
-  contract::Outcome push(std::size_t, double, double, double, uint32_t) override { return {}; }
-  contract::Outcome ball(double, double) override { return {}; }
-  contract::Scene scene() override { return {}; }
-  std::vector<contract::BusTable> buses() override { return {}; }
-  contract::Result<contract::CameraStill> camera_still(const std::string&) override {
-    return contract::Error{contract::ErrorKind::kNotFound, "no camera"};
   }
   // A replay offers no faults (serves = false).
   contract::Facets facets() {

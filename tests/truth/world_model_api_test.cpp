@@ -7,26 +7,14 @@
 #include <string>
 
 #include "control/http_api.h"
+#include "null_simulation.h"
 #include "truth/world_model.h"
 
 namespace doppel::control {
 namespace {
 
-class Control : public contract::Simulation {
+class Control : public testing::NullSimulation {
  public:
-  contract::SimState state() override { return {}; }
-  contract::Outcome pause() override { return {}; }
-  contract::Outcome resume() override { return {}; }
-  contract::Outcome step(uint32_t) override { return {}; }
-  contract::Outcome reset() override { return {}; }
-  contract::Outcome place(std::size_t, double, double, double) override { return {}; }
-  contract::Outcome push(std::size_t, double, double, double, uint32_t) override { return {}; }
-  contract::Outcome ball(double, double) override { return {}; }
-  contract::Scene scene() override { return {}; }
-  std::vector<contract::BusTable> buses() override { return {}; }
-  contract::Result<contract::CameraStill> camera_still(const std::string&) override {
-    return contract::Error{contract::ErrorKind::kNotFound, "no camera"};
-  }
   // The simulation alone: no world-model sensor.
   virtual contract::Facets facets() {
     contract::Facets facets;

@@ -16,6 +16,31 @@
 
 namespace doppel::gateway {
 
+namespace {
+
+camera::StreamingOptions streaming_options(const Options& options) {
+  camera::StreamingOptions streaming;
+  streaming.roudi = options.cameras.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
+  streaming.verbose = options.cameras.verbose;
+  return streaming;
+}
+
+}  // namespace
+
+// Every hand-over slot sized now, so that offer() never allocates: room for the poses of cameras
+// added later, and the world's scene (without a world, the static field and the ball).
+CameraFeed::OfferedScene CameraFeed::initial_scene(const physics::World* world) {
+  OfferedScene initial;
+  initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());
+  if (world != nullptr) {
+    world->fill_scene(initial.scene);
+  } else {
+    initial.scene.shapes = physics::field_shapes();
+    initial.scene.shapes.push_back(physics::ball_shape(Eigen::Vector3d(0.0, 0.0, 0.5 * physics::FieldSpec{}.ball_diameter_m)));
+  }
+  return initial;
+}
+
 CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vector<CameraSetup>>& robot_cameras,
                        const std::vector<WorldCameraSetup>& world_cameras, const Options& options) {
   std::vector<camera::CameraConfig> configs;
@@ -55,26 +80,14 @@ CameraFeed::CameraFeed(const physics::World* world, const std::vector<std::vecto
   if (mounts_.empty()) {
     return;
   }
-  camera::StreamingOptions streaming;
-  streaming.roudi = options.cameras.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
-  streaming.verbose = options.cameras.verbose;
-  host_ = std::make_unique<camera::StreamingHost>(configs, streaming);
+  host_ = std::make_unique<camera::StreamingHost>(configs, streaming_options(options));
   double fastest_fps = 0.0;
   for (Mount& mount : mounts_) {
     mount.stream = std::make_unique<camera::CameraStream>(*host_, mount.config);
     fastest_fps = std::max(fastest_fps, mount.config.fps);
   }
   offer_period_ns_ = 1e9 / fastest_fps;
-  // Size every hand-over slot now, so that offer() never allocates.
-  OfferedScene initial;
-  initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());  // room for cameras added later
-  if (world != nullptr) {
-    world->fill_scene(initial.scene);
-  } else {
-    initial.scene.shapes = physics::field_shapes();
-    initial.scene.shapes.push_back(physics::ball_shape(Eigen::Vector3d(0.0, 0.0, 0.5 * physics::FieldSpec{}.ball_diameter_m)));
-  }
-  handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial);
+  handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial_scene(world));
 }
 
 CameraFeed::~CameraFeed() {
@@ -216,10 +229,8 @@ std::size_t CameraFeed::add(const CameraSetup& setup, const Options& options) {
   }
   try {
     if (host_ == nullptr) {  // nothing streamed yet: iceoryx starts now, its pools sized for this camera
-      camera::StreamingOptions streaming;
-      streaming.roudi = options.cameras.external_roudi ? camera::RouDiMode::kExternal : camera::RouDiMode::kAuto;
-      streaming.verbose = options.cameras.verbose;
-      host_ = std::make_unique<camera::StreamingHost>(std::vector<camera::CameraConfig>{setup.config}, streaming);
+      host_ = std::make_unique<camera::StreamingHost>(std::vector<camera::CameraConfig>{setup.config},
+                                                      streaming_options(options));
     }
     auto stream = std::make_unique<camera::CameraStream>(*host_, setup.config);  // outside the lock: it builds its renderer
     std::lock_guard<std::mutex> lock(mounts_mutex_);
@@ -235,10 +246,7 @@ std::size_t CameraFeed::add(const CameraSetup& setup, const Options& options) {
 
 void CameraFeed::attach(std::size_t id, std::size_t robot, std::size_t body, double fps, const physics::World* world) {
   if (handover_ == nullptr) {
-    OfferedScene initial;
-    initial.X_WB.assign(kMaxMounts, Eigen::Isometry3d::Identity());
-    if (world != nullptr) world->fill_scene(initial.scene);
-    handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial);
+    handover_ = std::make_unique<concurrency::Snapshot<OfferedScene>>(initial_scene(world));
     offer_period_ns_ = 1e9 / fps;
   }
   offer_period_ns_ = std::min(offer_period_ns_, 1e9 / fps);

@@ -111,6 +111,7 @@ class CameraFeed {
     std::vector<Eigen::Isometry3d> X_WB;   // per mount: pose of its body (identity when fixed)
     uint32_t offer = 0;                    // offers_ when it was offered
   };
+  static OfferedScene initial_scene(const physics::World* world);
   void run();
 
   std::unique_ptr<camera::StreamingHost> host_;

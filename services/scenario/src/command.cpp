@@ -1,4 +1,3 @@
-#include <pthread.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -9,6 +8,7 @@
 #include <thread>
 
 #include "base/command_line.h"
+#include "base/stop_signals.h"
 #include "gateway/robot_config.h"
 #include "scenario/run.h"
 
@@ -54,12 +54,7 @@ int scenario_main(int argc, char** argv, std::ostream& out, std::ostream& err) {
   }
 
   // SIGINT/SIGTERM end the run early (controller stopped, result printed), as at the duration.
-  sigset_t stop_signals;
-  sigemptyset(&stop_signals);
-  sigaddset(&stop_signals, SIGINT);
-  sigaddset(&stop_signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &stop_signals, nullptr);
-  signal(SIGPIPE, SIG_IGN);
+  const sigset_t stop_signals = block_stop_signals();
   static std::atomic<bool> stop{false};
   std::thread([stop_signals] {
     int number = 0;
