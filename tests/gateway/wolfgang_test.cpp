@@ -297,19 +297,39 @@ class WolfgangWire : public ::testing::Test {
   DoppelProcess doppel_;
 };
 
-bool check_statuses(const Bytes& reply, const std::vector<uint8_t>& ids, std::size_t length) {
+// What is wrong with `reply` as the statuses of `ids` with `length` parameter bytes each ("" = nothing).
+std::string status_problem(const Bytes& reply, const std::vector<uint8_t>& ids, std::size_t length) {
+  if (reply.empty()) return "no answer within " + std::to_string(kReplyTimeoutMs) + " ms";
   const auto statuses = parse_p2_statuses(reply);
-  if (!statuses || statuses->size() != ids.size()) return false;
+  if (!statuses || statuses->size() != ids.size()) {
+    return std::to_string(reply.size()) + " bytes that are not " + std::to_string(ids.size()) + " status(es)";
+  }
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const P2Status& s = (*statuses)[k];
-    if (s.id != ids[k] || s.error != 0 || s.params.size() != length) return false;
+    if (s.id != ids[k]) {
+      return "status " + std::to_string(k) + " from ID " + std::to_string(s.id) + ", expected " + std::to_string(ids[k]);
+    }
+    if (s.error != 0) return "ID " + std::to_string(s.id) + " answered with error byte " + std::to_string(s.error);
+    if (s.params.size() != length) {
+      return "ID " + std::to_string(s.id) + " sent " + std::to_string(s.params.size()) + " parameter bytes";
+    }
   }
-  return true;
+  return "";
 }
 
 void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_point start,
-             std::chrono::steady_clock::time_point stop, CycleStats& stats) {
+             std::chrono::steady_clock::time_point stop, CycleStats& stats, std::string& first_problem) {
   SerialClient client(path, kBaud);
+  int cycle = -1;  // -1: the driver's start
+  // Keeps the first failed check of this bus for the failure message.
+  auto problem = [&](const std::string& what, const std::string& text) {
+    if (!text.empty() && first_problem.empty()) {
+      first_problem = "cycle " + std::to_string(cycle) + ", " + what + ": " + text;
+    }
+    return !text.empty();
+  };
+  auto check_statuses = [&](const char* what, const Bytes& reply, const std::vector<uint8_t>& expected_ids,
+                            std::size_t length) { return !problem(what, status_problem(reply, expected_ids, length)); };
   const std::vector<uint8_t>& ids = kServos[static_cast<std::size_t>(b)];
   auto sync_read = [&](uint16_t address, uint16_t length) {
     Bytes params = p2_read_params(address, length);
@@ -335,8 +355,9 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
       gains.insert(gains.end(), {id, static_cast<uint8_t>(p & 0xFF), static_cast<uint8_t>(p >> 8)});
       torque.insert(torque.end(), {id, 1});
     }
-    const auto statuses = parse_p2_statuses(client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs));
-    if (!statuses || statuses->size() != ids.size()) {
+    const Bytes positions = client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs);
+    const auto statuses = parse_p2_statuses(positions);
+    if (!check_statuses("the start's SYNC READ of Present Position", positions, ids, 4) || !statuses) {
       stats.add_error();
       return;
     }
@@ -357,24 +378,32 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
   goal_write.resize(goal_offset + 5 * ids.size());
   constexpr auto kPeriod = std::chrono::microseconds(2000);
   auto next = start;
-  for (int cycle = 0; next < stop; ++cycle) {
+  for (cycle = 0; next < stop; ++cycle) {
     std::this_thread::sleep_until(next);
     const auto begin = std::chrono::steady_clock::now();
-    bool ok = check_statuses(client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs), ids, 4);
+    bool ok = check_statuses("SYNC READ of Present Position",
+        client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs), ids, 4);
     if (cycle % 50 == 49) {
-      ok = check_statuses(client.transact(read_volt_temp, ids.size() * 14, kReplyTimeoutMs), ids, 3) && ok;
-      ok = check_statuses(client.transact(read_error, ids.size() * 12, kReplyTimeoutMs), ids, 1) && ok;
+      ok = check_statuses("SYNC READ of Present Input Voltage and Temperature",
+          client.transact(read_volt_temp, ids.size() * 14, kReplyTimeoutMs), ids, 3) && ok;
+      ok = check_statuses("SYNC READ of Hardware Error Status",
+          client.transact(read_error, ids.size() * 12, kReplyTimeoutMs), ids, 1) && ok;
     }
     if (b == kRightLegBus || b == kLeftLegBus) {
-      ok = check_statuses(client.transact(read_foot, 11 + kFootBlockLength, kReplyTimeoutMs), {foot}, kFootBlockLength) && ok;
+      ok = check_statuses("READ of the foot board",
+          client.transact(read_foot, 11 + kFootBlockLength, kReplyTimeoutMs), {foot}, kFootBlockLength) && ok;
     } else if (b == kHeadBus) {
-      ok = check_statuses(client.transact(read_imu, 11 + kImuBlockLength, kReplyTimeoutMs), {kImuId}, kImuBlockLength) && ok;
+      ok = check_statuses("READ of the IMU",
+          client.transact(read_imu, 11 + kImuBlockLength, kReplyTimeoutMs), {kImuId}, kImuBlockLength) && ok;
       if (cycle % 50 == 0) {
         // Buttons at rest: all three released; a determined answer, compared byte for byte.
-        ok = client.transact(read_buttons, 11 + kButtonsLength, kReplyTimeoutMs) == p2_status(kImuId, 0, {0, 0, 0}) && ok;
+        const bool released =
+            client.transact(read_buttons, 11 + kButtonsLength, kReplyTimeoutMs) == p2_status(kImuId, 0, {0, 0, 0});
+        ok = !problem("READ of the buttons", released ? "" : "not the status of three released buttons") && ok;
       }
     } else if (b == kArmsBus && cycle % 10 == 0) {
-      ok = check_statuses(client.transact(read_core, 11 + kCoreBlockLength, kReplyTimeoutMs), {kCoreId}, kCoreBlockLength) && ok;
+      ok = check_statuses("READ of the CORE board",
+          client.transact(read_core, 11 + kCoreBlockLength, kReplyTimeoutMs), {kCoreId}, kCoreBlockLength) && ok;
     }
     // Goal Position: a slow 0..15-count ramp (1.3 deg) on every joint, so that the writes change,
     // towards the inside of its URDF range: the shoulder rolls stand 0.1 deg from their stops
@@ -394,18 +423,22 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     if (end > next) next = end;  // as a ros_control loop: the next cycle starts when this one ends
   }
   // SYNC WRITE has no status (Status Return Level 2): nothing may be left on the line.
-  if (!client.drain(20).empty()) stats.add_error();
+  if (const Bytes left = client.drain(20); !left.empty()) {
+    problem("the line after the last SYNC WRITE", std::to_string(left.size()) + " bytes left");
+    stats.add_error();
+  }
 }
 
 TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
   // 60 s of cycles: 30000 at 2 ms each; a cycle that overruns delays the next (as the driver's loop).
   std::vector<CycleStats> stats(4, CycleStats(2.0, 30000));
+  std::vector<std::string> problems(4);
   std::vector<std::thread> threads;
   const auto start = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
   const auto stop = start + std::chrono::seconds(60);
   for (int b = 0; b < 4; ++b) {
     threads.emplace_back(run_bus, doppel_.link("ttyDXL" + std::to_string(b)), b, start, stop,
-                         std::ref(stats[static_cast<std::size_t>(b)]));
+                         std::ref(stats[static_cast<std::size_t>(b)]), std::ref(problems[static_cast<std::size_t>(b)]));
   }
   for (std::thread& t : threads) t.join();
   const char* names[] = {"right_leg", "left_leg", "head", "arms"};
@@ -414,7 +447,7 @@ TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
     std::printf("wolfgang bus %d (%s): %s\n", b, names[b], s.summary().c_str());
     RecordProperty(std::string(names[b]) + "_over_2ms", static_cast<int>(s.over_period()));
     EXPECT_GT(s.cycles(), 1000) << names[b];  // the loop ran (no timing asserted: the machine is shared)
-    EXPECT_EQ(s.errors(), 0) << names[b];
+    EXPECT_EQ(s.errors(), 0) << names[b] << ", the first: " << problems[static_cast<std::size_t>(b)];
   }
   // The driver start of every thread reached the servos: torque on at the team's head gain.
   SerialClient head(doppel_.link("ttyDXL2"), kBaud);
