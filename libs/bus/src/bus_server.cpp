@@ -28,10 +28,8 @@ void set_if_changed(std::atomic<uint64_t>& counter, uint64_t value) noexcept {
 }
 
 const BusServerOptions& validated(const BusServerOptions& options) {
-  if (options.spin_ns < 0 || options.max_wake_lead_ns < 0 || options.late_threshold_ns < 0 || options.idle_wait_ns <= 0 ||
-      options.slice_ns < 0) {
-    throw std::invalid_argument(
-        "BusServer: spin_ns, max_wake_lead_ns, late_threshold_ns and slice_ns must be >= 0, idle_wait_ns > 0");
+  if (options.spin_ns < 0 || options.late_threshold_ns < 0 || options.idle_wait_ns <= 0 || options.slice_ns < 0) {
+    throw std::invalid_argument("BusServer: spin_ns, late_threshold_ns and slice_ns must be >= 0, idle_wait_ns > 0");
   }
   return options;
 }
@@ -45,7 +43,6 @@ BusServer::BusServer(PtyPort& port, dynamixel::BusDevices& devices, const BusSer
       sync_(sync),
       options_(validated(options)),
       spin_budget_(options.spin_budget != nullptr ? *options.spin_budget : SpinBudget::process()),
-      wake_lead_(options.max_wake_lead_ns),
       timing_(options.timing_mode, options.processing_ns),
       adapter_(options.timing_mode == TimingMode::kFast || options.adapter == AdapterProfile::kUsb2ax
                    ? 0
@@ -148,20 +145,14 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
   if (sync_ != nullptr) max_wait_ns = std::min(max_wait_ns, kTickNs);
   write_due();
 
-  // Sleep until input arrives or the next delivery is due (earlier by the wake-up's own lateness
-  // and the part it can spin, if a core is free for spinning).
+  // Sleep until input arrives or the next delivery is due (shortly before, if it can spin the rest).
   int64_t wait_ns = std::max<int64_t>(max_wait_ns, 0);
-  bool waking_for_due = false;
   if (!schedule_.empty() && !write_blocked_) {
-    const int64_t lead_ns = spin_budget_.has_free_slot() ? options_.spin_ns + wake_lead_.ns() : 0;
-    const int64_t until_ns = schedule_.front_due_ns() - now() - lead_ns;
-    waking_for_due = until_ns > 0 && until_ns < wait_ns;
-    wait_ns = std::clamp(until_ns, int64_t{0}, wait_ns);
+    const int64_t lead_ns = spin_budget_.has_free_slot() ? options_.spin_ns : 0;
+    wait_ns = std::clamp(schedule_.front_due_ns() - now() - lead_ns, int64_t{0}, wait_ns);
   }
   if (write_blocked_) wait_ns = std::min(wait_ns, kWriteRetryNs);
-  const int64_t wake_ns = now() + wait_ns;
   const PortWait woke = port_.wait(wait_ns, write_blocked_);
-  if (waking_for_due && !woke.readable) wake_lead_.add(wake_ns, now());
   // A pty master does not reliably report POLLOUT once the client drains its queue, so a blocked
   // write is simply retried after every wake-up (at least every kWriteRetryNs).
   write_blocked_ = false;
@@ -173,7 +164,7 @@ void BusServer::run_once(int64_t max_wait_ns) noexcept {
 
   if (!schedule_.empty() && !write_blocked_) {
     const int64_t due_ns = schedule_.front_due_ns();
-    if (due_ns - now() <= options_.spin_ns + wake_lead_.ns()) await_due(due_ns);
+    if (due_ns - now() <= options_.spin_ns) await_due(due_ns);
     write_due();
   }
 }

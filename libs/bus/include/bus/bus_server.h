@@ -21,7 +21,6 @@
 #include "bus/reply_schedule.h"
 #include "bus/spin_budget.h"
 #include "bus/traffic_tap.h"
-#include "bus/wake_lead.h"
 #include "bus/wire_timing.h"
 #include "concurrency/spsc_queue.h"
 #include "dynamixel/bus_devices.h"
@@ -40,9 +39,6 @@ struct BusServerOptions {
   uint32_t adapter_latency_ms = 0;   // USB adapter latency timer, ms (0 = none, FTDI default 16); wire mode only
   AdapterProfile adapter = AdapterProfile::kFtdi;  // kUsb2ax ignores adapter_latency_ms (it has no such timer)
   int64_t spin_ns = 50'000;          // sleep until this long before a due delivery, then busy-wait (0 = sleep only)
-  // Timed wake-ups come late by the machine's wake-up latency (WakeLead): the thread wakes earlier by
-  // what it measured of its own, up to this much more than spin_ns (0 = spin_ns alone).
-  int64_t max_wake_lead_ns = 300'000;
   SpinBudget* spin_budget = nullptr; // who may busy-wait at once; nullptr = SpinBudget::process()
   // While run() serves, a SCHED_OTHER bus thread asks the scheduler (Linux 6.12+, EEVDF custom slice)
   // for slices of this length (0 = the kernel's default; it allows 0.1..100 ms): a waking thread
@@ -205,7 +201,6 @@ class BusServer {
   DeviceSync* sync_;
   BusServerOptions options_;
   SpinBudget& spin_budget_;
-  WakeLead wake_lead_;
   WireTiming timing_;
   AdapterLatency adapter_;
   void tick() noexcept;
