@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -84,7 +85,7 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
   explicit WolfgangBody(std::vector<std::string> extra = {})
       : doppel_(args(std::move(extra)), "ttyDXL3"), buses_(doppel_, kBaud, kServos) {}
   static std::vector<std::string> args(std::vector<std::string> extra) {
-    std::vector<std::string> a = {"--robot", "wolfgang", "--timing", "fast"};
+    std::vector<std::string> a = {"--robot", "wolfgang", "--timing", "fast", "--viewer", "0"};
     a.insert(a.end(), extra.begin(), extra.end());
     return a;
   }
@@ -94,9 +95,12 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
   // ServoBusInterface: writeROMRAM (the gains of the servo's group), writeTorque(true), and in its
   // first cycle the goal set to the present position ("when the servos have a goal position which
   // is not the current position on startup they will rapidly move to this position"); done here
-  // before the torque goes on.
+  // before the torque goes on. The simulation is paused meanwhile, so that every joint is stiff from
+  // the same simulated instant however long the writes to the four buses take: on a loaded machine
+  // one leg was stiff for a while before the other, and the robot then stood turned, still yawing.
   void torque_on() {
     const std::vector<int32_t> present = read_positions();
+    simulation("pause");
     std::size_t k = 0;
     for (int b = 0; b < 4; ++b) {
       Bytes goals = p2_read_params(kGoalPosition, 4);
@@ -111,6 +115,22 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
       buses_.sync_write(b, kPositionPGain, 2, team_p_gain);
       buses_.sync_write(b, kTorqueEnable, 1, [](uint8_t) { return 1; });
     }
+    // Every write has reached its servo before the simulation goes on: each bus answers a READ only
+    // after the instructions before it.
+    for (int b = 0; b < 4; ++b) {
+      ASSERT_FALSE(read(b, kServos[static_cast<std::size_t>(b)].front(), kTorqueEnable, 1).empty()) << "bus " << b;
+    }
+    simulation("resume");
+  }
+
+  // doppel-ctl ACTION against this doppel's control API (pause, resume).
+  void simulation(const std::string& action) {
+    const std::string output = doppel_.wait_for_output("simulation control on http://127.0.0.1:");
+    std::smatch url;
+    ASSERT_TRUE(std::regex_search(output, url, std::regex(R"(simulation control on (http://127\.0\.0\.1:\d+))")));
+    const auto [code, said] =
+        run_command(std::string(DOPPEL_CTL) + " --url " + url[1].str() + " --link-dir " + doppel_.link_dir() + " " + action);
+    ASSERT_EQ(code, 0) << "doppel-ctl " << action << ": " << said;
   }
 
   Imu read_imu() {
