@@ -287,7 +287,18 @@ def run(doppel, out_dir, chromium):
         check(not browser.evaluate("window.doppelViewer.timelineShown()"), "a live doppel's page shows the replay timeline")
         check(not browser.evaluate("window.doppelViewer.analysisShown()"), "a live doppel's page shows the Bus panel")
         browser.wait_for("window.doppelViewer.frames() > 5 && window.doppelViewer.sceneUpdates() > 2", "frames drawn")
-        # The pixel under the robot's trunk is not the carpet's colour: the robot is drawn there.
+        # The pixel under the robot's trunk is not the carpet's colour: the robot is drawn there. The
+        # page fetches the scene it draws and the state whose pose is looked up here in two requests,
+        # so the simulation stands still meanwhile: on a loaded machine the robot had moved between
+        # them and the pixel missed it. Paused, the next scene and a frame drawn after it show the
+        # state's instant.
+        status, answer = api("api/pause", {})
+        check(status == 200, f"POST api/pause: {status} {answer}")
+        browser.wait_for("window.doppelViewer.state() && window.doppelViewer.state().paused", "the page to show 'paused'")
+        updates = browser.evaluate("window.doppelViewer.sceneUpdates()")
+        browser.wait_for(f"window.doppelViewer.sceneUpdates() > {updates + 1}", "a scene fetched while paused")
+        drawn = browser.evaluate("window.doppelViewer.frames()")
+        browser.wait_for(f"window.doppelViewer.frames() > {drawn + 1}", "a frame drawn of it")
         pixel = browser.evaluate("""(() => {
             const v = window.doppelViewer, s = v.state().robots[0].pose;
             const canvas = document.getElementById('canvas');
@@ -304,6 +315,9 @@ def run(doppel, out_dir, chromium):
         })()""")
         difference = sum(abs(a - b) for a, b in zip(pixel["robot"], pixel["carpet"]))
         check(difference > 30, f"the pixel at the robot's trunk {pixel['robot']} looks like the carpet {pixel['carpet']}")
+        status, answer = api("api/resume", {})
+        check(status == 200, f"POST api/resume: {status} {answer}")
+        browser.wait_for("!window.doppelViewer.state().paused", "the page to show 'running'")
 
         # The servo table lists every servo of the robot's bus.
         rows = browser.wait_for("window.doppelViewer.servoRows()", "the servo table")
