@@ -506,7 +506,7 @@ void Gateway::configure_recorder() {
   recorder_options.progress = options_.record.progress && ::isatty(STDERR_FILENO) == 1;
   try {
     recorder_ = std::make_unique<record::Recorder>(recorder_options, std::move(run), std::move(buses), controller_->facets(),
-                                                   &std::cerr);
+                                                   controller_->keep_published_states(), &std::cerr);
   } catch (const std::exception& e) {
     throw std::runtime_error(std::string("--record: ") + e.what());
   }

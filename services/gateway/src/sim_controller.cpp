@@ -233,12 +233,42 @@ std::vector<contract::BusTable> SimController::buses() {
   return out;
 }
 
+// The queue behind keep_published_states(): the simulation thread pushes each published sample,
+// the reader converts it on its own thread.
+class SimController::KeptStates final : public contract::StateQueue {
+ public:
+  explicit KeptStates(SimController& controller) : controller_(controller) {}
+  bool pop(contract::SimState& out) override {
+    if (!samples_.try_pop(sample_)) return false;
+    out = controller_.state_of(sample_);
+    return true;
+  }
+  uint64_t lost() const override { return samples_.dropped(); }
+  void push(const Sample& sample) noexcept { samples_.try_push(sample); }
+
+ private:
+  SimController& controller_;
+  concurrency::SpscQueue<Sample, kKeptStates> samples_;
+  Sample sample_;  // the reader's copy
+};
+
+SimController::~SimController() = default;
+
+contract::StateQueue* SimController::keep_published_states() {
+  if (kept_ == nullptr) kept_ = std::make_unique<KeptStates>(*this);
+  return kept_.get();
+}
+
 contract::SimState SimController::state() {
   Sample sample;
   {
     std::lock_guard<std::mutex> lock(read_mutex_);
     samples_.read(sample);
   }
+  return state_of(sample);
+}
+
+contract::SimState SimController::state_of(const Sample& sample) {
   contract::SimState state;
   state.sim_time_s = static_cast<double>(sample.sim_time_ns) * 1e-9;
   state.paused = sample.paused;
@@ -442,6 +472,7 @@ void SimController::publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) n
     const Eigen::Vector3d ball = world_->ball_position();
     sample.ball = {ball.x(), ball.y(), ball.z()};
   }
+  if (kept_ != nullptr) kept_->push(sample);
   samples_.publish();
 }
 

@@ -94,6 +94,7 @@ class SimController final : public contract::Simulation,
   };
   // `world` may be null (no robot has a body); it and the runtimes outlive the controller. Setup.
   SimController(physics::World* world, std::vector<Robot> robots, double carpet_half_length_m, double carpet_half_width_m);
+  ~SimController() override;
 
   // A robot added while doppel runs (docs/robots-at-run-time.md), as robot `index` (a slot that
   // holds none). attach() on the simulation thread, between two ticks, once the robot is in the
@@ -144,6 +145,12 @@ class SimController final : public contract::Simulation,
   contract::Outcome clear_faults() override;
   // What the control API serves: the simulation, and each facet whose service was set above.
   contract::Facets facets() noexcept;
+  // Every state published from now on, queued for one reader (the recorder, `--record`): the
+  // snapshot behind state() holds only the newest, and a reader kept off the CPU for longer than
+  // one publishing period would miss states. Setup, before the simulation thread runs; allocates
+  // the queue (kKeptStates states, 2.56 s of simulation) once. The queue lives as long as this.
+  contract::StateQueue* keep_published_states();
+  static constexpr std::size_t kKeptStates = 256;
 
   // Simulation thread, at the start of every tick: applies the requests that arrived. True when the
   // world advances in this tick (not paused, or a step is running). rt-safe.
@@ -168,6 +175,9 @@ class SimController final : public contract::Simulation,
   void finish(uint64_t sequence, bool refused) noexcept;
   // Fills and publishes the state sample (simulation thread, or the constructor before it runs).
   void publish_sample(int64_t sim_time_ns, uint64_t missed_ticks) noexcept;
+  // A published sample as the contract shows it (robot names, sensors); request side.
+  contract::SimState state_of(const Sample& sample);
+  class KeptStates;
 
   physics::World* world_;
   FieldServices* field_ = nullptr;
@@ -208,6 +218,7 @@ class SimController final : public contract::Simulation,
 
   std::mutex read_mutex_;  // request side only: the snapshot has one reader
   concurrency::Snapshot<Sample> samples_;
+  std::unique_ptr<KeptStates> kept_;  // null unless keep_published_states() was called
   // Every visible shape, published every kSceneEveryTicks. Every slot is sized at setup
   // (World::fill_scene), so publishing allocates nothing.
   // The scene and where every robot camera was when it was taken (for camera_still()).

@@ -149,7 +149,8 @@ struct Recorder::Impl {
   RecorderOptions options;
   recording::RunInfo run;
   std::vector<RecordedBus> buses;
-  contract::Facets control;  // simulation null: no world state
+  contract::Facets control;  // simulation null: no servo tables, scene or stills
+  contract::StateQueue* world_states = nullptr;  // null: no world state
   std::ostream* progress_out = nullptr;
   std::unique_ptr<mcap::Writer> writer;
   std::vector<BusTranscriber> transcribers;
@@ -165,6 +166,7 @@ struct Recorder::Impl {
   std::string scene_signature;
   std::string fault_signature;  // the fault list last written (numbers, ends, active flags)
   double last_world_time_s = -1.0;
+  contract::SimState world;  // the recorder thread's copy of the state being written
   std::atomic<uint64_t> messages{0}, transactions{0}, bytes{0};
   bus::TapEvent event;
   std::vector<uint8_t> payload;
@@ -205,17 +207,23 @@ struct Recorder::Impl {
     }
   }
 
+  uint64_t dropped_world_states() const { return world_states != nullptr ? world_states->lost() : 0; }
+
   uint64_t dropped_bus_events() const {
     uint64_t n = 0;
     for (const RecordedBus& bus : buses) n += bus.tap->dropped();
     return n;
   }
 
-  void sample_world(int64_t now_ns) {
-    const contract::SimState state = control.simulation->state();
-    if (state.sim_time_s == last_world_time_s) return;  // nothing new since the last sample
-    last_world_time_s = state.sim_time_s;
-    write(std::string(recording::kWorldTopic), world_state(state), now_ns);
+  // Every state the simulation published since the last call (100 Hz of simulation time); a
+  // paused simulation publishes the same moment again, written once.
+  void drain_world(int64_t now_ns) {
+    if (world_states == nullptr) return;
+    while (world_states->pop(world)) {
+      if (world.sim_time_s == last_world_time_s) continue;
+      last_world_time_s = world.sim_time_s;
+      write(std::string(recording::kWorldTopic), world_state(world), now_ns);
+    }
   }
 
   // The faults topic: the whole list whenever a fault was added or cleared, or started or ended.
@@ -296,8 +304,8 @@ struct Recorder::Impl {
       drain_taps();
       const Clock::time_point now = Clock::now();
       const int64_t now_ns = monotonic_now_ns();
+      drain_world(now_ns);
       if (control.simulation != nullptr) {
-        sample_world(now_ns);  // every state the simulation publishes (100 Hz of simulation time)
         sample_faults(now_ns);
         if (options.servo_hz > 0 && now >= next_servo) {
           write(std::string(recording::kServosTopic), servo_tables(last_world_time_s, control.simulation->buses()), now_ns);
@@ -332,13 +340,14 @@ struct Recorder::Impl {
 };
 
 Recorder::Recorder(const RecorderOptions& options, recording::RunInfo run, std::vector<RecordedBus> buses,
-                   contract::Facets control, std::ostream* progress_out)
+                   contract::Facets control, contract::StateQueue* world_states, std::ostream* progress_out)
     : impl_(std::make_unique<Impl>()) {
   Impl& d = *impl_;
   d.options = options;
   d.run = std::move(run);
   d.buses = std::move(buses);
   d.control = control;
+  d.world_states = world_states;
   d.progress_out = progress_out;
   mcap::WriterOptions writer_options;
   writer_options.profile = "doppel";
@@ -385,11 +394,13 @@ void Recorder::stop() {
   d.stop.store(true, std::memory_order_release);
   if (d.thread.joinable()) d.thread.join();
   d.drain_taps();
+  d.drain_world(monotonic_now_ns());
   for (BusTranscriber& transcriber : d.transcribers) transcriber.finish();
   if (d.control.simulation != nullptr) d.sample_faults(monotonic_now_ns(), true);  // every fault's end as it stands
   recording::RecordingSummary summary;
   summary.set_messages(d.messages.load() + 1);
   summary.set_dropped_bus_events(d.dropped_bus_events());
+  summary.set_dropped_world_states(d.dropped_world_states());
   summary.set_bytes_written(d.bytes.load());
   d.write(std::string(recording::kSummaryTopic), summary, monotonic_now_ns());
   if (d.error.empty()) {
@@ -409,6 +420,7 @@ RecorderTotals Recorder::totals() const {
   totals.transactions = impl_->transactions.load();
   totals.bytes = impl_->bytes.load();
   totals.dropped_bus_events = impl_->dropped_bus_events();
+  totals.dropped_world_states = impl_->dropped_world_states();
   return totals;
 }
 
@@ -417,7 +429,7 @@ std::string Recorder::summary() const {
   std::ostringstream out;
   out << "  recording " << impl_->options.path << ": " << t.messages << " messages (" << t.transactions
       << " bus transactions), " << std::fixed << std::setprecision(1) << static_cast<double>(t.bytes) / 1e6 << " MB, " << t.dropped_bus_events
-      << " bus events dropped\n";
+      << " bus events dropped, " << t.dropped_world_states << " world states dropped\n";
   if (!impl_->error.empty()) out << "  recording FAILED: " << impl_->error << " (the file ends there)\n";
   return out.str();
 }

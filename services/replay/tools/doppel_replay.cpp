@@ -86,10 +86,11 @@ int info(const Options& options) {
   }
   for (const auto& [topic, n] : recording.topic_counts()) std::printf("  %-44s %10llu messages\n", topic.c_str(), static_cast<unsigned long long>(n));
   if (recording.summary()) {
-    std::printf("recorder: %llu messages, %llu dropped, %llu bus events dropped\n",
+    std::printf("recorder: %llu messages, %llu dropped, %llu bus events dropped, %llu world states dropped\n",
                 static_cast<unsigned long long>(recording.summary()->messages()),
                 static_cast<unsigned long long>(recording.summary()->dropped_messages()),
-                static_cast<unsigned long long>(recording.summary()->dropped_bus_events()));
+                static_cast<unsigned long long>(recording.summary()->dropped_bus_events()),
+                static_cast<unsigned long long>(recording.summary()->dropped_world_states()));
   }
   if (!recording.recovery_note().empty()) std::printf("note: %s\n", recording.recovery_note().c_str());
   for (const std::string& warning : recording.warnings()) std::printf("warning: %s\n", warning.c_str());

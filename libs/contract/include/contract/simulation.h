@@ -141,6 +141,18 @@ struct CameraStill {
 // carpet is 90 degrees; a walking robot leans far less than 45).
 inline constexpr double kFallenTiltRad = 0.7853981633974483;  // 45 degrees
 
+// Every state a simulation publishes, in order, for one reader that must not miss any (the
+// recorder), however late its thread runs: the simulation thread queues each state, and only a
+// reader that falls the whole queue behind loses states, which lost() counts.
+class StateQueue {
+ public:
+  virtual ~StateQueue() = default;
+  // The reader's thread only: the oldest state not yet read; false when none is waiting.
+  virtual bool pop(SimState& out) = 0;
+  // States the simulation could not queue because the reader was that far behind. Any thread.
+  virtual uint64_t lost() const = 0;
+};
+
 // The simulation facet, which every host offers: its state, what the viewer draws, and the
 // requests that drive it. Requests are checked by the asker's layer before they get here (robot
 // indices, ranges, the carpet); what only the host knows is checked here.

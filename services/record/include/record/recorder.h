@@ -1,9 +1,10 @@
 #pragma once
 // `doppel --record FILE.mcap`: writes every bus transaction and the simulation's state to an MCAP
 // file (docs/recording.md) from a thread of its own. The bus threads only push events into their
-// fixed TrafficTaps; the simulation thread is not touched at all (world state, servo tables, scene
-// and camera stills are read from what it already publishes for the viewer). So recording never
-// blocks either: when this thread falls behind, a tap drops events and the summary says how many.
+// fixed TrafficTaps and the simulation thread each state it publishes into a fixed queue (servo
+// tables, scene and camera stills are read from what it already publishes for the viewer). So
+// recording never blocks either: when this thread falls behind, a tap or the state queue drops and
+// the summary says how many.
 // Finished chunks are flushed every second, so a killed doppel leaves a readable file.
 
 #include <atomic>
@@ -44,15 +45,16 @@ struct RecorderTotals {
   uint64_t transactions = 0;
   uint64_t bytes = 0;
   uint64_t dropped_bus_events = 0;  // taps were full: transactions missing
+  uint64_t dropped_world_states = 0;  // the state queue was full: world states missing
 };
 
 class Recorder {
  public:
-  // Opens `options.path` and writes the run information. `control`'s simulation (null: no world
-  // state) and faults (null: none) and every tap must outlive the recorder. Throws
-  // std::runtime_error naming the file.
+  // Opens `options.path` and writes the run information. `control`'s simulation (null: no servo
+  // tables, scene or stills) and faults (null: none), `world_states` (null: no world state) and
+  // every tap must outlive the recorder. Throws std::runtime_error naming the file.
   Recorder(const RecorderOptions& options, recording::RunInfo run, std::vector<RecordedBus> buses,
-           contract::Facets control, std::ostream* progress_out = nullptr);
+           contract::Facets control, contract::StateQueue* world_states, std::ostream* progress_out = nullptr);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
