@@ -235,6 +235,20 @@ TEST_F(MxBus, ImuAndFootBoardReportARobotAtRest) {
   EXPECT_GT(total, 0);
 }
 
+// Reads the inotify events waiting on `fd` (opened IN_NONBLOCK) and hands each to `on_event`;
+// false when none were waiting.
+template <typename OnEvent>
+bool read_inotify_events(int fd, OnEvent on_event) {
+  alignas(inotify_event) char events[4096];
+  const ssize_t n = ::read(fd, events, sizeof(events));
+  for (ssize_t at = 0; at < n;) {
+    const auto* event = reinterpret_cast<const inotify_event*>(events + at);
+    on_event(*event);
+    at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
+  }
+  return n > 0;
+}
+
 // Watches the closes of the line behind a link (inotify on the pty slave). When its client hangs
 // up, doppel's bus thread cleans the line: it opens the slave itself, flushes what the old client
 // left and closes it again (bus/pty_port.h). That second close ends the window in which a new
@@ -255,18 +269,12 @@ class LineCloses {
   // Waits until `count` more closes of the line have happened (up to 5 s); false if they did not.
   bool wait(int count) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    alignas(inotify_event) char events[4096];
     while (seen_ < count) {
       const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
       if (left.count() <= 0) return false;
       pollfd pfd{fd_, POLLIN, 0};
       if (::poll(&pfd, 1, static_cast<int>(left.count())) <= 0) continue;
-      const ssize_t n = ::read(fd_, events, sizeof(events));
-      for (ssize_t at = 0; at < n;) {
-        const auto* event = reinterpret_cast<const inotify_event*>(events + at);
-        seen_ += (event->mask & IN_CLOSE) != 0 ? 1 : 0;
-        at += static_cast<ssize_t>(sizeof(inotify_event) + event->len);
-      }
+      read_inotify_events(fd_, [this](const inotify_event& event) { seen_ += (event.mask & IN_CLOSE) != 0 ? 1 : 0; });
     }
     seen_ -= count;
     return true;
@@ -501,13 +509,9 @@ TEST(Doppel, ASignalWhileLoadingEndsItAtOnceWithAMessage) {
   ASSERT_GE(inotify_add_watch(watch, dir.c_str(), IN_CREATE), 0);
   auto [code, said] = run_command(command);
   std::vector<std::string> created;
-  alignas(inotify_event) char events[4096];
-  for (ssize_t n; (n = ::read(watch, events, sizeof events)) > 0;) {
-    for (char* p = events; p < events + n;) {
-      const auto* event = reinterpret_cast<const inotify_event*>(p);
-      if (event->len > 0) created.emplace_back(event->name);
-      p += sizeof(inotify_event) + event->len;
-    }
+  while (read_inotify_events(watch, [&](const inotify_event& event) {
+    if (event.len > 0) created.emplace_back(event.name);
+  })) {
   }
   ::close(watch);
 

@@ -12,11 +12,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "controlled_doppel.h"
 #include "cycle_stats.h"
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
@@ -125,11 +125,7 @@ class WolfgangBody : public ::testing::TestWithParam<const char*> {
 
   // doppel-ctl ACTION against this doppel's control API (pause, resume).
   void simulation(const std::string& action) {
-    const std::string output = doppel_.wait_for_output("simulation control on http://127.0.0.1:");
-    std::smatch url;
-    ASSERT_TRUE(std::regex_search(output, url, std::regex(R"(simulation control on (http://127\.0\.0\.1:\d+))")));
-    const auto [code, said] =
-        run_command(std::string(DOPPEL_CTL) + " --url " + url[1].str() + " --link-dir " + doppel_.link_dir() + " " + action);
+    const auto [code, said] = run_ctl(doppel_, control_url(doppel_), action);
     ASSERT_EQ(code, 0) << "doppel-ctl " << action << ": " << said;
   }
 

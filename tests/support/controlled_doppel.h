@@ -18,25 +18,34 @@
 
 namespace doppel::testing {
 
+// Where `doppel` (started with --viewer 0) says its control API serves, once it has said so:
+// http://127.0.0.1:PORT. Throws when it ends without saying it.
+inline std::string control_url(DoppelProcess& doppel) {
+  const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");
+  std::smatch match;
+  if (!std::regex_search(output, match, std::regex(R"(simulation control on (http://127\.0\.0\.1:\d+))"))) {
+    throw std::runtime_error("doppel did not say where its control is: " + output);
+  }
+  return match[1].str();
+}
+
+// doppel-ctl with `arguments` against `doppel`'s control API at `url`: its exit code and output.
+inline std::pair<int, std::string> run_ctl(const DoppelProcess& doppel, const std::string& url, const std::string& arguments) {
+  return run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " " + arguments);
+}
+
 struct ControlledDoppel {
   // `fast`: --timing fast (answers at once); false: doppel's default wire timing.
-  explicit ControlledDoppel(std::vector<std::string> args, bool fast = true) : doppel([&] {
-    args.insert(args.end(), {"--viewer", "0"});
-    if (fast) args.insert(args.end(), {"--timing", "fast"});
-    return args;
-  }()) {
-    const std::string output = doppel.wait_for_output("simulation control on http://127.0.0.1:");
-    std::smatch match;
-    if (!std::regex_search(output, match, std::regex(R"(simulation control on http://127\.0\.0\.1:(\d+))"))) {
-      throw std::runtime_error("doppel did not say where its control is: " + output);
-    }
-    url = "http://127.0.0.1:" + match[1].str();
-    port = static_cast<uint16_t>(std::stoi(match[1].str()));
-  }
+  explicit ControlledDoppel(std::vector<std::string> args, bool fast = true)
+      : doppel([&] {
+          args.insert(args.end(), {"--viewer", "0"});
+          if (fast) args.insert(args.end(), {"--timing", "fast"});
+          return args;
+        }()),
+        url(control_url(doppel)),
+        port(static_cast<uint16_t>(std::stoi(url.substr(url.rfind(':') + 1)))) {}
   // Runs doppel-ctl with `arguments`: its exit code and output.
-  std::pair<int, std::string> ctl(const std::string& arguments) const {
-    return run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " " + arguments);
-  }
+  std::pair<int, std::string> ctl(const std::string& arguments) const { return run_ctl(doppel, url, arguments); }
   // doppel-ctl that must succeed, its JSON answer.
   nlohmann::json ok(const std::string& arguments) const {
     const auto [code, output] = ctl(arguments);
