@@ -264,16 +264,17 @@ GameControlData GameController::snapshot() const {
 }
 
 bool GameController::send_now() {
+  std::lock_guard lock(mutex_);
+  return send_locked();
+}
+
+bool GameController::send_locked() {
   DataBytes bytes{};
-  {
-    std::lock_guard lock(mutex_);
-    GameControlData& data = game_.data();
-    data.packet_number = packet_number_++;
-    encode(data, bytes);
-  }
+  GameControlData& data = game_.data();
+  data.packet_number = packet_number_++;
+  encode(data, bytes);
   std::string error;
   const bool sent = sender_.send_to(destination_, bytes, error);
-  std::lock_guard lock(mutex_);
   ++(sent ? counters_.sent : counters_.send_errors);
   return sent;
 }
@@ -287,9 +288,7 @@ void GameController::send_loop() {
     game_.advance(std::chrono::duration_cast<std::chrono::milliseconds>(now - last));
     last = now;
     if (sending_) {
-      lock.unlock();
-      send_now();
-      lock.lock();
+      send_locked();
     }
     next += options_.period;
     wake_.wait_until(lock, next, [this] { return !running_; });

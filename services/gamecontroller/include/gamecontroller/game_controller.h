@@ -119,7 +119,7 @@ class GameController {
     return std::forward<F>(change)(game_);
   }
   GameControlData snapshot() const;
-  // Encodes and sends the current state now (the sender thread calls it every period).
+  // Encodes and sends the current state now (the sender thread sends every period the same way).
   bool send_now();
 
   std::optional<ReturnRecord> last_return(std::uint8_t team, std::uint8_t player) const;
@@ -141,6 +141,9 @@ class GameController {
   Endpoint destination() const { return destination_; }
 
  private:
+  // send_now() with mutex_ held: the sender checks sending_ and sends under the same lock as the
+  // step-aside clears it, so that nothing is sent once a GameController stepped aside.
+  bool send_locked();
   GameController(const GameControllerOptions& options, UdpSocket sender, UdpSocket returns, Endpoint destination);
   void send_loop();
   void receive_loop();
