@@ -89,10 +89,12 @@ TEST(Protocol2Bus, P2PacketWithAGapOfMoreThanOneAndAHalfMillisecondsIsDropped) {
   const ClientFd client(open_bother_client(sut.path(), 4'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, Bytes(kP2Ping1.begin(), kP2Ping1.begin() + 6)));
+  // The gap is measured between the bus thread's reads: the first part read, then 20 ms at least.
+  ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.bytes_in == 6; }));
   std::this_thread::sleep_for(20ms);
   ASSERT_TRUE(write_all(client, Bytes(kP2Ping1.begin() + 6, kP2Ping1.end())));
   EXPECT_TRUE(read_bytes(client, 14, 100ms).empty());
-  EXPECT_EQ(sut.server().diagnostics().timeouts, 1u);
+  EXPECT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.timeouts == 1; }));
   ASSERT_TRUE(write_all(client, kP2Ping1));
   EXPECT_EQ(read_bytes(client, 14, 1s), kP2Ping1Status);
 }
@@ -103,7 +105,10 @@ TEST(Protocol2Bus, P1PacketKeepsItsHundredMillisecondTimeout) {
   const ClientFd client(open_bother_client(sut.path(), 1'000'000));
   ASSERT_GE(client, 0);
   ASSERT_TRUE(write_all(client, Bytes(kP1Ping1.begin(), kP1Ping1.begin() + 3)));
-  std::this_thread::sleep_for(20ms);
+  // A gap of 5 ms, more than Protocol 2.0's 1.5 ms, measured from the bus thread's read of the first
+  // part; only a stall of 95 ms between the two would reach Protocol 1.0's 100 ms.
+  ASSERT_TRUE(sut.eventually([](const BusDiagnostics& d) { return d.bytes_in == 3; }));
+  std::this_thread::sleep_for(5ms);
   ASSERT_TRUE(write_all(client, Bytes(kP1Ping1.begin() + 3, kP1Ping1.end())));
   EXPECT_EQ(read_bytes(client, 6, 1s), kP1Ping1Status);
 }

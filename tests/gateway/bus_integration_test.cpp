@@ -311,7 +311,7 @@ TEST(Reconnect, NextOpenStartsClean) {
   SerialClient second(doppel.link(), kBaud);
   Bytes ping = p1_instruction(1, kPing);
   ASSERT_EQ(::write(second.fd(), ping.data(), ping.size()), 6);    // no flush: stale bytes would show
-  EXPECT_EQ(second.receive(6, 200), status(1, 0));
+  EXPECT_EQ(second.receive(6, 5000), status(1, 0));
   EXPECT_TRUE(second.drain(50).empty());
 }
 

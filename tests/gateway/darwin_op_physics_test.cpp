@@ -167,14 +167,15 @@ TEST_P(DarwinOpBody, StandsInTheWalkReadyPoseAtWalkingsGains) {
 // Held as a handler holds it while it powers up: with Dynamixel Power on but no torque, nothing
 // moves between 0.5 s and 3 s (beyond a tremble of 0.4 deg). The servos start in the walk-ready pose of the file; the handler's
 // grip (docs/physics.md, start-up hold) is finite, so the arms, held out in that pose, give up to
-// 3 deg at once and then stay. The CM-730 reads the trunk at rest in the walk-ready lean (zero rate,
+// 3 deg at once and then stay; how far they have given at the first read depends on the simulation
+// time before it (more on a loaded machine), so it gets the same bounds. The CM-730 reads the trunk at rest in the walk-ready lean (zero rate,
 // gravity only, within a count: the pinned trunk trembles with the feet's contacts) and the feet
 // keep the load they settled at.
 TEST_P(DarwinOpBody, HeldUntilTheDriverPowersAndEnablesIt) {
   power_on(bus_);
   const std::vector<uint16_t> initial = read_positions(bus_);
   for (uint8_t id = 1; id <= kServoCount; ++id) {
-    EXPECT_NEAR(initial[id - 1], kWalkReady[id], 1) << "ID " << int(id);
+    EXPECT_NEAR(initial[id - 1], kWalkReady[id], id <= 6 ? 34 : 7) << "ID " << int(id);  // 3 deg, 0.6 deg
   }
   wait_sim_time(clock_, 0.5);  // the feet settle on the carpet within the first 0.1 s
   const std::vector<uint16_t> settled_positions = read_positions(bus_);

@@ -23,6 +23,7 @@
 
 #include "camera/camera_config.h"
 #include "camera/lens.h"
+#include "controlled_doppel.h"
 #include "cycle_stats.h"
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
@@ -100,7 +101,7 @@ OpenCrBlock decode(const Bytes& b) {
 // The robot file asks for 100 solver sweeps: the OP3's light links need them to stand (tests/physics/op3_test.cpp).
 class Op3Bus {
  public:
-  explicit Op3Bus(std::vector<std::string> args) : doppel_(std::move(args)), client_(doppel_.link(), kBaud) {}
+  explicit Op3Bus(std::vector<std::string> args) : doppel_(with_control(std::move(args))), client_(doppel_.link(), kBaud) {}
 
   SerialClient& client() { return client_; }
 
@@ -121,8 +122,12 @@ class Op3Bus {
   }
 
   // op3_manager and robotis_controller's start-up, as the file comment describes; every status
-  // compared byte for byte.
+  // compared byte for byte. The simulation is paused meanwhile (doppel-ctl), so that every joint is
+  // stiff from the same simulated instant however long its ~420 transactions take: the handler lets
+  // go 1 s of simulation time after the first torque (docs/physics.md), and on a loaded machine the
+  // last joints could still be limp then.
   void start_like_the_stack() {
+    expect_ctl(doppel_, "pause");
     write(kOpenCr, kDxlPower, 1, 1);
     for (const Joint& j : kJoints) {  // dxl_init_OP3.yaml: its keys in file order, items alphabetical
       EXPECT_EQ(read(j.id, kTorqueEnable, 1), Bytes{0}) << j.name;
@@ -147,6 +152,7 @@ class Op3Bus {
       }
       write(j.id, kTorqueEnable, 1, 1);
     }
+    expect_ctl(doppel_, "resume");
   }
 
   // Waits for `seconds` of simulation time by servo 1's Realtime Tick (ms, wraps at 32768).
@@ -174,6 +180,10 @@ class Op3Bus {
   }
 
  private:
+  static std::vector<std::string> with_control(std::vector<std::string> args) {
+    args.insert(args.end(), {"--viewer", "0"});
+    return args;
+  }
   DoppelProcess doppel_;
   SerialClient client_;
 };

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <string>
-#include <thread>
 
 #include "doppel_process.h"
 #include "gateway/robot_config.h"
@@ -45,11 +44,12 @@ TEST_P(UrdfRobot, ServosAnswerAndItStands) {
   wait_sim_time(client, 2.0);
 
   // IMU pitch / roll (26, 0.1 mrad) and both foot boards' totals (34, 0.01 N), docs/devices.md;
-  // the mean of twenty readings 10 ms apart (ODE's contacts jitter by a few newtons from one step to
-  // the next and rock slowly: ten back-to-back readings once averaged 15 % low).
+  // the mean of twenty readings one IMU sample (20 ms of simulation time) apart (ODE's contacts
+  // jitter by a few newtons from one step to the next and rock slowly: ten back-to-back readings once
+  // averaged 15 % low).
   double pitch = 0.0, roll = 0.0, feet = 0.0;
   for (int i = 0; i < 20; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    wait_sim_time(client, kImuSamplePeriodS);
     const Bytes imu = client.transact(p1_instruction(100, 0x02, {26, 4}), 10);
     const Bytes left = client.transact(p1_instruction(101, 0x02, {34, 2}), 8);
     const Bytes right = client.transact(p1_instruction(102, 0x02, {34, 2}), 8);

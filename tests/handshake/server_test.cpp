@@ -51,13 +51,21 @@ class HandshakeServer : public ::testing::TestWithParam<Transport> {
     options.tcp_port = 0;
     server_ = std::make_unique<Server>(host_, options);
   }
-  void SetUp() override {
+  // Timeouts far beyond what a loaded machine keeps a client thread waiting, so that only the tests
+  // of the timeouts themselves (impatient()) meet them.
+  void SetUp() override { start(with_timeouts(10s)); }
+  // The server again with 400 ms timeouts (first request, frame, write), for the tests of them.
+  void impatient() {
+    server_.reset();
+    start(with_timeouts(400ms));
+  }
+  static ServerOptions with_timeouts(std::chrono::milliseconds timeout) {
     ServerOptions options;
-    options.first_request_timeout = 400ms;
-    options.frame_timeout = 400ms;
+    options.first_request_timeout = timeout;
+    options.frame_timeout = timeout;
     options.max_frame_bytes = 4096;
-    options.write_timeout = 400ms;
-    start(options);
+    options.write_timeout = timeout;
+    return options;
   }
   TestClient connect() {
     return GetParam() == Transport::kUnix ? TestClient::unix_socket(server_->unix_path())
@@ -221,6 +229,7 @@ TEST_P(HandshakeServer, AnOversizedLengthGetsAnErrorThenTheConnectionCloses) {
 }
 
 TEST_P(HandshakeServer, ATruncatedFrameTimesOutWithAnError) {
+  impatient();
   TestClient c = connect();
   c.send_raw(std::string("\x64\x00\x00\x00", 4) + "0123456789");  // 100 announced, 10 sent
   const auto reply = c.receive();
@@ -231,6 +240,7 @@ TEST_P(HandshakeServer, ATruncatedFrameTimesOutWithAnError) {
 }
 
 TEST_P(HandshakeServer, AClientThatNeverSpeaksIsClosed) {
+  impatient();
   TestClient c = connect();
   const auto reply = c.receive();
   ASSERT_TRUE(reply && reply->has_error());
@@ -239,6 +249,7 @@ TEST_P(HandshakeServer, AClientThatNeverSpeaksIsClosed) {
 }
 
 TEST_P(HandshakeServer, AClientThatSpokeMayStayIdle) {
+  impatient();
   TestClient c = connect();
   EXPECT_TRUE(c.call(request("list_robots {}")).has_robot_list());
   EXPECT_FALSE(c.receive(1500ms));  // well past the first-request timeout: no error, not closed
@@ -246,6 +257,7 @@ TEST_P(HandshakeServer, AClientThatSpokeMayStayIdle) {
 }
 
 TEST_P(HandshakeServer, AClientThatReadsNoRepliesIsClosed) {
+  impatient();
   TestClient c = connect();
   const std::string one = TestClient::frame(request("list_robots {}").SerializeAsString());
   std::string many;

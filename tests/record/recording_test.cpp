@@ -188,9 +188,9 @@ TEST(Recording, FaultsAreRecordedWithTheirStartEndAndWhatTheyDidOnTheBus) {
     testing::ControlledDoppel doppel({"--record", file}, false);
     SerialClient client(doppel.doppel.link(), 1'000'000);
     doppel.ok("fault add late 0 --bus 0 --id 18 --value 3000");
-    for (uint8_t id : {17, 18}) EXPECT_EQ(client.transact(p1_instruction(id, 0x01), 6, 500).size(), 6u);
+    for (uint8_t id : {17, 18}) EXPECT_EQ(client.transact(p1_instruction(id, 0x01), 6, 2000).size(), 6u);
     doppel.ok("fault add corrupt 0 --bus 0 --rate 1 --for 600");
-    EXPECT_EQ(client.transact(p1_instruction(1, 0x01), 6, 500).size(), 6u);
+    EXPECT_EQ(client.transact(p1_instruction(1, 0x01), 6, 2000).size(), 6u);
     std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the recorder samples the list every 2 ms
     doppel.ok("fault clear all");
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
@@ -209,10 +209,15 @@ TEST(Recording, FaultsAreRecordedWithTheirStartEndAndWhatTheyDidOnTheBus) {
         return true;
       },
       options);
-  ASSERT_GE(lists.size(), 3u) << "added, added, cleared (and the final list)";
-  EXPECT_EQ(lists.front().faults_size(), 1);
+  // The recorder writes the list when it sees it changed (it looks every 2 ms): a recorder kept off
+  // the CPU on a loaded machine may see the two adds as one change, so the lists in between are
+  // not counted; the first shows the late fault acting, the last every fault's start and end.
+  ASSERT_GE(lists.size(), 2u) << "added, cleared";
+  ASSERT_GE(lists.front().faults_size(), 1);
+  EXPECT_EQ(lists.front().faults(0).kind(), "late");
   EXPECT_TRUE(lists.front().faults(0).active());
   EXPECT_TRUE(lists.front().faults(0).until_cleared());
+  for (std::size_t i = 1; i < lists.size(); ++i) EXPECT_GE(lists[i].faults_size(), lists[i - 1].faults_size()) << "list " << i;
   const recording::FaultList& last = lists.back();
   ASSERT_EQ(last.faults_size(), 2);
   EXPECT_EQ(last.faults(0).kind(), "late");

@@ -109,7 +109,9 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
                                  f" return t && Math.abs(t.p[0] - {want_x}) < 0.02 && t; }})()",
                                  f"the trunk drawn at its recorded x {want_x:.3f} m")
         check(moved["q"][1] > 0.5, f"the trunk is not tilted at {position:.2f} s: q {moved['q']}")
-        time.sleep(0.3)  # a few frames drawn
+        # Two frames drawn since the page had that scene (one may have begun before it): the canvas shows it.
+        drawn = browser.evaluate("window.doppelViewer.frames()")
+        browser.wait_for(f"window.doppelViewer.frames() > {drawn + 1}", "a frame drawn of the scrubbed scene")
         where = f"({moved['p'][0]}, {moved['p'][1]}, {moved['p'][2]})"
         inside = browser.evaluate(f"(() => {{ const p = window.doppelViewer.pageXY{where};"
                                   " const r = document.getElementById('canvas').getBoundingClientRect();"
@@ -125,7 +127,8 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         browser.click_element("#reset")
         browser.wait_for("(() => { const s = window.doppelViewer.scene(); const t = s && s.shapes.find((x) => x.kind === 'robot');"
                          " return t && Math.abs(t.p[0]) < 0.01; })()", "the trunk back at its start")
-        time.sleep(0.3)
+        drawn = browser.evaluate("window.doppelViewer.frames()")
+        browser.wait_for(f"window.doppelViewer.frames() > {drawn + 1}", "a frame drawn of the start")
         at_start = browser.evaluate(PIXEL_AT + where)
         difference = sum(abs(a - b) for a, b in zip(at_trunk, at_start))
         check(difference > 30, f"the pixel at the scrubbed trunk {at_trunk} looks as it does without the robot {at_start}")
@@ -138,9 +141,11 @@ def run(replay_tool, fixture_tool, out_dir, chromium):
         # Play runs on, Pause stops.
         browser.click_element("#replay-play")
         browser.wait_for("window.doppelViewer.replay().playing", "the page to show playing")
-        time.sleep(0.5)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and api.get("api/replay")["position_s"] <= position + 0.2:
+            time.sleep(0.1)
         later = api.get("api/replay")["position_s"]
-        check(later > position + 0.2, f"playing moved the replay from {position:.3f} s to {later:.3f} s in 0.5 s")
+        check(later > position + 0.2, f"playing moved the replay only from {position:.3f} s to {later:.3f} s in 10 s")
         browser.click_element("#replay-play")
         browser.wait_for("!window.doppelViewer.replay().playing", "the page to show paused")
         held = api.get("api/replay")["position_s"]

@@ -81,9 +81,11 @@ const std::string kStiff = std::string(R"(
 
 // A robot standing stiff (every servo on, holding its initial pose) pushed hard sideways at 1.5 s
 // falls over: nothing happens before the push, it tips beyond 45 degrees after it, and lands on its
-// side (a lying robot is at 90 degrees) to its right (pushed along +x while facing +y).
+// side (a lying robot is at 90 degrees) to its right (pushed along +x while facing +y). In lockstep,
+// so that the controller has switched the servos on long before the push however slowly Python
+// starts on a loaded machine (in real time, a controller that started late would leave the robot held at the push).
 TEST_F(ScenarioRun, APushAtItsTimeTipsARobotOver) {
-  const json pushed = run("name: \"pushed\" duration_s: 3\npush { time_s: 1.5 fx_n: 40 duration_s: 0.2 }" + kStiff);
+  const json pushed = run("name: \"pushed\" duration_s: 3 lockstep: true\npush { time_s: 1.5 fx_n: 40 duration_s: 0.2 }" + kStiff);
   ASSERT_EQ(pushed["ended"], "duration") << pushed.dump(2);
   EXPECT_EQ(pushed["events"][0]["applied_s"], 1.5);
   const json& m = pushed["metrics"][0];
@@ -97,7 +99,7 @@ TEST_F(ScenarioRun, APushAtItsTimeTipsARobotOver) {
   EXPECT_EQ(pushed["controllers"][0]["stopped_by_doppel"], true);
   EXPECT_NE(pushed["controllers"][0]["stdout_tail"].get<std::string>().find("torque on"), std::string::npos);
 
-  const json calm = run("name: \"calm\" duration_s: 3" + kStiff);
+  const json calm = run("name: \"calm\" duration_s: 3 lockstep: true" + kStiff);
   EXPECT_FALSE(calm["metrics"][0]["fallen"].get<bool>()) << calm.dump(2);
   EXPECT_LT(calm["metrics"][0]["peak_tilt_deg"].get<double>(), 20.0);
   EXPECT_LT(calm["metrics"][0]["distance_m"].get<double>(), 0.05);
@@ -105,9 +107,10 @@ TEST_F(ScenarioRun, APushAtItsTimeTipsARobotOver) {
 
 // doppel_run: the controller opens the device name it hard-codes (/dev/ttyUSB0) and reaches the
 // robot through doppel-run's shim: its servos draw power once it switched them on (a held robot's
-// draw nothing, first test).
+// draw nothing, first test). In lockstep, so that they are on from the controller's first wait
+// however slowly it starts.
 TEST_F(ScenarioRun, ThroughDoppelRunAControllerReachesTheRobotByItsUsbDeviceName) {
-  const json result = run(std::string(R"(name: "shim" duration_s: 1.5
+  const json result = run(std::string(R"(name: "shim" duration_s: 1.5 lockstep: true
     robot { name: "fumanoid-2011" }
     metrics { energy: true }
     controller { argv: ")") + DOPPEL_STAND_STIFF + R"(" argv: "/dev/ttyUSB0" doppel_run: true })");
@@ -160,8 +163,9 @@ TEST_F(ScenarioRun, AControllerThatCannotStartIsAClearError) {
   EXPECT_NE(error_of(plain).find("not found"), std::string::npos);
 }
 
+// 2 s of real time: the shell has echoed its line long before, also on a loaded machine.
 TEST_F(ScenarioRun, TheCommandPrintsOneJsonObjectOfTheDocumentedShape) {
-  const std::string file = write("cli.textproto", R"(name: "cli" duration_s: 0.2
+  const std::string file = write("cli.textproto", R"(name: "cli" duration_s: 2
     robot { name: "fumanoid-2011" }
     param { name: "word" value: "a" }
     controller { argv: "/bin/sh" argv: "-c" argv: "echo {param:word} {seed} {seconds}; sleep 60" })");
@@ -180,7 +184,7 @@ TEST_F(ScenarioRun, TheCommandPrintsOneJsonObjectOfTheDocumentedShape) {
   EXPECT_EQ(result["scenario"], "cli");
   EXPECT_EQ(result["seed"], 5);
   EXPECT_EQ(result["params"]["word"], "b");
-  EXPECT_EQ(result["controllers"][0]["stdout_tail"], "b 5 0.2\n");
+  EXPECT_EQ(result["controllers"][0]["stdout_tail"], "b 5 2\n");
   const json& m = result["metrics"][0];
   for (const char* key : {"robot", "measured_s", "distance_m", "forward_m", "lateral_m", "end", "fallen", "time_to_fall_s",
                           "energy_j", "energy_drawn_j", "mean_power_w", "peak_tilt_deg", "peak_tilt_s", "control_cycle"}) {

@@ -34,6 +34,13 @@ inline std::pair<int, std::string> run_ctl(const DoppelProcess& doppel, const st
   return run_command(std::string(DOPPEL_CTL) + " --url " + url + " --link-dir " + doppel.link_dir() + " " + arguments);
 }
 
+// doppel-ctl with `arguments` (pause, resume, ...) against `doppel`, started with --viewer 0; a
+// failure of the test when it does not succeed.
+inline void expect_ctl(DoppelProcess& doppel, const std::string& arguments) {
+  const auto [code, said] = run_ctl(doppel, control_url(doppel), arguments);
+  EXPECT_EQ(code, 0) << "doppel-ctl " << arguments << ": " << said;
+}
+
 struct ControlledDoppel {
   // `fast`: --timing fast (answers at once); false: doppel's default wire timing.
   explicit ControlledDoppel(std::vector<std::string> args, bool fast = true)

@@ -74,7 +74,9 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
     execv(argv[0], argv.data());
     _exit(127);
   }
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  // 30 s, as wait_for_output: default starts (camera, RouDi) took up to 7.4 s at load average 29
+  // (docs/benchmarks.md).
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (!std::filesystem::exists(link(link_name))) {
     int status = 0;
     if (waitpid(pid_, &status, WNOHANG) == pid_) {
@@ -83,7 +85,7 @@ DoppelProcess::DoppelProcess(std::vector<std::string> args, const std::string& l
     }
     if (std::chrono::steady_clock::now() > deadline) {
       stop(SIGKILL);
-      throw std::runtime_error("doppel did not create " + link(link_name) + " within 10 s: " + output());
+      throw std::runtime_error("doppel did not create " + link(link_name) + " within 30 s: " + output());
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -103,7 +105,7 @@ int DoppelProcess::stop(int signal) {
   }
   kill(pid_, signal);
   int status = 0;
-  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);  // a loaded machine's shutdown, not a hang
   while (waitpid(pid_, &status, WNOHANG) == 0) {
     if (std::chrono::steady_clock::now() > deadline) {
       kill(pid_, SIGKILL);  // a doppel that ignores SIGTERM is a failure the caller sees in `status`

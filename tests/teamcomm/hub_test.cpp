@@ -71,6 +71,18 @@ class RunningHub {
     thread_.join();
   }
   Hub& hub() { return hub_; }
+  // Waits (up to 5 s) until the hub's counters satisfy `done`: until then a datagram may still wait
+  // in its socket, however long the silence the test listened to. The counters it ends with.
+  template <typename Done>
+  HubCounters counters_when(Done done) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    HubCounters counters = hub_.counters();
+    while (!done(counters) && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      counters = hub_.counters();
+    }
+    return counters;
+  }
 
  private:
   Hub hub_;
@@ -103,7 +115,7 @@ TEST(Hub, RelaysToTeammatesButNotBackToTheSenderNorToTheOtherTeam) {
   EXPECT_EQ(c.receive(0ms), std::nullopt);
   EXPECT_EQ(rival.receive(0ms), std::nullopt);
 
-  const HubCounters counters = sut.hub().counters();
+  const HubCounters counters = sut.counters_when([](const HubCounters& now) { return now.received == 3; });
   EXPECT_EQ(counters.received, 3u);
   EXPECT_EQ(counters.links.size(), 6u);  // 3 robots of team 1: 3 * 2 ordered pairs; team 2: none
   EXPECT_EQ(link(counters, 1, 2).relayed, 1u);
@@ -207,6 +219,7 @@ TEST(Hub, RegistersAndRemovesRobotsWhileRunning) {
   Hub& hub = running.hub();
   // Alone on its team, a's message goes nowhere.
   a.send(hub.port(), "alone");
+  EXPECT_EQ(running.counters_when([](const HubCounters& now) { return now.received == 1; }).received, 1u) << "read before b is there";
   EXPECT_FALSE(b.receive(200ms).has_value());
   // Registered from another thread while the hub relays: b and c hear a, and a hears them.
   std::thread([&] { hub.add_robot({7, 2, b.port()}); }).join();
@@ -240,7 +253,7 @@ TEST(Hub, RegistersAndRemovesRobotsWhileRunning) {
   const std::uint64_t unknown = counters.unknown_sender;
   c.send(hub.port(), "stranger now");
   EXPECT_FALSE(a.receive(200ms).has_value());
-  EXPECT_EQ(hub.counters().unknown_sender, unknown + 1);
+  EXPECT_EQ(running.counters_when([&](const HubCounters& now) { return now.unknown_sender == unknown + 1; }).unknown_sender, unknown + 1);
 }
 
 TEST(ParseRobot, ReadsTeamPlayerPortAndNamesTheWrongPart) {

@@ -15,7 +15,10 @@ def packet(dxl_id, instruction, params=b""):
 
 def main():
     url, baud, dxl_id, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
-    port = serial.serial_for_url(url, baudrate=baud, timeout=0.5)
+    # 2 s for each status: on a loaded machine an answer through pyserial, ser2net, the pty and
+    # doppel can take far longer than the wire, and one read that gave up too early would pair every
+    # later PING with the status before it.
+    port = serial.serial_for_url(url, baudrate=baud, timeout=2)
     answered = 0
     for _ in range(count):
         port.write(packet(dxl_id, 0x01))
