@@ -44,7 +44,9 @@ inline Phase measure(doppel::testing::SerialClient& client, int port, double sec
   const auto start = PhaseClock::now();
   while (std::chrono::duration<double>(PhaseClock::now() - start).count() < seconds) {
     const auto t0 = PhaseClock::now();
-    const doppel::testing::Bytes reply = client.transact(request, 8, 200);
+    // 2 s: a late answer is a long round trip, counted as one; only none at all is a failure (a
+    // shorter wait would also leave the late status behind as the next request's "answer").
+    const doppel::testing::Bytes reply = client.transact(request, 8, 2000);
     const double us = std::chrono::duration<double, std::micro>(PhaseClock::now() - t0).count();
     if (reply.size() == 8) {
       phase.latencies_us.push_back(us);

@@ -28,14 +28,16 @@ std::string write_robot() {
 
 void expect_clean_startups(const std::string& port, uint32_t first_bps, uint32_t second_bps, int startups) {
   int kept_rate = 0, answered = 0;
+  std::string failures;
   for (int i = 0; i < startups; ++i) {
     const StartupOutcome outcome = reopen_startup(port, first_bps, second_bps, 1, 5, 1000);
     kept_rate += outcome.line_bps_after == second_bps ? 1 : 0;
     answered += outcome.answered == 5 ? 1 : 0;
+    if (!outcome.first_failure.empty()) failures += "\n  start-up " + std::to_string(i + 1) + ": " + outcome.first_failure;
   }
   // Every session keeps the rate its client set and gets every answer.
   EXPECT_EQ(kept_rate, startups) << first_bps << " -> " << second_bps;
-  EXPECT_EQ(answered, startups) << first_bps << " -> " << second_bps;
+  EXPECT_EQ(answered, startups) << first_bps << " -> " << second_bps << failures;
 }
 
 TEST(ReopenRace, ReopenAtAnotherRateKeepsThatRateUnderLoad) {
@@ -46,6 +48,7 @@ TEST(ReopenRace, ReopenAtAnotherRateKeepsThatRateUnderLoad) {
   doppel.stop();
   // Both buses: no packet came at a rate no device listens at.
   const std::string output = doppel.output();
+  if (HasFailure()) ADD_FAILURE() << "doppel said:\n" << output;
   const std::string clean = "not understood at the line's baud rate 0)";
   const auto first = output.find(clean);
   ASSERT_NE(first, std::string::npos) << output;
