@@ -51,17 +51,16 @@ TEST(ReopenRace, ReopenAtAnotherRateKeepsThatRateUnderLoad) {
   doppel.stop();
   // Both buses: no packet came at a rate no device listens at.
   const std::string output = doppel.output();
-  if (HasFailure()) ADD_FAILURE() << "doppel said:\n" << output;
-  const std::string clean = "not understood at the line's baud rate 0)";
-  const auto first = output.find(clean);
-  ASSERT_NE(first, std::string::npos) << output;
-  EXPECT_NE(output.find(clean, first + 1), std::string::npos) << output;
+  const auto on_both_buses = [&output](const std::string& counted) {
+    const auto first = output.find(counted);
+    return first != std::string::npos && output.find(counted, first + 1) != std::string::npos;
+  };
+  EXPECT_TRUE(on_both_buses("not understood at the line's baud rate 0)"));
   // Both buses: every PING (150 start-ups of 5) came in whole and was answered.
-  for (const std::string counted : {"packets 750 (bad checksum 0,", "replies 750 (collisions 0,"}) {
-    const auto at = output.find(counted);
-    ASSERT_NE(at, std::string::npos) << counted << "\n" << output;
-    EXPECT_NE(output.find(counted, at + 1), std::string::npos) << counted << "\n" << output;
-  }
+  EXPECT_TRUE(on_both_buses("packets 750 (bad checksum 0,"));
+  EXPECT_TRUE(on_both_buses("replies 750 (collisions 0,"));
+  // Once, for whichever check failed: doppel's exit counters tell a lost answer from a late one.
+  if (HasFailure()) ADD_FAILURE() << "doppel said:\n" << output;
 }
 
 }  // namespace
