@@ -71,9 +71,9 @@ class LockstepVision : public ::testing::Test {
     std::string doppel_output;
   };
 
-  // A fresh doppel --lockstep with the DARwIn-OP and its camera, `command` (lockstep_vision
-  // arguments, or a shell command line with {run} for "doppel-run --lockstep ... --") under it.
-  static Run run(const std::string& arguments) {
+  // A fresh doppel --lockstep with the DARwIn-OP and its camera, and `program` (lockstep_vision
+  // unless named) with `arguments` under doppel-run --lockstep.
+  static Run run(const std::string& arguments, const std::string& program = kVision) {
     const std::string hashes = std::filesystem::temp_directory_path() /
                                ("doppel-vision-hashes-" + std::to_string(::getpid()) + "-" + std::to_string(std::rand()));
     DoppelProcess doppel({"--robot", "darwin-op", "--lockstep", "--lockstep-epoch", "1767225600", "--hashes-file", hashes},
@@ -81,7 +81,7 @@ class LockstepVision : public ::testing::Test {
     doppel.wait_for_output("running until");
     Run r;
     std::tie(r.code, r.output) = run_command("timeout 120 " + kDoppelRun + " --lockstep --link-dir " + doppel.link_dir() +
-                                             " -- " + kVision + " " + arguments);
+                                             " -- " + program + " " + arguments);
     doppel.stop();
     r.doppel_output = doppel.output();
     std::ifstream in(hashes);
@@ -169,6 +169,21 @@ TEST_F(LockstepVision, AProgramThatNeverDequeuesEndsOnTimeAndASecondOwnerIsRefus
   const Run busy = run("busy /dev/video0 0");
   ASSERT_EQ(busy.code, 0) << busy.output << busy.doppel_output;
   EXPECT_NE(busy.output.find("second_reqbufs=Device or resource busy"), std::string::npos) << busy.output;
+}
+
+// Control events (tests/shim/v4l2_events.c, the same checks as in real time) on simulation time: a
+// change made by a thread after a 200 ms nanosleep from simulation time 0 is stamped at exactly
+// that time, and the blocking DQEVENT waiting for it returns at the next 1 ms step at the latest.
+TEST_F(LockstepVision, ControlEventsAreStampedAndDeliveredInSimulationTime) {
+  const Run r = run("/dev/video0", V4L2_EVENTS);
+  ASSERT_EQ(r.code, 0) << r.output << r.doppel_output;
+  EXPECT_NE(r.output.find("\n0 failed\n"), std::string::npos) << r.output;
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.output, m, std::regex(R"(set_us=(\d+) event_us=(\d+) woke_us=(\d+))"))) << r.output;
+  EXPECT_EQ(std::stoll(m[1]), kMonotonicOffsetUs + 200'000) << r.output;
+  EXPECT_EQ(std::stoll(m[2]), std::stoll(m[1])) << r.output;
+  EXPECT_GE(std::stoll(m[3]), std::stoll(m[2])) << r.output;
+  EXPECT_LE(std::stoll(m[3]), std::stoll(m[2]) + 1000) << r.output;
 }
 
 TEST_F(LockstepVision, TwoProgramsOnOneCameraBothGetTheirFrames) {

@@ -489,8 +489,56 @@ int poll_for(struct pollfd* fds, nfds_t n, int64_t timeout_ns, Call call) noexce
 
 int64_t timeout_of(const struct timespec* ts) noexcept { return ts == nullptr ? -1 : ns_of(*ts); }
 
-// select() on top of poll_for (FD_SETSIZE descriptors at most, as select itself).
-int select_for(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, int64_t timeout_ns, Call call) noexcept {
+// A poll as the program asked for it: in simulation time under lockstep, else the kernel's.
+int poll_as_asked(struct pollfd* fds, nfds_t n, int64_t timeout_ns, const sigset_t* mask, Call call) noexcept {
+  if (on()) return poll_for(fds, n, timeout_ns, call);
+  const struct timespec timeout = timespec_of(timeout_ns);
+  return g_real.ppoll(fds, n, timeout_ns < 0 ? nullptr : &timeout, mask);
+}
+
+bool camera_events_asked(const struct pollfd* fds, nfds_t n) noexcept {
+  for (nfds_t i = 0; i < n; ++i) {
+    if ((fds[i].events & POLLPRI) != 0 && v4l2_event_fd(fds[i].fd) >= 0) return true;
+  }
+  return false;
+}
+
+bool camera_events_asked(int nfds, const fd_set* ex) noexcept {
+  for (int fd = 0; ex != nullptr && fd < nfds && fd < FD_SETSIZE; ++fd) {
+    if (FD_ISSET(fd, ex) && v4l2_event_fd(fd) >= 0) return true;
+  }
+  return false;
+}
+
+// poll_as_asked, where a camera descriptor asked for POLLPRI (a waiting control event, V4L2) gets
+// it from its event descriptor (v4l2_event_fd), polled beside it for POLLIN. Sets of more than 128
+// descriptors are polled as they are.
+int poll_with_camera_events(struct pollfd* fds, nfds_t n, int64_t timeout_ns, const sigset_t* mask, Call call) noexcept {
+  constexpr nfds_t kMaxPolled = 256;
+  if (n > kMaxPolled / 2 || !camera_events_asked(fds, n)) return poll_as_asked(fds, n, timeout_ns, mask, call);
+  struct pollfd all[kMaxPolled];
+  nfds_t camera_of[kMaxPolled / 2];  // the entry of `fds` each added event descriptor stands for
+  nfds_t count = n;
+  for (nfds_t i = 0; i < n; ++i) {
+    all[i] = fds[i];
+    const int events = (fds[i].events & POLLPRI) != 0 ? v4l2_event_fd(fds[i].fd) : -1;
+    if (events < 0) continue;
+    camera_of[count - n] = i;
+    all[count++] = {events, POLLIN, 0};
+  }
+  const int r = poll_as_asked(all, count, timeout_ns, mask, call);
+  if (r < 0) return r;
+  for (nfds_t i = 0; i < n; ++i) fds[i].revents = all[i].revents;
+  for (nfds_t k = n; k < count; ++k) {
+    if ((all[k].revents & POLLIN) != 0) fds[camera_of[k - n]].revents |= POLLPRI;
+  }
+  int ready = 0;
+  for (nfds_t i = 0; i < n; ++i) ready += fds[i].revents != 0 ? 1 : 0;
+  return ready;
+}
+
+// select() on top of poll_with_camera_events (FD_SETSIZE descriptors at most, as select itself).
+int select_for(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, int64_t timeout_ns, const sigset_t* mask, Call call) noexcept {
   struct pollfd fds[FD_SETSIZE];
   nfds_t n = 0;
   for (int fd = 0; fd < nfds && fd < FD_SETSIZE; ++fd) {
@@ -500,7 +548,7 @@ int select_for(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, int64_t timeout_ns,
     if (ex != nullptr && FD_ISSET(fd, ex)) events |= POLLPRI;
     if (events != 0) fds[n++] = {fd, events, 0};
   }
-  const int r = poll_for(fds, n, timeout_ns, call);
+  const int r = poll_with_camera_events(fds, n, timeout_ns, mask, call);
   if (r < 0) return r;
   if (rd != nullptr) FD_ZERO(rd);
   if (wr != nullptr) FD_ZERO(wr);
@@ -900,31 +948,32 @@ SHIM_EXPORT unsigned sleep(unsigned seconds) {
   return 0;
 }
 
+// Without lockstep these pass straight to libc unless a camera descriptor asks for its events.
 SHIM_EXPORT int poll(struct pollfd* fds, nfds_t n, int timeout_ms) {
   NEED_REAL();
-  if (!on()) return g_real.poll(fds, n, timeout_ms);
-  return poll_for(fds, n, timeout_ms < 0 ? -1 : static_cast<int64_t>(timeout_ms) * 1'000'000, Call::kPoll);
+  if (!on() && !camera_events_asked(fds, n)) return g_real.poll(fds, n, timeout_ms);
+  return poll_with_camera_events(fds, n, timeout_ms < 0 ? -1 : static_cast<int64_t>(timeout_ms) * 1'000'000, nullptr, Call::kPoll);
 }
 
 SHIM_EXPORT int ppoll(struct pollfd* fds, nfds_t n, const struct timespec* timeout, const sigset_t* mask) {
   NEED_REAL();
-  if (!on()) return g_real.ppoll(fds, n, timeout, mask);
-  return poll_for(fds, n, timeout_of(timeout), Call::kPpoll);
+  if (!on() && !camera_events_asked(fds, n)) return g_real.ppoll(fds, n, timeout, mask);
+  return poll_with_camera_events(fds, n, timeout_of(timeout), mask, Call::kPpoll);
 }
 
 SHIM_EXPORT int select(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, struct timeval* timeout) {
   NEED_REAL();
-  if (!on() || nfds > FD_SETSIZE) return g_real.select(nfds, rd, wr, ex, timeout);
+  if ((!on() && !camera_events_asked(nfds, ex)) || nfds > FD_SETSIZE) return g_real.select(nfds, rd, wr, ex, timeout);
   const int64_t t = timeout == nullptr ? -1 : static_cast<int64_t>(timeout->tv_sec) * kSecond + timeout->tv_usec * 1000;
-  const int r = select_for(nfds, rd, wr, ex, t, Call::kSelect);
+  const int r = select_for(nfds, rd, wr, ex, t, nullptr, Call::kSelect);
   if (timeout != nullptr && r == 0) *timeout = {};
   return r;
 }
 
 SHIM_EXPORT int pselect(int nfds, fd_set* rd, fd_set* wr, fd_set* ex, const struct timespec* timeout, const sigset_t* mask) {
   NEED_REAL();
-  if (!on() || nfds > FD_SETSIZE) return g_real.pselect(nfds, rd, wr, ex, timeout, mask);
-  return select_for(nfds, rd, wr, ex, timeout_of(timeout), Call::kPselect);
+  if ((!on() && !camera_events_asked(nfds, ex)) || nfds > FD_SETSIZE) return g_real.pselect(nfds, rd, wr, ex, timeout, mask);
+  return select_for(nfds, rd, wr, ex, timeout_of(timeout), mask, Call::kPselect);
 }
 
 static int epoll_for(int epfd, struct epoll_event* events, int max, int timeout_ms) noexcept {

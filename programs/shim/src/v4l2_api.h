@@ -35,6 +35,10 @@ struct DoppelV4l2Api {
   // (or, with read(), keeps the newest), for descriptor `fd`'s camera or, with -1, every camera of
   // the process, so that the descriptor's readiness says what simulation time says.
   void (*pump)(int fd);
+  // The descriptor that is readable while a control event waits for `fd` (an eventfd made at its
+  // first VIDIOC_SUBSCRIBE_EVENT, closed with `fd`), -1 before that: V4L2 reports a waiting event as
+  // POLLPRI, which `fd` itself cannot raise.
+  int (*event_fd)(int fd);
 };
 
 // Exported by libdoppel_v4l2.so.

@@ -8,7 +8,9 @@
 // converted (v4l2_format.h), into the oldest queued buffer, as a DMA engine fills the next buffer;
 // with none queued the frame is lost and the sequence number shows the gap. The descriptor the
 // program gets is an eventfd, readable while a filled buffer waits, so poll/select/epoll work
-// unchanged. The eventfd is read and written with raw system calls: the shim interposes read().
+// unchanged; a waiting control event, V4L2's POLLPRI, has an eventfd of its own per descriptor, which
+// the shim's poll and select report as the camera's POLLPRI. The eventfds are read and written with
+// raw system calls: the shim interposes read().
 //
 // Under lockstep (set_lockstep) there is no worker: doppel publishes each frame before any
 // controller thread sees its simulation time, and the program's own thread moves the frames into
@@ -24,6 +26,7 @@
 #include <sys/mman.h>
 #include <sys/syscall.h>
 #include <sys/utsname.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -130,10 +133,27 @@ struct Camera {
   bool settings_quit = false;
 };
 
+// A descriptor's subscription to a control's events (VIDIOC_SUBSCRIBE_EVENT, V4L2_EVENT_CTRL). As in
+// the control framework, it holds one event at most: a newer change replaces a waiting event and
+// keeps its change bits.
+struct Subscription {
+  uint32_t id = 0;     // the control
+  uint32_t flags = 0;  // V4L2_EVENT_SUB_FL_*
+  bool waiting = false;
+  v4l2_event event{};
+};
+
 struct File {
   int fd = -1;
   Camera* camera = nullptr;
   uint32_t priority = V4L2_PRIORITY_DEFAULT;
+  // Control events, guarded by the camera's lock. V4L2 reports a waiting event as POLLPRI, which
+  // the descriptor (an eventfd) cannot raise: `event_fd`, made at the first subscription, is
+  // readable while one waits, and the shim's poll and select report that as the camera's POLLPRI.
+  int event_fd = -1;
+  std::vector<Subscription> subscriptions;
+  std::deque<uint32_t> waiting;  // controls of the waiting events, oldest first (DQEVENT's order)
+  uint32_t sequence = 0;         // of the next event queued
 };
 
 struct Mapping {
@@ -491,14 +511,151 @@ int check_value(const ControlInfo& c, int32_t& value) {
   }
 }
 
-// Sets control `index` to `value` (checked); caller holds the camera's lock.
-void apply_control(Camera& cam, int index, int32_t value) {
+// ---- control events ---------------------------------------------------------------------------
+
+// Now on the program's CLOCK_MONOTONIC (lockstep: simulation time on it), as the kernel stamps events.
+timespec event_time() {
+  timespec now{};
+  if (lockstep()) {
+    const int64_t ns = g_monotonic_offset_ns + g_sim_now();
+    now.tv_sec = static_cast<time_t>(ns / 1000000000);
+    now.tv_nsec = static_cast<long>(ns % 1000000000);
+  } else {
+    ::clock_gettime(CLOCK_MONOTONIC, &now);
+  }
+  return now;
+}
+
+v4l2_event control_event(Camera& cam, int index, uint32_t changes) {
+  const ControlInfo c = control_at(index, cam.source.fps);
+  v4l2_event ev{};
+  ev.type = V4L2_EVENT_CTRL;
+  ev.id = c.id;
+  ev.u.ctrl.changes = changes;
+  ev.u.ctrl.type = c.type;
+  const int32_t* value = control_value(cam.controls, c.id);
+  ev.u.ctrl.value64 = value != nullptr ? *value : 0;  // a class control has none
+  ev.u.ctrl.flags = control_flags(c, cam.controls);
+  ev.u.ctrl.minimum = c.minimum;
+  ev.u.ctrl.maximum = c.maximum;
+  ev.u.ctrl.step = c.step;
+  ev.u.ctrl.default_value = c.default_value;
+  return ev;
+}
+
+Subscription* subscription_of(File& file, uint32_t id) {
+  for (Subscription& s : file.subscriptions) {
+    if (s.id == id) return &s;
+  }
+  return nullptr;
+}
+
+// Queues `ev` for `file`'s subscription `sub` (v4l2-event.c: one event per subscription, a newer one
+// replacing the waiting one with both change bits, stamped and numbered when queued). Caller holds
+// the camera's lock.
+void queue_event(File& file, Subscription& sub, v4l2_event ev) {
+  ev.sequence = file.sequence++;
+  ev.timestamp = event_time();
+  if (sub.waiting) {
+    ev.u.ctrl.changes |= sub.event.u.ctrl.changes;
+    file.waiting.erase(std::find(file.waiting.begin(), file.waiting.end(), sub.id));
+  }
+  sub.event = ev;
+  sub.waiting = true;
+  file.waiting.push_back(sub.id);
+  if (file.waiting.size() == 1) eventfd_set(file.event_fd);
+  file.camera->changed.notify_all();  // a blocking DQEVENT
+}
+
+// A change of control `index` to every descriptor of the camera subscribed to it, except `setter`
+// when it did not ask for its own changes (V4L2_EVENT_SUB_FL_ALLOW_FEEDBACK). Caller holds the
+// camera's lock.
+void send_control_event(Camera& cam, int index, uint32_t changes, const File* setter) {
+  const v4l2_event ev = control_event(cam, index, changes);
+  std::lock_guard tables(g_mutex);
+  for (const auto& [fd, file] : g_files) {
+    if (file->camera != &cam) continue;
+    Subscription* sub = subscription_of(*file, ev.id);
+    if (sub == nullptr || (file == setter && (sub->flags & V4L2_EVENT_SUB_FL_ALLOW_FEEDBACK) == 0)) continue;
+    queue_event(*file, *sub, ev);
+  }
+}
+
+int subscribe_event(File& file, const v4l2_event_subscription& request) {
+  if (request.type != V4L2_EVENT_CTRL) return fail(EINVAL);  // the only events a camera of doppel raises
+  const int index = control_index(request.id);
+  if (index < 0) return fail(EINVAL);
+  Camera& cam = *file.camera;
+  std::lock_guard lock(cam.mutex);
+  if (file.event_fd < 0) {
+    file.event_fd = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (file.event_fd < 0) return -1;
+  }
+  if (subscription_of(file, request.id) != nullptr) return 0;  // subscribed already: no second initial event
+  Subscription& sub = file.subscriptions.emplace_back();
+  sub.id = request.id;
+  sub.flags = request.flags & (V4L2_EVENT_SUB_FL_SEND_INITIAL | V4L2_EVENT_SUB_FL_ALLOW_FEEDBACK);
+  // The initial event: the control's state, except for a class control, which has none.
+  if ((request.flags & V4L2_EVENT_SUB_FL_SEND_INITIAL) != 0 && control_at(index, cam.source.fps).type != V4L2_CTRL_TYPE_CTRL_CLASS) {
+    queue_event(file, sub, control_event(cam, index, V4L2_EVENT_CTRL_CH_VALUE | V4L2_EVENT_CTRL_CH_FLAGS));
+  }
+  return 0;
+}
+
+// V4L2_EVENT_ALL ends every subscription; one that does not exist is no error (v4l2-event.c).
+int unsubscribe_event(File& file, const v4l2_event_subscription& request) {
+  Camera& cam = *file.camera;
+  std::lock_guard lock(cam.mutex);
+  const bool had_waiting = !file.waiting.empty();
+  for (auto it = file.subscriptions.begin(); it != file.subscriptions.end();) {
+    const bool ends = request.type == V4L2_EVENT_ALL || (request.type == V4L2_EVENT_CTRL && request.id == it->id);
+    if (!ends) {
+      ++it;
+      continue;
+    }
+    if (it->waiting) file.waiting.erase(std::find(file.waiting.begin(), file.waiting.end(), it->id));
+    it = file.subscriptions.erase(it);
+  }
+  if (had_waiting && file.waiting.empty()) eventfd_clear(file.event_fd);
+  return 0;
+}
+
+int dequeue_event(File& file, v4l2_event* ev) {
+  Camera& cam = *file.camera;
+  const bool nonblocking = (::fcntl(file.fd, F_GETFL) & O_NONBLOCK) != 0;
+  std::unique_lock lock(cam.mutex);
+  while (file.waiting.empty()) {
+    if (nonblocking) return fail(ENOENT);
+    if (lockstep()) return fail(EAGAIN);  // the shim waits in simulation time and asks again
+    cam.changed.wait(lock);
+  }
+  Subscription& sub = *subscription_of(file, file.waiting.front());
+  file.waiting.pop_front();
+  if (file.waiting.empty()) eventfd_clear(file.event_fd);
+  sub.waiting = false;
+  *ev = sub.event;
+  ev->pending = static_cast<uint32_t>(file.waiting.size());
+  return 0;
+}
+
+// Sets control `index` to `value` (checked) for `setter`, and tells the subscribers what changed:
+// the value, and the flags of the controls an automatic one makes inactive. Caller holds the
+// camera's lock.
+void apply_control(Camera& cam, int index, int32_t value, const File* setter) {
   const ControlInfo c = control_at(index, cam.source.fps);
   int32_t* slot = control_value(cam.controls, c.id);
   if (*slot == value) return;
+  std::vector<uint32_t> flags_before;
+  for (int i = 0; i < control_count(); ++i) flags_before.push_back(control_flags(control_at(i, cam.source.fps), cam.controls));
   *slot = value;
   cam.curves = tone_curves(cam.controls, cam.source.fps, cam.source.format);
   if (c.id == V4L2_CID_AUTO_WHITE_BALANCE || c.id == V4L2_CID_WHITE_BALANCE_TEMPERATURE) white_balance_changed(cam);
+  send_control_event(cam, index, V4L2_EVENT_CTRL_CH_VALUE, setter);
+  for (int i = 0; i < control_count(); ++i) {
+    if (control_flags(control_at(i, cam.source.fps), cam.controls) != flags_before[static_cast<std::size_t>(i)]) {
+      send_control_event(cam, i, V4L2_EVENT_CTRL_CH_FLAGS, nullptr);  // the framework sends these to everyone
+    }
+  }
 }
 
 int ext_controls(File& file, unsigned long request, v4l2_ext_controls* ec) {
@@ -554,7 +711,7 @@ int ext_controls(File& file, unsigned long request, v4l2_ext_controls* ec) {
     int32_t value = x.value;
     check_value(c, value);
     x.value = value;
-    if (set) apply_control(cam, index, value);
+    if (set) apply_control(cam, index, value, &file);
   }
   return 0;
 }
@@ -814,6 +971,7 @@ bool served(unsigned long request) {
     case VIDIOC_REQBUFS: case VIDIOC_QUERYBUF: case VIDIOC_QBUF: case VIDIOC_DQBUF: case VIDIOC_STREAMON:
     case VIDIOC_STREAMOFF: case VIDIOC_QUERYCTRL: case VIDIOC_QUERY_EXT_CTRL: case VIDIOC_QUERYMENU: case VIDIOC_G_CTRL:
     case VIDIOC_S_CTRL: case VIDIOC_G_EXT_CTRLS: case VIDIOC_S_EXT_CTRLS: case VIDIOC_TRY_EXT_CTRLS: case VIDIOC_LOG_STATUS:
+    case VIDIOC_SUBSCRIBE_EVENT: case VIDIOC_UNSUBSCRIBE_EVENT: case VIDIOC_DQEVENT:
       return true;
     default:
       return false;
@@ -969,6 +1127,12 @@ int do_ioctl(File& file, unsigned long request, void* arg) {
     case VIDIOC_S_EXT_CTRLS:
     case VIDIOC_TRY_EXT_CTRLS:
       return ext_controls(file, request, static_cast<v4l2_ext_controls*>(arg));
+    case VIDIOC_SUBSCRIBE_EVENT:
+      return subscribe_event(file, *static_cast<const v4l2_event_subscription*>(arg));
+    case VIDIOC_UNSUBSCRIBE_EVENT:
+      return unsubscribe_event(file, *static_cast<const v4l2_event_subscription*>(arg));
+    case VIDIOC_DQEVENT:
+      return dequeue_event(file, static_cast<v4l2_event*>(arg));
     case VIDIOC_LOG_STATUS:
       say(cam.name + ": " + std::to_string(cam.mode.width) + "x" + std::to_string(cam.mode.height) +
           (cam.streaming ? ", streaming" : ", not streaming"));
@@ -987,7 +1151,9 @@ int api_open(const char* device, const char* camera_name, int flags) {
     if (cam == nullptr) return -1;  // ENOENT: no such camera; ENODEV: unusable
     const int fd = ::eventfd(0, ((flags & O_NONBLOCK) != 0 ? EFD_NONBLOCK : 0) | ((flags & O_CLOEXEC) != 0 ? EFD_CLOEXEC : 0));
     if (fd < 0) return -1;
-    auto* file = new File{fd, cam, V4L2_PRIORITY_DEFAULT};
+    auto* file = new File;
+    file->fd = fd;
+    file->camera = cam;
     std::lock_guard lock(g_mutex);
     g_files[fd] = file;
     return fd;
@@ -1016,6 +1182,7 @@ int api_close(int fd) {
       free_buffers(cam);
       cam.owner = nullptr;
     }
+    if (file->event_fd >= 0) syscall(SYS_close, file->event_fd);
     lock.unlock();
     delete file;
   }
@@ -1112,6 +1279,13 @@ ssize_t api_read(int fd, void* out, size_t n) {
   return static_cast<ssize_t>(mode.sizeimage);
 }
 
+int api_event_fd(int fd) {
+  File* file = file_of(fd);
+  if (file == nullptr) return fail(EBADF);
+  std::lock_guard lock(file->camera->mutex);
+  return file->event_fd;
+}
+
 void api_set_lockstep(int64_t (*sim_now)(void), int64_t monotonic_offset_ns) {
   g_monotonic_offset_ns = monotonic_offset_ns;
   g_sim_now = sim_now;
@@ -1136,7 +1310,8 @@ void api_pump(int fd) {
   for (Camera* cam : cameras) pump_one(*cam);
 }
 
-const DoppelV4l2Api g_api = {api_open, api_close, api_ioctl, api_mmap, api_unmapped, api_read, api_set_lockstep, api_pump};
+const DoppelV4l2Api g_api = {api_open, api_close, api_ioctl, api_mmap, api_unmapped,
+                             api_read, api_set_lockstep, api_pump, api_event_fd};
 
 }  // namespace
 }  // namespace doppel::shim

@@ -39,6 +39,7 @@ CameraMapping g_cameras[kMaxCameras];
 int g_camera_count = 0;
 std::atomic<int> g_map_state{0};  // 0 unparsed, 1 parsing, 2 parsed
 std::atomic<bool> g_fd_camera[kMaxFds];
+std::atomic<int> g_fd_events[kMaxFds];  // the module's event descriptor + 1 (0: none yet)
 std::atomic<const DoppelV4l2Api*> g_api{nullptr};
 std::atomic<bool> g_module_failed{false};
 std::atomic<bool> g_exit_handler{false};
@@ -232,6 +233,7 @@ bool v4l2_fd(int fd) noexcept { return fd >= 0 && fd < kMaxFds && g_fd_camera[fd
 
 int v4l2_close(int fd) noexcept {
   g_fd_camera[fd].store(false, std::memory_order_release);
+  g_fd_events[fd].store(0, std::memory_order_release);
   LockstepBypass bypass;
   return g_api.load()->close(fd);
 }
@@ -258,7 +260,18 @@ long camera_call(int fd, bool may_block, Call call) noexcept {
 }  // namespace
 
 int v4l2_ioctl(int fd, unsigned long request, void* arg) noexcept {
-  return static_cast<int>(camera_call(fd, request == VIDIOC_DQBUF, [&] { return static_cast<long>(g_api.load()->ioctl(fd, request, arg)); }));
+  const DoppelV4l2Api* a = g_api.load();
+  const bool may_block = request == VIDIOC_DQBUF || request == VIDIOC_DQEVENT;
+  const int r = static_cast<int>(camera_call(fd, may_block, [&] { return static_cast<long>(a->ioctl(fd, request, arg)); }));
+  if (r == 0 && request == VIDIOC_SUBSCRIBE_EVENT) {
+    LockstepBypass bypass;
+    g_fd_events[fd].store(a->event_fd(fd) + 1, std::memory_order_release);
+  }
+  return r;
+}
+
+int v4l2_event_fd(int fd) noexcept {
+  return fd >= 0 && fd < kMaxFds ? g_fd_events[fd].load(std::memory_order_acquire) - 1 : -1;
 }
 
 ssize_t v4l2_read(int fd, void* buffer, size_t n) noexcept {

@@ -26,6 +26,9 @@ bool v4l2_fd(int fd) noexcept;
 int v4l2_close(int fd) noexcept;
 int v4l2_ioctl(int fd, unsigned long request, void* arg) noexcept;
 ssize_t v4l2_read(int fd, void* buffer, size_t n) noexcept;
+// The descriptor readable while a control event waits for camera descriptor `fd` (subscribed with
+// VIDIOC_SUBSCRIBE_EVENT), else -1: poll and select report it as the camera's POLLPRI.
+int v4l2_event_fd(int fd) noexcept;
 // Lockstep: frames published so far into the buffers of `fd`'s camera (-1: every camera). A
 // no-op before the module is loaded.
 void v4l2_pump(int fd) noexcept;
