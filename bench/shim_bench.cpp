@@ -6,9 +6,12 @@
 // - ioctl(FIONREAD), write+read of one byte on a pipe (not Doppel's): the shim's pass-through vs. libc.
 //   read and write are interposed for lockstep time (docs/lockstep.md): without DOPPEL_LOCKSTEP they
 //   pass through after one load (the handle's read/write are the shim's, checked below).
+// - poll() of the port and a pipe for POLLIN | POLLPRI, not waiting: interposed for lockstep time and
+//   for cameras' control events; without either it passes through after one load per descriptor.
 #include <benchmark/benchmark.h>
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <poll.h>
 #include <stdlib.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
@@ -24,11 +27,13 @@ using IoctlFn = int (*)(int, unsigned long, ...);
 using OpenFn = int (*)(const char*, int, ...);
 using ReadFn = ssize_t (*)(int, void*, size_t);
 using WriteFn = ssize_t (*)(int, const void*, size_t);
+using PollFn = int (*)(struct pollfd*, nfds_t, int);
 
 struct Setup {
   IoctlFn shim_ioctl = nullptr;
   ReadFn shim_read = nullptr;
   WriteFn shim_write = nullptr;
+  PollFn shim_poll = nullptr;
   int port_fd = -1;     // /dev/ttyUSB0 opened through the shim: Doppel's (here: a pty's)
   int pty_fd = -1;      // the same pty opened through libc: what the program has without the shim
   int pipe_fds[2] = {-1, -1};
@@ -50,15 +55,15 @@ struct Setup {
     shim_ioctl = reinterpret_cast<IoctlFn>(::dlsym(shim, "ioctl"));
     shim_read = reinterpret_cast<ReadFn>(::dlsym(shim, "read"));
     shim_write = reinterpret_cast<WriteFn>(::dlsym(shim, "write"));
-    Dl_info ioctl_from{}, read_from{}, write_from{};
-    ::dladdr(reinterpret_cast<void*>(shim_ioctl), &ioctl_from);
-    ::dladdr(reinterpret_cast<void*>(shim_read), &read_from);
-    ::dladdr(reinterpret_cast<void*>(shim_write), &write_from);
-    if (std::string(ioctl_from.dli_fname).find("doppel_shim") == std::string::npos ||
-        std::string(read_from.dli_fname).find("doppel_shim") == std::string::npos ||
-        std::string(write_from.dli_fname).find("doppel_shim") == std::string::npos) {
-      std::fprintf(stderr, "shim_bench: expected the shim's ioctl, read and write\n");
-      std::exit(1);
+    shim_poll = reinterpret_cast<PollFn>(::dlsym(shim, "poll"));
+    for (void* symbol : {reinterpret_cast<void*>(shim_ioctl), reinterpret_cast<void*>(shim_read),
+                         reinterpret_cast<void*>(shim_write), reinterpret_cast<void*>(shim_poll)}) {
+      Dl_info from{};
+      ::dladdr(symbol, &from);
+      if (std::string(from.dli_fname).find("doppel_shim") == std::string::npos) {
+        std::fprintf(stderr, "shim_bench: expected the shim's ioctl, read, write and poll\n");
+        std::exit(1);
+      }
     }
     port_fd = reinterpret_cast<OpenFn>(::dlsym(shim, "open"))("/dev/ttyUSB0", O_RDWR | O_NOCTTY | O_NONBLOCK);
     pty_fd = ::open(link.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
@@ -131,5 +136,23 @@ void BM_PipeWriteRead_ThroughLibc(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_PipeWriteRead_ThroughLibc);
+
+void BM_PollPortAndPipe_ThroughShim(benchmark::State& state) {
+  Setup& s = setup();
+  for (auto _ : state) {
+    struct pollfd fds[2] = {{s.port_fd, POLLIN | POLLPRI, 0}, {s.pipe_fds[0], POLLIN | POLLPRI, 0}};
+    benchmark::DoNotOptimize(s.shim_poll(fds, 2, 0));
+  }
+}
+BENCHMARK(BM_PollPortAndPipe_ThroughShim);
+
+void BM_PollPortAndPipe_ThroughLibc(benchmark::State& state) {
+  Setup& s = setup();
+  for (auto _ : state) {
+    struct pollfd fds[2] = {{s.pty_fd, POLLIN | POLLPRI, 0}, {s.pipe_fds[0], POLLIN | POLLPRI, 0}};
+    benchmark::DoNotOptimize(::poll(fds, 2, 0));
+  }
+}
+BENCHMARK(BM_PollPortAndPipe_ThroughLibc);
 
 }  // namespace
