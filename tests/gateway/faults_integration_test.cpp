@@ -222,6 +222,14 @@ TEST(Faults, ServoFaultsShowAsTheFirmwareShowsThem) {
   }
   EXPECT_GE(seen.size(), 5u);
 
+  // The IMU and foot checks compare a reading before a bias with one after it, so the body must not
+  // move in between: mostly limp, it falls once the handler lets go (a run on a quiet machine read
+  // 2728 mrad/s for a 2 rad/s bias). A reset gives it back to the handler, who holds it still
+  // (root pinned, joints locked) until a servo's torque goes on again; faults outlive a reset.
+  doppel.ok("reset");
+  wait_sim(doppel, 0.05);
+  ASSERT_TRUE(doppel.ok("state")["robots"][0]["held"].get<bool>());
+
   // IMU bias: +2 rad/s on every gyro axis (1 mrad/s units); IMU dropout: the Sample Counter stops.
   const int gyro_before = static_cast<int16_t>(read_u16(client, 100, kImuGyroX));
   doppel.ok("fault add imu_bias 0 --bus 0 --id 100 --value 2");

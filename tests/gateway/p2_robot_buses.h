@@ -71,7 +71,7 @@ class P2RobotBuses {
   // One READ; the status' parameters (empty, and a test failure, on any transport or status error).
   Bytes read(int b, uint8_t id, uint16_t address, uint16_t length) {
     const auto statuses =
-        parse_p2_statuses(bus(b).transact(p2_instruction(id, 0x02, p2_read_params(address, length)), 11u + length));
+        parse_p2_statuses(transact_p2(bus(b), p2_instruction(id, 0x02, p2_read_params(address, length)), 1));
     if (!statuses || statuses->size() != 1 || (*statuses)[0].id != id || (*statuses)[0].error != 0 ||
         (*statuses)[0].params.size() != length) {
       ADD_FAILURE() << "no " << length << "-byte READ reply from ID " << int(id) << " on bus " << b;

@@ -291,6 +291,9 @@ TEST_F(X430Robot, ByteStuffingBothWays) {
   const auto statuses = parse_p2_statuses(reply);
   ASSERT_TRUE(statuses && statuses->size() == 1);
   EXPECT_EQ((*statuses)[0].params, le32(-131073));
+  // A driver that reads LEN bytes after the 7-byte header (the SDK's rxPacket, transact_p2) gets
+  // the whole stuffed status; one that expects 11 + 4 bytes would stop one short.
+  EXPECT_EQ(transact_p2(bus(1), p2_instruction(7, kRead, read_params(20, 4)), 1), reply);
   EXPECT_EQ(read32(1, 7, kPresentPosition), 2048 - 131073);
 }
 

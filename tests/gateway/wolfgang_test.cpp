@@ -367,7 +367,7 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
       gains.insert(gains.end(), {id, static_cast<uint8_t>(p & 0xFF), static_cast<uint8_t>(p >> 8)});
       torque.insert(torque.end(), {id, 1});
     }
-    const Bytes positions = client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs);
+    const Bytes positions = transact_p2(client, read_positions, ids.size(), kReplyTimeoutMs);
     const auto statuses = parse_p2_statuses(positions);
     if (!check_statuses("the start's SYNC READ of Present Position", positions, ids, 4) || !statuses) {
       stats.add_error();
@@ -394,28 +394,28 @@ void run_bus(const std::string& path, int b, std::chrono::steady_clock::time_poi
     std::this_thread::sleep_until(next);
     const auto begin = std::chrono::steady_clock::now();
     bool ok = check_statuses("SYNC READ of Present Position",
-        client.transact(read_positions, ids.size() * 15, kReplyTimeoutMs), ids, 4);
+        transact_p2(client, read_positions, ids.size(), kReplyTimeoutMs), ids, 4);
     if (cycle % 50 == 49) {
       ok = check_statuses("SYNC READ of Present Input Voltage and Temperature",
-          client.transact(read_volt_temp, ids.size() * 14, kReplyTimeoutMs), ids, 3) && ok;
+          transact_p2(client, read_volt_temp, ids.size(), kReplyTimeoutMs), ids, 3) && ok;
       ok = check_statuses("SYNC READ of Hardware Error Status",
-          client.transact(read_error, ids.size() * 12, kReplyTimeoutMs), ids, 1) && ok;
+          transact_p2(client, read_error, ids.size(), kReplyTimeoutMs), ids, 1) && ok;
     }
     if (b == kRightLegBus || b == kLeftLegBus) {
       ok = check_statuses("READ of the foot board",
-          client.transact(read_foot, 11 + kFootBlockLength, kReplyTimeoutMs), {foot}, kFootBlockLength) && ok;
+          transact_p2(client, read_foot, 1, kReplyTimeoutMs), {foot}, kFootBlockLength) && ok;
     } else if (b == kHeadBus) {
       ok = check_statuses("READ of the IMU",
-          client.transact(read_imu, 11 + kImuBlockLength, kReplyTimeoutMs), {kImuId}, kImuBlockLength) && ok;
+          transact_p2(client, read_imu, 1, kReplyTimeoutMs), {kImuId}, kImuBlockLength) && ok;
       if (cycle % 50 == 0) {
         // Buttons at rest: all three released; a determined answer, compared byte for byte.
         const bool released =
-            client.transact(read_buttons, 11 + kButtonsLength, kReplyTimeoutMs) == p2_status(kImuId, 0, {0, 0, 0});
+            transact_p2(client, read_buttons, 1, kReplyTimeoutMs) == p2_status(kImuId, 0, {0, 0, 0});
         ok = !problem("READ of the buttons", released ? "" : "not the status of three released buttons") && ok;
       }
     } else if (b == kArmsBus && cycle % 10 == 0) {
       ok = check_statuses("READ of the CORE board",
-          client.transact(read_core, 11 + kCoreBlockLength, kReplyTimeoutMs), {kCoreId}, kCoreBlockLength) && ok;
+          transact_p2(client, read_core, 1, kReplyTimeoutMs), {kCoreId}, kCoreBlockLength) && ok;
     }
     // Goal Position: a slow 0..15-count ramp (1.3 deg) on every joint, so that the writes change,
     // towards the inside of its URDF range: the shoulder rolls stand 0.1 deg from their stops
@@ -465,7 +465,7 @@ TEST_F(WolfgangWire, TheTeamsFiveHundredHertzCycleOnFourBusesForSixtySeconds) {
   SerialClient head(doppel_.link("ttyDXL2"), kBaud);
   // Still standing after a minute of ramped goals (a fallen robot's servos would stall into
   // overload errors): the torso IMU's accelerometer z still carries most of gravity.
-  const auto imu = parse_p2_statuses(head.transact(p2_instruction(kImuId, kRead, p2_read_params(kImuBlock, kImuBlockLength)), 51));
+  const auto imu = parse_p2_statuses(transact_p2(head, p2_instruction(kImuId, kRead, p2_read_params(kImuBlock, kImuBlockLength)), 1));
   ASSERT_TRUE(imu && imu->size() == 1 && (*imu)[0].params.size() == kImuBlockLength);
   EXPECT_GT(f32_at((*imu)[0].params, 20), 0.9 * kGravity);
   EXPECT_EQ(head.transact(p2_instruction(19, kRead, p2_read_params(kTorqueEnable, 1)), 12), p2_status(19, 0, {1}));

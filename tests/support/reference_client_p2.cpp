@@ -1,5 +1,8 @@
 #include "reference_client_p2.h"
 
+#include <algorithm>
+#include <chrono>
+
 namespace doppel::testing {
 namespace {
 
@@ -109,6 +112,30 @@ std::optional<std::vector<P2Status>> parse_p2_statuses(const Bytes& bytes) {
     i += 7 + length;
   }
   return statuses;
+}
+
+Bytes receive_p2_statuses(SerialClient& client, std::size_t count, int timeout_ms) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  auto left_ms = [&] {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    return std::max<int>(0, static_cast<int>(left.count()));
+  };
+  Bytes out;
+  for (std::size_t k = 0; k < count; ++k) {
+    const Bytes header = client.receive(7, left_ms());
+    out.insert(out.end(), header.begin(), header.end());
+    if (header.size() < 7 || header[0] != 0xFF || header[1] != 0xFF || header[2] != 0xFD || header[3] != 0x00) {
+      break;
+    }
+    const Bytes rest = client.receive(static_cast<std::size_t>(header[5] | (header[6] << 8)), left_ms());
+    out.insert(out.end(), rest.begin(), rest.end());
+  }
+  return out;
+}
+
+Bytes transact_p2(SerialClient& client, const Bytes& request, std::size_t count, int timeout_ms) {
+  client.send(request);
+  return receive_p2_statuses(client, count, timeout_ms);
 }
 
 std::optional<std::vector<P2FastBlock>> parse_p2_fast_status(const Bytes& bytes, const std::vector<std::size_t>& lengths) {

@@ -34,6 +34,15 @@ struct P2Status {
 // bytes as received, then unstuffing); nullopt if any packet is malformed or bytes are left over.
 std::optional<std::vector<P2Status>> parse_p2_statuses(const Bytes& bytes);
 
+// Reads `count` status packets the way the SDK's rxPacket does: the 7-byte header, then as many
+// bytes as its LEN field says, so that a status lengthened by byte stuffing (an FF FF FD in its
+// data) is read whole. Returns what arrived within `timeout_ms` (short on a timeout, the first 7
+// bytes only if they are not a status header).
+Bytes receive_p2_statuses(SerialClient& client, std::size_t count, int timeout_ms);
+
+// send() then receive_p2_statuses().
+Bytes transact_p2(SerialClient& client, const Bytes& request, std::size_t count, int timeout_ms = 5000);
+
 // One device's block of a FAST SYNC/BULK READ combined status (§2.7).
 struct P2FastBlock {
   uint8_t error = 0;
