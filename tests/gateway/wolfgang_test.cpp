@@ -314,7 +314,13 @@ std::string status_problem(const Bytes& reply, const std::vector<uint8_t>& ids, 
   if (reply.empty()) return "no answer within " + std::to_string(kReplyTimeoutMs) + " ms";
   const auto statuses = parse_p2_statuses(reply);
   if (!statuses || statuses->size() != ids.size()) {
-    return std::to_string(reply.size()) + " bytes that are not " + std::to_string(ids.size()) + " status(es)";
+    std::string hex;
+    for (uint8_t byte : reply) {
+      char two[4];
+      std::snprintf(two, sizeof two, " %02X", byte);
+      hex += two;
+    }
+    return std::to_string(reply.size()) + " bytes that are not " + std::to_string(ids.size()) + " status(es):" + hex;
   }
   for (std::size_t k = 0; k < ids.size(); ++k) {
     const P2Status& s = (*statuses)[k];
