@@ -452,6 +452,13 @@ def run(doppel, out_dir, chromium):
               f"/api/faults lists {listed} after Add")
         check(ping(link, 1, 1) == 0, "servo 1 answers while the page made it dead")
         check(ping(link, 2, 1) == 1, "servo 2 does not answer while only servo 1 is dead")
+        # A poll that brings the same list leaves the rows as they are, so that a click (press, then
+        # release) on Clear cannot straddle a rebuild and be lost.
+        browser.evaluate("window.clearButton = document.querySelector('#fault-list button.fault-clear')")
+        applied = browser.evaluate("window.doppelViewer.faultListsApplied()")
+        browser.wait_for(f"window.doppelViewer.faultListsApplied() >= {applied + 2}", "two more polls of /api/faults")
+        check(browser.evaluate("document.querySelector('#fault-list button.fault-clear') === window.clearButton"),
+              "a poll that brought the same fault list rebuilt its table")
         browser.click_element("#fault-list button.fault-clear")
         browser.wait_for("window.doppelViewer.faultRows()[0][5] === 'ended'", "the row to say ended after Clear")
         check(ping(link, 1, 1) == 1, "servo 1 does not answer after Clear")
