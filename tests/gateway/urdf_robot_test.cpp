@@ -57,7 +57,7 @@ TEST_P(UrdfRobot, ServosAnswerAndItStands) {
 
   // IMU pitch / roll (26, 0.1 mrad) and both foot boards' totals (34, 0.01 N), docs/devices.md;
   // the mean of a hundred readings one IMU sample (20 ms of simulation time) apart: two seconds, so
-  // that the slow rocking averages out too (twenty spread 25.9-27.9 N in 3 runs on ODE).
+  // that the slow rocking averages out too (twenty, stepped the same way, spread 25.9-27.9 N in 3 runs on ODE).
   constexpr int kReadings = 100;
   double pitch = 0.0, roll = 0.0, feet = 0.0;
   for (int i = 0; i < kReadings; ++i) {
