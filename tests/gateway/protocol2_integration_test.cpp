@@ -57,7 +57,7 @@ class X430Robot : public ::testing::Test {
   SerialClient& bus(int index) { return *clients_.at(static_cast<std::size_t>(index)); }
 
   Bytes read(int b, uint8_t id, uint16_t address, uint16_t length) {
-    return bus(b).transact(p2_instruction(id, kRead, read_params(address, length)), 11u + length);
+    return transact_p2(bus(b), p2_instruction(id, kRead, read_params(address, length)), 1);
   }
   Bytes write(int b, uint8_t id, uint16_t address, const Bytes& data) {
     return bus(b).transact(p2_instruction(id, kWrite, cat(le16(address), data)), 11);

@@ -59,9 +59,10 @@ TEST_P(UrdfRobot, ServosAnswerAndItStands) {
   // the mean of a hundred readings one IMU sample (20 ms of simulation time) apart: two seconds, so
   // that the slow rocking averages out too (twenty, stepped the same way, spread 25.9-27.9 N in 3 runs on ODE).
   constexpr int kReadings = 100;
+  const std::string one_sample = "step " + std::to_string(std::lround(kImuSamplePeriodS * 1000));
   double pitch = 0.0, roll = 0.0, feet = 0.0;
   for (int i = 0; i < kReadings; ++i) {
-    controlled.ok("step " + std::to_string(static_cast<int>(std::lround(kImuSamplePeriodS * 1000))));
+    controlled.ok(one_sample);
     const Bytes imu = client.transact(p1_instruction(100, 0x02, {26, 4}), 10);
     const Bytes left = client.transact(p1_instruction(101, 0x02, {34, 2}), 8);
     const Bytes right = client.transact(p1_instruction(102, 0x02, {34, 2}), 8);
